@@ -1,0 +1,1 @@
+"""svbi.codegen"""

@@ -1,0 +1,30 @@
+"""svbi: seismic vehicle-bridge interaction with localized dynamic Lagrange multipliers.
+
+Implements Stoura, Paraskevopoulos & Dimitrakopoulos (17WCEE 2020). The symbolic pipeline lives in
+``svbi.codegen``; the time integration, scenario files and CLI in ``svbi.runtime``.
+"""
+
+from __future__ import annotations
+
+from importlib.metadata import PackageNotFoundError, version
+
+try:
+    __version__ = version("svbi")
+except PackageNotFoundError:  # pragma: no cover - running from a source tree without install
+    __version__ = "0.0.0+unknown"
+
+__all__ = ["__version__", "load_scenario", "simulate"]
+
+
+def load_scenario(path):  # noqa: ANN001, ANN201 - thin re-export, typed in svbi.runtime.scenario
+    """Read and validate a scenario TOML file (see ``svbi.runtime.scenario.load_scenario``)."""
+    from svbi.runtime.scenario import load_scenario as _load
+
+    return _load(path)
+
+
+def simulate(scenario, **kwargs):  # noqa: ANN001, ANN201, ANN003
+    """Run a scenario and return the results as an ``xarray.Dataset`` (``svbi.runtime.simulate``)."""
+    from svbi.runtime.simulate import simulate as _simulate
+
+    return _simulate(scenario, **kwargs)
