@@ -1,0 +1,185 @@
+"""`svbi derive` and `svbi modes`: inspect a vehicle topology and its constraint coefficients."""
+
+from __future__ import annotations
+
+import json
+import tomllib
+from enum import Enum
+from typing import Any
+
+import sympy as sp
+import typer
+
+from svbi.codegen import beam, constraints
+from svbi.codegen.topology import TopologyError, load_topology
+from svbi.codegen.vehicle import VehicleModel, a_split, derive_vehicle
+
+BRIDGE_KEYS = {
+    "span_length": 32.0,
+    "mass_per_length": 22.40e3,
+    "youngs_modulus": 35.5e9,
+    "area": 8.63,
+    "second_moment": 6.58,
+    "elements_per_span": 16,
+}
+
+
+class Format(str, Enum):
+    text = "text"
+    latex = "latex"
+    json = "json"
+
+
+def derivation(model: VehicleModel) -> dict[str, Any]:
+    """Everything `svbi derive` prints, as SymPy objects keyed as in the JSON output."""
+    out: dict[str, Any] = {
+        "model": model.name,
+        "kind": model.kind,
+        "dofs": [q.name for q in model.dofs],
+        "parameters": [p.name for p in model.parameters],
+    }
+    if model.kind == "moving-load":
+        return out
+    nw = model.contact_normal.shape[1]
+    aux = model.aux_masses()
+    active = model.active_mass_matrix()
+    b_cols, masses = [], []
+    for i in range(nw):
+        e_col = sp.zeros(nw, 1)
+        e_col[i, 0] = 1
+        b = constraints.b_vehicle(model.contact_normal[:, i], e_col)
+        b_cols.append(b)
+        masses.append(constraints.mass_vehicle_constraint(b, active, aux))
+    m_g = sp.Symbol("m_g", positive=True)
+    out.update({
+        "mass_matrix": model.mass_matrix,
+        "damping_matrix": model.damping_matrix,
+        "stiffness_matrix": model.stiffness_matrix,
+        "gravity_load": model.gravity_load,
+        "contact_normal": model.contact_normal,
+        "contact_tangential": model.contact_tangential,
+        "active_mass_matrix": active,
+        "aux_masses": aux,
+        "b_vectors": sp.Matrix.hstack(*b_cols),
+        "constraint_masses": sp.diag(*masses),
+        "bridge_b_vector": constraints.b_bridge(),
+        "bridge_constraint_mass": sp.Matrix([[constraints.mass_bridge_constraint(m_g)]]),
+        "support_b_vectors": sp.Matrix.hstack(constraints.b_support(0), constraints.b_support(1)),
+        "support_constraint_masses": sp.diag(constraints.mass_support_constraint(0),
+                                             constraints.mass_support_constraint(1)),
+    })
+    return out
+
+
+def _to_json(value: Any) -> Any:
+    if isinstance(value, sp.MatrixBase):
+        return [[str(e) for e in value.row(i)] for i in range(value.rows)]
+    return value
+
+
+def _notes() -> str:
+    return (
+        f"Symbols: {a_split} = aux-point mass split, g = gravity, m_g = aux point mass, "
+        f"{beam.xi} = position in the element (0..1), {beam.le} = element length, {beam.mu} = mass per length.\n"
+        "b_vectors act on [u^V; u^g] (Eq. 25); bridge_b_vector on [u^g; u_e] with element DOFs "
+        "[u1, w1, theta1, u2, w2, theta2] (Eq. 29); support_b_vectors on the element DOFs (Eq. 33)."
+    )
+
+
+def derive(
+    model: str = typer.Argument(..., help="Built-in vehicle name or path to a topology TOML file."),
+    fmt: Format = typer.Option(Format.text, "--format", "-f", help="text, latex or json."),
+) -> None:
+    """Print the DOFs, matrices, contact directions, b-vectors and constraint masses of a vehicle."""
+    vehicle = _load(model)
+    data = derivation(vehicle)
+    if fmt is Format.json:
+        typer.echo(json.dumps({k: _to_json(v) for k, v in data.items()}, indent=1))
+        return
+    for key, value in data.items():
+        if isinstance(value, sp.MatrixBase) and fmt is Format.latex:
+            typer.echo(f"\n{key}:\n{sp.latex(value)}")
+        elif isinstance(value, sp.MatrixBase):
+            rows = "\n".join("  [" + ", ".join(str(e) for e in value.row(i)) + "]" for i in range(value.rows))
+            typer.echo(f"\n{key}:\n{rows}")
+        else:
+            typer.echo(f"{key}: {value}")
+    if vehicle.kind != "moving-load":
+        typer.echo("\n" + _notes())
+
+
+def modes(
+    model: str = typer.Argument(..., help="Built-in vehicle name or path to a topology TOML file."),
+    set_: list[str] = typer.Option([], "--set", help="name=value: a vehicle parameter, or a bridge key "
+                                   f"({', '.join(BRIDGE_KEYS)}) to also print span frequencies."),
+    as_json: bool = typer.Option(False, "--json", help="Print JSON (key frequencies_hz)."),
+    count: int = typer.Option(5, help="Number of span modes to print."),
+) -> None:
+    """Print the vehicle's natural frequencies on rigid track (Hz, ascending), and span frequencies."""
+    from svbi.runtime.modes import span_modes, vehicle_modes
+
+    vehicle = _load(model)
+    overrides, bridge = _parse_sets(set_)
+    try:
+        numeric = vehicle.numeric(overrides)
+    except TopologyError as exc:
+        raise typer.BadParameter(str(exc), param_hint="--set") from None
+    out: dict[str, Any] = {"model": vehicle.name}
+    if vehicle.kind == "moving-load":
+        out.update(frequencies_hz=[], rigid_modes=0)
+    else:
+        vm = vehicle_modes(numeric)
+        out.update(frequencies_hz=[float(f) for f in vm.frequencies_hz], rigid_modes=vm.rigid_modes)
+    if bridge:
+        b = {**BRIDGE_KEYS, **bridge}
+        fb, fa = span_modes(b["span_length"], int(b["elements_per_span"]), b["youngs_modulus"], b["area"],
+                            b["second_moment"], b["mass_per_length"])
+        out["bridge"] = b
+        out["span_frequencies_hz"] = [float(f) for f in fb[:count]]
+        out["span_axial_frequencies_hz"] = [float(f) for f in fa[:count]]
+    if as_json:
+        typer.echo(json.dumps(out, indent=1))
+        return
+    typer.echo(f"{vehicle.name}: natural frequencies on rigid track (Hz)")
+    for i, f in enumerate(out["frequencies_hz"], 1):
+        typer.echo(f"  mode {i:2d}: {f:10.4f}")
+    if out["rigid_modes"]:
+        typer.echo(f"  plus {out['rigid_modes']} rigid (0 Hz) mode(s): free wheelset spin")
+    if bridge:
+        typer.echo("span: vertical bending frequencies (Hz)")
+        for i, f in enumerate(out["span_frequencies_hz"], 1):
+            typer.echo(f"  mode {i:2d}: {f:10.4f}")
+        typer.echo("span: axial frequencies (Hz): " + ", ".join(f"{f:.3f}" for f in out["span_axial_frequencies_hz"]))
+
+
+def _load(model: str) -> VehicleModel:
+    try:
+        return derive_vehicle(load_topology(model))
+    except TopologyError as exc:
+        typer.echo(f"error: {exc}", err=True)
+        raise typer.Exit(2) from None
+
+
+def _parse_sets(items: list[str]) -> tuple[dict[str, Any], dict[str, float]]:
+    overrides: dict[str, Any] = {}
+    bridge: dict[str, float] = {}
+    for item in items:
+        if "=" not in item:
+            raise typer.BadParameter(f"expected name=value, got {item!r}", param_hint="--set")
+        name, raw = (s.strip() for s in item.split("=", 1))
+        try:
+            value = tomllib.loads(f"x = {raw}")["x"]
+        except tomllib.TOMLDecodeError:
+            raise typer.BadParameter(f"{name}: cannot parse value {raw!r}", param_hint="--set") from None
+        if name in BRIDGE_KEYS:
+            if isinstance(value, bool) or not isinstance(value, int | float) or value <= 0:
+                raise typer.BadParameter(f"{name}: must be a positive number", param_hint="--set")
+            bridge[name] = float(value)
+        else:
+            overrides[name] = value
+    return overrides, bridge
+
+
+def register(app: typer.Typer) -> None:
+    app.command("derive")(derive)
+    app.command("modes")(modes)
