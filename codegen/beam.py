@@ -106,4 +106,3 @@ def tangential_row(order: int = 0) -> sp.Matrix:
         raise ValueError(f"tangential_row: order must be 0 or 1, got {order}")
     base = axial_shape() - h * d_dx(bending_shape(), 1)
     return d_dx(base, order) if order else base.applyfunc(sp.expand)
-

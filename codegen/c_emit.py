@@ -207,11 +207,11 @@ def render_model(model: ModelSpec, options: EmitOptions | None = None) -> dict[s
     files: dict[str, bytes] = {}
 
     for name, text in _casadi_sources(model, options, functions).items():
-        head = banner.c_banner(context, "casadi.CodeGenerator (no template)")
+        head = str(banner.c_banner(context, "casadi.CodeGenerator (no template)"))
         files[name] = (head + text.rstrip() + "\n").encode()
     for pattern, template in _TEMPLATES.items():
         name = pattern.format(c=model.c_name)
-        text = env.get_template(template).render({**context, "template": template, "filename": name})
+        text = env.get_template(template).render({**context, "ctx": context, "template": template})
         files[name] = text.encode()
     files["manifest.json"] = (json.dumps(manifest(context), indent=1) + "\n").encode()
     files.update(casadi_files(model, functions))
@@ -239,7 +239,12 @@ def manifest(context: dict[str, Any]) -> dict[str, Any]:
                 "doc": k["doc"],
                 "casadi_file": f"{k['name']}.casadi",
                 "inputs": [
-                    {"name": i["name"], "size": i["size"], "symbols": i["symbols"], "sample": i["sample"]}
+                    {
+                        "name": i["name"],
+                        "size": i["size"],
+                        "symbols": i["symbols"],
+                        "sample": [float(v) for v in i["sample"]],
+                    }
                     for i in k["inputs"]
                 ],
                 "outputs": [{key: o[key] for key in ("name", "rows", "cols", "nnz")} for o in k["outputs"]],

@@ -21,7 +21,6 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import sympy as sp
-
 from svbi.codegen import beam
 
 # Moving-contact kinematics
@@ -68,7 +67,7 @@ def gap_bridge() -> BridgeGap:
     n0, n1, n2 = beam.normal_row(0), beam.normal_row(1), beam.normal_row(2)
     g = ug - (n0 * ue)[0, 0] - r
     g_t = ug1 - (n0 * ue1)[0, 0] - v * (n1 * ue)[0, 0] - v * r1
-    g_tt = (ug2 - (n0 * ue2)[0, 0] - 2 * v * (n1 * ue1)[0, 0] - v**2 * (n2 * ue)[0, 0] - v**2 * r2)
+    g_tt = ug2 - (n0 * ue2)[0, 0] - 2 * v * (n1 * ue1)[0, 0] - v**2 * (n2 * ue)[0, 0] - v**2 * r2
     return BridgeGap(g, g_t, g_tt, (ug, ug1, ug2), (ue, ue1, ue2))
 
 

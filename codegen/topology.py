@@ -48,7 +48,6 @@ from __future__ import annotations
 
 import math
 import re
-import tomllib
 from collections.abc import Mapping
 from dataclasses import dataclass, field
 from importlib import resources
@@ -56,6 +55,7 @@ from pathlib import Path
 from typing import Any
 
 import sympy as sp
+import tomllib
 
 DOF_KINDS = ("z", "theta")
 KINDS = ("rigid-body", "moving-load")
@@ -172,9 +172,7 @@ def load_topology(name_or_path: str | Path) -> Topology:
         path = Path(candidate)
         if not path.is_file():
             known = ", ".join(builtin_topologies())
-            raise TopologyError(
-                candidate, "vehicle", f"not a built-in vehicle ({known}) and no such file"
-            )
+            raise TopologyError(candidate, "vehicle", f"not a built-in vehicle ({known}) and no such file")
         text, source = path.read_text(encoding="utf-8"), str(path)
     return parse_topology(text, source)
 
@@ -185,8 +183,12 @@ def parse_topology(text: str, source: str = "<string>") -> Topology:
         data = tomllib.loads(text)
     except tomllib.TOMLDecodeError as exc:
         raise TopologyError(source, "toml", f"malformed TOML: {exc}") from None
-    _only_keys(source, "", data, {"name", "kind", "description", "source", "parameters", "bodies",
-                                   "suspensions", "wheels"})
+    _only_keys(
+        source,
+        "",
+        data,
+        {"name", "kind", "description", "source", "parameters", "bodies", "suspensions", "wheels"},
+    )
     name = _require_str(source, "name", data.get("name"))
     kind = data.get("kind", "rigid-body")
     if kind not in KINDS:
@@ -217,15 +219,23 @@ def parse_topology(text: str, source: str = "<string>") -> Topology:
             if "inertia" not in raw:
                 raise TopologyError(source, f"{key}.inertia", f"body {bname!r} rotates but has no inertia")
             inertia = expr(f"{key}.inertia", raw["inertia"])
-        bodies.append(Body(bname, tuple(d for d in DOF_KINDS if d in dofs), expr(f"{key}.mass", raw["mass"]),
-                           inertia, expr(f"{key}.position", raw.get("position", "0"))))
+        bodies.append(
+            Body(
+                bname,
+                tuple(d for d in DOF_KINDS if d in dofs),
+                expr(f"{key}.mass", raw["mass"]),
+                inertia,
+                expr(f"{key}.position", raw.get("position", "0")),
+            )
+        )
     body_names = {b.name for b in bodies}
 
     suspensions: list[Suspension] = []
     for i, raw in enumerate(_table_list(source, "suspensions", data.get("suspensions", []))):
         key = f"suspensions[{i}]"
-        _only_keys(source, key, raw, {"name", "body_a", "offset_a", "body_b", "offset_b", "stiffness",
-                                      "damping"})
+        _only_keys(
+            source, key, raw, {"name", "body_a", "offset_a", "body_b", "offset_b", "stiffness", "damping"}
+        )
         sname = _require_name(source, f"{key}.name", raw.get("name"))
         a = _require_str(source, f"{key}.body_a", raw.get("body_a"))
         b = _require_str(source, f"{key}.body_b", raw.get("body_b"))
@@ -236,10 +246,17 @@ def parse_topology(text: str, source: str = "<string>") -> Topology:
             raise TopologyError(source, f"{key}.body_b", f"suspension {sname!r} joins body {a!r} to itself")
         if "stiffness" not in raw and "damping" not in raw:
             raise TopologyError(source, key, f"suspension {sname!r} has neither stiffness nor damping")
-        suspensions.append(Suspension(
-            sname, a, expr(f"{key}.offset_a", raw.get("offset_a", "0")), b,
-            expr(f"{key}.offset_b", raw.get("offset_b", "0")),
-            expr(f"{key}.stiffness", raw.get("stiffness", "0")), expr(f"{key}.damping", raw.get("damping", "0"))))
+        suspensions.append(
+            Suspension(
+                sname,
+                a,
+                expr(f"{key}.offset_a", raw.get("offset_a", "0")),
+                b,
+                expr(f"{key}.offset_b", raw.get("offset_b", "0")),
+                expr(f"{key}.stiffness", raw.get("stiffness", "0")),
+                expr(f"{key}.damping", raw.get("damping", "0")),
+            )
+        )
 
     wheels: list[Wheel] = []
     for i, raw in enumerate(_table_list(source, "wheels", data.get("wheels", []))):
@@ -251,8 +268,14 @@ def parse_topology(text: str, source: str = "<string>") -> Topology:
             raise TopologyError(source, f"{key}.body", f"unknown body {body!r}")
         if "z" not in next(b for b in bodies if b.name == body).dofs:
             raise TopologyError(source, f"{key}.body", f"wheel body {body!r} needs a 'z' DOF")
-        wheels.append(Wheel(wname, body, expr(f"{key}.position", raw.get("position", "0")),
-                            expr(f"{key}.radius", raw.get("radius", "0"))))
+        wheels.append(
+            Wheel(
+                wname,
+                body,
+                expr(f"{key}.position", raw.get("position", "0")),
+                expr(f"{key}.radius", raw.get("radius", "0")),
+            )
+        )
 
     if kind == "rigid-body":
         if not bodies:
@@ -260,15 +283,27 @@ def parse_topology(text: str, source: str = "<string>") -> Topology:
         if not wheels:
             raise TopologyError(source, "wheels", "a rigid-body vehicle needs at least one wheel")
         if "car_length" not in params:
-            raise TopologyError(source, "parameters.car_length", "missing (needed to couple cars into trains)")
+            raise TopologyError(
+                source, "parameters.car_length", "missing (needed to couple cars into trains)"
+            )
     else:
         if bodies or suspensions or wheels:
             raise TopologyError(source, "kind", "a moving-load vehicle has no bodies, suspensions or wheels")
         for needed in ("axle_loads", "axle_offsets", "car_length"):
             if needed not in params:
                 raise TopologyError(source, f"parameters.{needed}", "missing for a moving-load vehicle")
-    topo = Topology(name, kind, str(data.get("description", "")), str(data.get("source", "")), source,
-                    params, tuple(bodies), tuple(suspensions), tuple(wheels), text)
+    topo = Topology(
+        name,
+        kind,
+        str(data.get("description", "")),
+        str(data.get("source", "")),
+        source,
+        params,
+        tuple(bodies),
+        tuple(suspensions),
+        tuple(wheels),
+        text,
+    )
     _check_positive_roles(topo, topo.defaults(), source)
     return topo
 
@@ -333,13 +368,20 @@ def _parse_parameters(source: str, raw: Any) -> dict[str, Parameter]:
             raise TopologyError(source, f"{key}.value", "missing")
         signed = bool(spec.get("signed", False))
         value = _check_value(source, f"{key}.value", spec["value"], signed, None)
-        params[name] = Parameter(name, value, str(spec.get("unit", "")), str(spec.get("description", "")),
-                                 bool(spec.get("assumed", False)), signed)
+        params[name] = Parameter(
+            name,
+            value,
+            str(spec.get("unit", "")),
+            str(spec.get("description", "")),
+            bool(spec.get("assumed", False)),
+            signed,
+        )
     return params
 
 
-def _parse_expr(source: str, key: str, raw: Any, symbols: dict[str, sp.Symbol],
-                params: dict[str, Parameter]) -> sp.Expr:
+def _parse_expr(
+    source: str, key: str, raw: Any, symbols: dict[str, sp.Symbol], params: dict[str, Parameter]
+) -> sp.Expr:
     if isinstance(raw, bool) or not isinstance(raw, str | int | float):
         raise TopologyError(source, key, f"must be an expression string or a number, got {raw!r}")
     if isinstance(raw, int | float):
@@ -363,7 +405,9 @@ def _check_positive_roles(topo: Topology, values: Mapping[str, Any], where: str)
     for i, body in enumerate(topo.bodies):
         for role, e in (("mass", body.mass), ("inertia", body.inertia)):
             if e is not None and not float(e.subs(subs)) > 0:
-                raise TopologyError(where, f"bodies[{i}].{role}", f"{role} of body {body.name!r} must be positive")
+                raise TopologyError(
+                    where, f"bodies[{i}].{role}", f"{role} of body {body.name!r} must be positive"
+                )
     for i, wheel in enumerate(topo.wheels):
         if float(wheel.radius.subs(subs)) < 0:
             raise TopologyError(where, f"wheels[{i}].radius", "radius must not be negative")
@@ -372,4 +416,6 @@ def _check_positive_roles(topo: Topology, values: Mapping[str, Any], where: str)
     if topo.kind == "moving-load":
         loads, offsets = values["axle_loads"], values["axle_offsets"]
         if not isinstance(loads, tuple) or not isinstance(offsets, tuple) or len(loads) != len(offsets):
-            raise TopologyError(where, "axle_loads", "axle_loads and axle_offsets must be lists of equal length")
+            raise TopologyError(
+                where, "axle_loads", "axle_loads and axle_offsets must be lists of equal length"
+            )

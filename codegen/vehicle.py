@@ -23,7 +23,6 @@ from typing import Any
 
 import numpy as np
 import sympy as sp
-
 from svbi.codegen.topology import Topology, load_topology
 
 g = sp.Symbol("g", positive=True)
@@ -31,6 +30,13 @@ g = sp.Symbol("g", positive=True)
 a_split = sp.Symbol("a", positive=True)
 """Split coefficient: share of each wheel mass given to its auxiliary contact point, 0 < a < 1."""
 GRAVITY = 9.81
+
+
+def validate_split(a: float, where: str = "solver.contact_split") -> float:
+    """Check the split coefficient: 0 < a < 1 keeps both wheel and aux masses positive (Section 2.3)."""
+    if isinstance(a, bool) or not isinstance(a, int | float) or not 0.0 < float(a) < 1.0:
+        raise ValueError(f"{where}: the split coefficient a must lie strictly between 0 and 1, got {a!r}")
+    return float(a)
 
 
 @dataclass(frozen=True)
@@ -108,10 +114,14 @@ class VehicleModel:
 
     def aux_masses(self, a: sp.Expr = a_split) -> sp.Matrix:
         """Diagonal mass matrix of the auxiliary contact points, ``m^g = a W^T m^V W`` (Section 2.3)."""
+        if isinstance(a, int | float):
+            validate_split(a)
         return sp.diag(*[a * m for m in self.wheel_masses]) if self.wheel_masses else sp.zeros(0, 0)
 
     def active_mass_matrix(self, a: sp.Expr = a_split) -> sp.Matrix:
         """Active vehicle mass ``m~^V = m^V - W m^g W^T`` of Eq. (4)."""
+        if isinstance(a, int | float):
+            validate_split(a)
         w = self.contact_normal
         if w.shape[1] == 0:
             return self.mass_matrix

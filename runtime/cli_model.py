@@ -3,13 +3,12 @@
 from __future__ import annotations
 
 import json
-import tomllib
 from enum import Enum
 from typing import Any
 
 import sympy as sp
+import tomllib
 import typer
-
 from svbi.codegen import beam, constraints
 from svbi.codegen.topology import TopologyError, load_topology
 from svbi.codegen.vehicle import VehicleModel, a_split, derive_vehicle
@@ -51,23 +50,26 @@ def derivation(model: VehicleModel) -> dict[str, Any]:
         b_cols.append(b)
         masses.append(constraints.mass_vehicle_constraint(b, active, aux))
     m_g = sp.Symbol("m_g", positive=True)
-    out.update({
-        "mass_matrix": model.mass_matrix,
-        "damping_matrix": model.damping_matrix,
-        "stiffness_matrix": model.stiffness_matrix,
-        "gravity_load": model.gravity_load,
-        "contact_normal": model.contact_normal,
-        "contact_tangential": model.contact_tangential,
-        "active_mass_matrix": active,
-        "aux_masses": aux,
-        "b_vectors": sp.Matrix.hstack(*b_cols),
-        "constraint_masses": sp.diag(*masses),
-        "bridge_b_vector": constraints.b_bridge(),
-        "bridge_constraint_mass": sp.Matrix([[constraints.mass_bridge_constraint(m_g)]]),
-        "support_b_vectors": sp.Matrix.hstack(constraints.b_support(0), constraints.b_support(1)),
-        "support_constraint_masses": sp.diag(constraints.mass_support_constraint(0),
-                                             constraints.mass_support_constraint(1)),
-    })
+    out.update(
+        {
+            "mass_matrix": model.mass_matrix,
+            "damping_matrix": model.damping_matrix,
+            "stiffness_matrix": model.stiffness_matrix,
+            "gravity_load": model.gravity_load,
+            "contact_normal": model.contact_normal,
+            "contact_tangential": model.contact_tangential,
+            "active_mass_matrix": active,
+            "aux_masses": aux,
+            "b_vectors": sp.Matrix.hstack(*b_cols),
+            "constraint_masses": sp.diag(*masses),
+            "bridge_b_vector": constraints.b_bridge(),
+            "bridge_constraint_mass": sp.Matrix([[constraints.mass_bridge_constraint(m_g)]]),
+            "support_b_vectors": sp.Matrix.hstack(constraints.b_support(0), constraints.b_support(1)),
+            "support_constraint_masses": sp.diag(
+                constraints.mass_support_constraint(0), constraints.mass_support_constraint(1)
+            ),
+        }
+    )
     return out
 
 
@@ -80,7 +82,8 @@ def _to_json(value: Any) -> Any:
 def _notes() -> str:
     return (
         f"Symbols: {a_split} = aux-point mass split, g = gravity, m_g = aux point mass, "
-        f"{beam.xi} = position in the element (0..1), {beam.le} = element length, {beam.mu} = mass per length.\n"
+        f"{beam.xi} = position in the element (0..1), {beam.le} = element length, "
+        f"{beam.mu} = mass per length.\n"
         "b_vectors act on [u^V; u^g] (Eq. 25); bridge_b_vector on [u^g; u_e] with element DOFs "
         "[u1, w1, theta1, u2, w2, theta2] (Eq. 29); support_b_vectors on the element DOFs (Eq. 33)."
     )
@@ -110,8 +113,12 @@ def derive(
 
 def modes(
     model: str = typer.Argument(..., help="Built-in vehicle name or path to a topology TOML file."),
-    set_: list[str] = typer.Option([], "--set", help="name=value: a vehicle parameter, or a bridge key "
-                                   f"({', '.join(BRIDGE_KEYS)}) to also print span frequencies."),
+    set_: list[str] = typer.Option(
+        [],
+        "--set",
+        help="name=value: a vehicle parameter, or a bridge key (span_length, mass_per_length, "
+        "youngs_modulus, area, second_moment, elements_per_span) to also print span frequencies.",
+    ),
     as_json: bool = typer.Option(False, "--json", help="Print JSON (key frequencies_hz)."),
     count: int = typer.Option(5, help="Number of span modes to print."),
 ) -> None:
@@ -132,8 +139,14 @@ def modes(
         out.update(frequencies_hz=[float(f) for f in vm.frequencies_hz], rigid_modes=vm.rigid_modes)
     if bridge:
         b = {**BRIDGE_KEYS, **bridge}
-        fb, fa = span_modes(b["span_length"], int(b["elements_per_span"]), b["youngs_modulus"], b["area"],
-                            b["second_moment"], b["mass_per_length"])
+        fb, fa = span_modes(
+            b["span_length"],
+            int(b["elements_per_span"]),
+            b["youngs_modulus"],
+            b["area"],
+            b["second_moment"],
+            b["mass_per_length"],
+        )
         out["bridge"] = b
         out["span_frequencies_hz"] = [float(f) for f in fb[:count]]
         out["span_axial_frequencies_hz"] = [float(f) for f in fa[:count]]
@@ -149,7 +162,9 @@ def modes(
         typer.echo("span: vertical bending frequencies (Hz)")
         for i, f in enumerate(out["span_frequencies_hz"], 1):
             typer.echo(f"  mode {i:2d}: {f:10.4f}")
-        typer.echo("span: axial frequencies (Hz): " + ", ".join(f"{f:.3f}" for f in out["span_axial_frequencies_hz"]))
+        typer.echo(
+            "span: axial frequencies (Hz): " + ", ".join(f"{f:.3f}" for f in out["span_axial_frequencies_hz"])
+        )
 
 
 def _load(model: str) -> VehicleModel:

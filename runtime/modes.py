@@ -12,7 +12,6 @@ from functools import cache
 import numpy as np
 import scipy.linalg as sla
 import sympy as sp
-
 from svbi.codegen import beam
 from svbi.codegen.vehicle import NumericVehicle
 
@@ -44,12 +43,18 @@ def vehicle_modes(vehicle: NumericVehicle, rtol: float = 1e-9) -> VehicleModes:
 @cache
 def _element_functions() -> tuple:
     args = (beam.E, beam.A, beam.I, beam.mu, beam.le)
-    return (sp.lambdify(args, beam.element_mass(), "numpy"),
-            sp.lambdify(args, beam.element_stiffness(), "numpy"))
+    return (
+        sp.lambdify(args, beam.element_mass(), "numpy"),
+        sp.lambdify(args, beam.element_stiffness(), "numpy"),
+    )
 
 
 def span_matrices(
-    span_length: float, elements: int, youngs_modulus: float, area: float, second_moment: float,
+    span_length: float,
+    elements: int,
+    youngs_modulus: float,
+    area: float,
+    second_moment: float,
     mass_per_length: float,
 ) -> tuple[np.ndarray, np.ndarray]:
     """Assembled mass and stiffness of one span, 3 DOFs per node ``(u, w, theta)``, no supports."""
@@ -72,7 +77,11 @@ def span_support_dofs(elements: int) -> list[int]:
 
 
 def span_modes(
-    span_length: float, elements: int, youngs_modulus: float, area: float, second_moment: float,
+    span_length: float,
+    elements: int,
+    youngs_modulus: float,
+    area: float,
+    second_moment: float,
     mass_per_length: float,
 ) -> tuple[np.ndarray, np.ndarray]:
     """Vertical bending and axial frequencies (Hz) of a simply supported span."""

@@ -1,0 +1,409 @@
+"""Vertical track irregularity r(x) and its x-derivatives (paper Eqs. 16, 20: r_c, r_c', r_c'').
+
+Two sources, both behind the same ``evaluate(x) -> (r, dr, ddr)``:
+
+* :class:`SpectralIrregularity` — a sample of the German high-speed spectra (low and high
+  interference) by the spectral representation (sum of cosines with random phases). Values and
+  derivatives are the exact analytic sums, at any x.
+* :class:`SampledIrregularity` — a profile given at points (a measured profile read from a
+  two-column file, or a tabulated spectral sample), interpolated by a C2 spline.
+
+Every profile is multiplied by a C2 :class:`OnsetRamp`, so that r = r' = r'' = 0 where the train
+stands at t = 0 (the static start of DESIGN §5).
+
+Convention (pinned by ``tests/test_irregularity.py``): ``S(Ω)`` is one-sided in the spatial
+angular frequency Ω (rad/m), so that the variance of the profile is ``σ² = ∫ S(Ω) dΩ`` over the
+band ``[2π/λ_max, 2π/λ_min]``. The sample is
+
+    r(x) = Σ_k A_k cos(Ω_k x + φ_k),   A_k = sqrt(2 ∫_{bin k} S(Ω) dΩ),
+
+with N bins of equal width ΔΩ over the band, Ω_k the bin centres and φ_k uniform on [0, 2π).
+Each bin's power is the exact integral of S over the bin (closed form), so Σ A_k²/2 = ∫ S dΩ over
+the band exactly, and the RMS of a long sample converges to sqrt(∫ S dΩ).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Literal, Protocol
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+from scipy.interpolate import CubicSpline, make_interp_spline
+
+Level = Literal["low", "high"]
+Component = Literal["vertical", "alignment"]
+Triple = tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]]
+
+OMEGA_C = 0.8246
+"""German spectra cut-off frequency Ω_c (rad/m)."""
+OMEGA_R = 0.0206
+"""German spectra frequency Ω_r (rad/m)."""
+GERMAN_A = {
+    ("low", "vertical"): 4.032e-7,
+    ("high", "vertical"): 1.080e-6,
+    ("low", "alignment"): 2.119e-7,
+    ("high", "alignment"): 6.125e-7,
+}
+"""Roughness coefficients A_v (vertical profile) and A_a (alignment), m² rad/m.
+
+Low interference is "very good" track. Source: the German high-speed spectra as tabulated in
+``shared/data/vehicles.md``. Alignment is kept for 3D models; the 2D models use "vertical".
+"""
+
+_CHUNK = 1 << 22  # elements of the (points x frequencies) work array evaluated at once (32 MiB)
+
+
+@dataclass(frozen=True)
+class GermanSpectrum:
+    """German high-speed spectrum ``S(Ω) = A Ω_c² / ((Ω² + Ω_r²)(Ω² + Ω_c²))`` (one-sided, m³/rad)."""
+
+    level: Level = "low"
+    component: Component = "vertical"
+
+    def __post_init__(self) -> None:
+        if (self.level, self.component) not in GERMAN_A:
+            raise ValueError(
+                f"unknown German spectrum level={self.level!r}, component={self.component!r}: "
+                "level is 'low' or 'high', component 'vertical' or 'alignment'"
+            )
+
+    @property
+    def coefficient(self) -> float:
+        """The roughness coefficient A (m² rad/m)."""
+        return GERMAN_A[(self.level, self.component)]
+
+    def density(self, omega: ArrayLike) -> NDArray[np.float64]:
+        """S(Ω) at spatial angular frequency Ω (rad/m)."""
+        w2 = np.asarray(omega, dtype=float) ** 2
+        return self.coefficient * OMEGA_C**2 / ((w2 + OMEGA_R**2) * (w2 + OMEGA_C**2))
+
+    def cumulative(self, omega: ArrayLike) -> NDArray[np.float64]:
+        """∫_0^Ω S dΩ in closed form (partial fractions), so bin powers are exact."""
+        w = np.asarray(omega, dtype=float)
+        factor = self.coefficient * OMEGA_C**2 / (OMEGA_C**2 - OMEGA_R**2)
+        return factor * (np.arctan(w / OMEGA_R) / OMEGA_R - np.arctan(w / OMEGA_C) / OMEGA_C)
+
+    def variance(self, omega_min: float, omega_max: float) -> float:
+        """σ² = ∫ S dΩ over [omega_min, omega_max] (m²)."""
+        return float(self.cumulative(omega_max) - self.cumulative(omega_min))
+
+
+@dataclass(frozen=True)
+class OnsetRamp:
+    """C2 onset: the profile is multiplied by h(s), s = (x - start)/length clipped to [0, 1].
+
+    h(s) = 10 s³ - 15 s⁴ + 6 s⁵ (the quintic smoothstep) has h = h' = h'' = 0 at s = 0 and
+    h = 1, h' = h'' = 0 at s = 1, so the ramped profile and its first two x-derivatives are
+    continuous and vanish for x <= start. ``length = 0`` disables the ramp (a step at ``start``).
+    """
+
+    start: float = 0.0
+    length: float = 20.0
+
+    def __post_init__(self) -> None:
+        if not (math.isfinite(self.start) and math.isfinite(self.length)) or self.length < 0.0:
+            raise ValueError(
+                f"onset ramp: start={self.start} and length={self.length} must be finite, length >= 0"
+            )
+
+    def weights(self, x: NDArray[np.float64]) -> Triple:
+        """h, dh/dx, d²h/dx² at x."""
+        if self.length == 0.0:
+            h = (x >= self.start).astype(float)
+            return h, np.zeros_like(x), np.zeros_like(x)
+        s = np.clip((x - self.start) / self.length, 0.0, 1.0)
+        h = s**3 * (10.0 - 15.0 * s + 6.0 * s**2)
+        dh = 30.0 * s**2 * (1.0 - s) ** 2 / self.length
+        ddh = 60.0 * s * (1.0 - s) * (1.0 - 2.0 * s) / self.length**2
+        return h, dh, ddh
+
+    def apply(self, x: NDArray[np.float64], r: Triple) -> Triple:
+        """Product rule: (h r), (h r)', (h r)''."""
+        h, dh, ddh = self.weights(x)
+        r0, r1, r2 = r
+        return h * r0, dh * r0 + h * r1, ddh * r0 + 2.0 * dh * r1 + h * r2
+
+
+class Irregularity(Protocol):
+    """Anything the runtime can ask for r, r', r'' along the track."""
+
+    def evaluate(self, x: ArrayLike) -> Triple:
+        """r, dr/dx, d²r/dx² (m, -, 1/m) at positions x (any shape; outputs have that shape)."""
+        ...
+
+
+class NoIrregularity:
+    """Perfect track: r ≡ 0."""
+
+    def evaluate(self, x: ArrayLike) -> Triple:
+        """Zeros shaped like x."""
+        xa = np.asarray(x, dtype=float)
+        return np.zeros_like(xa), np.zeros_like(xa), np.zeros_like(xa)
+
+
+def required_frequencies(band: float, length: float) -> int:
+    """Smallest N whose sample period 2π/ΔΩ = 2π N / band is at least ``length``."""
+    return max(1, math.ceil(band * length / (2.0 * math.pi) - 1e-9))
+
+
+@dataclass(frozen=True)
+class SpectralIrregularity:
+    """A seeded sample of a German spectrum, with exact analytic r, r', r''.
+
+    Parameters
+    ----------
+    spectrum:
+        The target spectrum (level and component).
+    seed:
+        Seed of ``numpy.random.default_rng``; the phases are its first N uniform draws on [0, 2π).
+    length:
+        Track length (m) over which the profile is used, counted from ``ramp.start``. The sample
+        repeats its statistics after 2π/ΔΩ; that period must exceed ``length``.
+    wavelength_min, wavelength_max:
+        The band, in m (default 0.5 to 80 m, as DESIGN §3).
+    n_frequencies:
+        Number of frequencies N. ``None`` (default) chooses it: the smallest power of two, at least
+        1024, whose period covers ``length``. Powers of two keep the profile of a given seed the
+        same for all lengths that fall in the same bracket. Given explicitly, it is a cap, and a
+        period shorter than ``length`` is an error.
+    ramp:
+        The C2 onset (default: 20 m starting at x = 0).
+    """
+
+    spectrum: GermanSpectrum
+    seed: int
+    length: float
+    wavelength_min: float = 0.5
+    wavelength_max: float = 80.0
+    n_frequencies: int | None = None
+    ramp: OnsetRamp = field(default_factory=OnsetRamp)
+    frequencies: NDArray[np.float64] = field(init=False, repr=False)
+    amplitudes: NDArray[np.float64] = field(init=False, repr=False)
+    phases: NDArray[np.float64] = field(init=False, repr=False)
+
+    def __post_init__(self) -> None:
+        lo, hi = self.wavelength_min, self.wavelength_max
+        if not (math.isfinite(lo) and math.isfinite(hi)) or lo <= 0.0:
+            raise ValueError(f"track wavelengths must be finite and positive (got {lo}, {hi})")
+        if lo >= hi:
+            raise ValueError(
+                f"track.wavelength_min = {lo} m must be smaller than track.wavelength_max = {hi} m"
+            )
+        if not (math.isfinite(self.length) and self.length > 0.0):
+            raise ValueError(f"irregularity length must be positive (got {self.length} m)")
+        omega_min, omega_max = 2.0 * math.pi / hi, 2.0 * math.pi / lo
+        band = omega_max - omega_min
+        needed = required_frequencies(band, self.length)
+        if self.n_frequencies is None:
+            n = max(1024, 1 << (needed - 1).bit_length())
+        else:
+            n = int(self.n_frequencies)
+            if n < 1:
+                raise ValueError(f"n_frequencies must be positive (got {self.n_frequencies})")
+            if n < needed:
+                period = 2.0 * math.pi * n / band
+                raise ValueError(
+                    f"n_frequencies = {n} gives an irregularity sample period 2π/ΔΩ = {period:.1f} m, "
+                    f"shorter than the simulated track length {self.length:.1f} m, so the profile "
+                    f"would repeat; use n_frequencies >= {needed} or leave it unset"
+                )
+        edges = np.linspace(omega_min, omega_max, n + 1)
+        power = np.diff(self.spectrum.cumulative(edges))
+        phases = np.random.default_rng(self.seed).uniform(0.0, 2.0 * math.pi, n)
+        object.__setattr__(self, "frequencies", 0.5 * (edges[:-1] + edges[1:]))
+        object.__setattr__(self, "amplitudes", np.sqrt(2.0 * power))
+        object.__setattr__(self, "phases", phases)
+
+    @property
+    def period(self) -> float:
+        """2π/ΔΩ (m): the sample repeats its statistics after this distance."""
+        band = 2.0 * math.pi / self.wavelength_min - 2.0 * math.pi / self.wavelength_max
+        return 2.0 * math.pi * self.frequencies.size / band
+
+    @property
+    def variance(self) -> float:
+        """Target σ² = ∫ S dΩ over the band (m²); equals Σ A_k²/2 of the sample."""
+        return self.spectrum.variance(
+            2.0 * math.pi / self.wavelength_max, 2.0 * math.pi / self.wavelength_min
+        )
+
+    def evaluate_unramped(self, x: ArrayLike) -> Triple:
+        """The stationary sample r, r', r'' without the onset ramp."""
+        xa = np.asarray(x, dtype=float)
+        flat = xa.reshape(-1)
+        out = np.empty((3, flat.size))
+        w = self.frequencies
+        # r + i r_H = Σ c_k e^{iΩ_k x}, c_k = A_k e^{iφ_k}; derivatives multiply c_k by (iΩ_k)^j.
+        c = self.amplitudes * np.exp(1j * self.phases)
+        coef = np.stack([c, 1j * w * c, -(w**2) * c], axis=1)
+        # The grid is uniform, Ω_k = Ω_0 + kΔΩ, so e^{iΩ_k x} = e^{iΩ_0 x} (e^{iΔΩ x})^k: one
+        # complex product per term instead of a cos and a sin of a large argument (10x faster).
+        # The relative round-off of the running product grows like k·eps (< 1e-12 for k < 1e4).
+        dw = w[1] - w[0] if w.size > 1 else 0.0
+        step = max(1, _CHUNK // w.size)
+        for i in range(0, flat.size, step):
+            xs = flat[i : i + step]
+            z = np.empty((xs.size, w.size), dtype=complex)
+            z[:, 0] = np.exp(1j * w[0] * xs)
+            z[:, 1:] = np.exp(1j * dw * xs)[:, None]
+            np.cumprod(z, axis=1, out=z)
+            out[:, i : i + step] = (z @ coef).real.T
+        return out[0].reshape(xa.shape), out[1].reshape(xa.shape), out[2].reshape(xa.shape)
+
+    def evaluate(self, x: ArrayLike) -> Triple:
+        """r, r', r'' (m, -, 1/m) at x (any shape), ramped."""
+        xa = np.asarray(x, dtype=float)
+        return self.ramp.apply(xa, self.evaluate_unramped(xa))
+
+    def tabulate(self, x_min: float, x_max: float, dx: float | None = None) -> SampledIrregularity:
+        """The same profile as a quintic spline on a uniform grid (fast for long runs).
+
+        The default ``dx = λ_min / 50`` keeps the relative error of r'' below about 1e-5. The
+        spline is clamped with the exact r' and r'' at both ends.
+        """
+        if dx is None:
+            dx = self.wavelength_min / 50.0
+        n = max(6, math.ceil((x_max - x_min) / dx) + 1)
+        grid = np.linspace(x_min, x_max, n)
+        r, dr, ddr = self.evaluate_unramped(grid)
+        bc = ([(1, dr[0]), (2, ddr[0])], [(1, dr[-1]), (2, ddr[-1])])
+        spline = make_interp_spline(grid, r, k=5, bc_type=bc)
+        return SampledIrregularity(
+            x_min=float(grid[0]),
+            x_max=float(grid[-1]),
+            spline=spline,
+            ramp=self.ramp,
+            source=f"tabulated {self.spectrum.level} {self.spectrum.component} seed={self.seed}",
+        )
+
+
+@dataclass(frozen=True)
+class SampledIrregularity:
+    """A profile known on [x_min, x_max] through a C2 spline (values, first and second derivative).
+
+    Measured profiles (:meth:`from_file`) use ``scipy.interpolate.CubicSpline`` with not-a-knot
+    ends: C2, exact at the measured points. Outside [x_min, x_max] the profile is undefined and
+    asking for it is an error, except where the onset ramp makes it zero (x <= ramp.start).
+    """
+
+    x_min: float
+    x_max: float
+    spline: object  # a scipy PPoly/BSpline: callable with a ``nu`` derivative order
+    ramp: OnsetRamp = field(default_factory=OnsetRamp)
+    source: str = "profile"
+
+    def evaluate(self, x: ArrayLike) -> Triple:
+        """r, r', r'' at x (any shape), ramped."""
+        xa = np.asarray(x, dtype=float)
+        active = xa > self.ramp.start
+        outside = active & ((xa < self.x_min) | (xa > self.x_max))
+        if np.any(outside):
+            bad = xa[outside]
+            raise ValueError(
+                f"{self.source}: irregularity asked at x = {bad.min():.3f}..{bad.max():.3f} m, "
+                f"outside the profile's range [{self.x_min:.3f}, {self.x_max:.3f}] m"
+            )
+        xc = np.clip(xa, self.x_min, self.x_max)
+        base = (self.spline(xc), self.spline(xc, 1), self.spline(xc, 2))  # type: ignore[operator]
+        base = tuple(np.where(active, b, 0.0) for b in base)
+        return self.ramp.apply(xa, base)  # type: ignore[arg-type]
+
+    @classmethod
+    def from_file(cls, path: str | Path, ramp: OnsetRamp | None = None) -> SampledIrregularity:
+        """Read a measured profile: two columns ``x r`` in m, strictly increasing x.
+
+        Blank lines and lines starting with ``#`` are skipped; commas are accepted as separators.
+        Errors name the file and the line.
+        """
+        xs, rs = read_profile(path)
+        spline = CubicSpline(xs, rs, bc_type="not-a-knot")
+        return cls(
+            x_min=float(xs[0]),
+            x_max=float(xs[-1]),
+            spline=spline,
+            ramp=ramp if ramp is not None else OnsetRamp(),
+            source=str(path),
+        )
+
+
+def read_profile(path: str | Path) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+    """Two-column (x, r) profile file → arrays; validated (numbers, finite, x strictly increasing)."""
+    p = Path(path)
+    try:
+        text = p.read_text()
+    except OSError as exc:
+        raise ValueError(f"{p}: cannot read irregularity profile ({exc.strerror})") from exc
+    xs: list[float] = []
+    rs: list[float] = []
+    prev_line = 0
+    for lineno, raw in enumerate(text.splitlines(), start=1):
+        line = raw.split("#", 1)[0].replace(",", " ").strip()
+        if not line:
+            continue
+        parts = line.split()
+        if len(parts) != 2:
+            raise ValueError(f"{p}: line {lineno}: expected two columns 'x r', got {len(parts)}")
+        try:
+            xv, rv = float(parts[0]), float(parts[1])
+        except ValueError:
+            raise ValueError(f"{p}: line {lineno}: not a number: {raw.strip()!r}") from None
+        if not (math.isfinite(xv) and math.isfinite(rv)):
+            raise ValueError(f"{p}: line {lineno}: non-finite value (NaN or inf): {raw.strip()!r}")
+        if xs and xv <= xs[-1]:
+            raise ValueError(
+                f"{p}: line {lineno}: x = {xv} does not increase (previous x = {xs[-1]} at line "
+                f"{prev_line}); x must be strictly increasing"
+            )
+        xs.append(xv)
+        rs.append(rv)
+        prev_line = lineno
+    if len(xs) < 4:
+        raise ValueError(f"{p}: an irregularity profile needs at least 4 points (found {len(xs)})")
+    return np.array(xs), np.array(rs)
+
+
+IRREGULARITY_KINDS = ("none", "german-low", "german-high")
+
+
+def make_irregularity(
+    kind: str,
+    *,
+    seed: int = 1,
+    length: float,
+    wavelength_min: float = 0.5,
+    wavelength_max: float = 80.0,
+    start: float = 0.0,
+    ramp_length: float = 20.0,
+    n_frequencies: int | None = None,
+) -> Irregularity:
+    """Build the irregularity of a scenario's ``[track]`` table.
+
+    ``kind`` is ``"none"``, ``"german-low"``, ``"german-high"`` or the path of a measured profile
+    file. ``start`` is where the onset ramp begins: the leading axle's position at t = 0
+    (``train.start_position``), so that every wheel stands on r = 0 at t = 0. ``length`` is the
+    track length the train covers from ``start`` during the run (m).
+    """
+    ramp = OnsetRamp(start=start, length=ramp_length)
+    if kind == "none":
+        return NoIrregularity()
+    if kind in ("german-low", "german-high"):
+        level: Level = "low" if kind == "german-low" else "high"
+        return SpectralIrregularity(
+            GermanSpectrum(level, "vertical"),
+            seed=seed,
+            length=length,
+            wavelength_min=wavelength_min,
+            wavelength_max=wavelength_max,
+            n_frequencies=n_frequencies,
+            ramp=ramp,
+        )
+    path = Path(kind)
+    if path.is_file():
+        return SampledIrregularity.from_file(path, ramp)
+    raise ValueError(
+        f"track.irregularity = {kind!r}: expected one of {', '.join(IRREGULARITY_KINDS)} or the path "
+        "of an existing profile file"
+    )

@@ -1,0 +1,97 @@
+"""The train: identical cars coupled only through the track (DESIGN.md section 2).
+
+Car k (0-based here, 1-based in the results) has its leading axle ``k * car_length`` behind the
+train's leading axle, which is at ``start_position`` at t = 0 and moves at constant ``speed``.
+Contact points are numbered car by car, wheels from the front of each car (``c = k * nw + i``).
+
+A rigid-body car brings its derived matrices (``svbi.codegen.vehicle``); a moving-load "car" only
+brings its axle forces and offsets.
+"""
+
+from __future__ import annotations
+
+from functools import cache
+from typing import Any
+
+import numpy as np
+
+from svbi.codegen.topology import Topology, load_topology
+from svbi.codegen.vehicle import GRAVITY, NumericVehicle, VehicleModel, derive_vehicle
+
+
+@cache
+def vehicle_model(name_or_path: str) -> VehicleModel:
+    """Derived (symbolic) vehicle model of a built-in name or a topology file, cached per process."""
+    return derive_vehicle(load_topology(name_or_path))
+
+
+def topology(name_or_path: str) -> Topology:
+    return vehicle_model(name_or_path).topology
+
+
+class Train:
+    """Cars of one vehicle type, their wheel positions, and the per-car matrices for a split ``a``."""
+
+    def __init__(
+        self,
+        vehicle: NumericVehicle,
+        cars: int,
+        speed: float,
+        start_position: float = 0.0,
+        contact_split: float = 0.5,
+        topology_name: str = "",
+        parameter_values: dict[str, Any] | None = None,
+    ) -> None:
+        self.vehicle = vehicle
+        self.cars = int(cars)
+        self.speed = float(speed)
+        self.start_position = float(start_position)
+        self.split = float(contact_split)
+        self.topology_name = topology_name
+        self.parameter_values = dict(parameter_values or {})
+        self.moving_load = vehicle.kind == "moving-load"
+        if self.moving_load:
+            offsets = np.asarray(vehicle.axle_offsets, dtype=float)
+            self.axle_loads = np.tile(np.asarray(vehicle.axle_loads, dtype=float), self.cars)
+        else:
+            offsets = np.asarray(vehicle.wheel_offsets, dtype=float)
+            self.axle_loads = np.zeros(0)
+        self.wheels = len(offsets)
+        self.contacts = self.cars * self.wheels
+        self.car_length = float(vehicle.car_length)
+        # distance of every contact behind the train's leading axle
+        self.offsets = (np.arange(self.cars)[:, None] * self.car_length + offsets[None, :]).reshape(-1)
+        if not self.moving_load:
+            self._rigid_body_setup()
+
+    def _rigid_body_setup(self) -> None:
+        v = self.vehicle
+        self.ndof = v.ndof
+        self.W = np.asarray(v.W_N, dtype=float)
+        self.wheel_masses = np.asarray(v.wheel_masses, dtype=float)
+        # Section 2.3: aux mass m^g = a W^T m W, active mass m~ = m - W m^g W^T. Gravity on the aux
+        # point is its share of the wheel weight, so the vehicle keeps only the rest.
+        self.aux_masses = self.split * self.wheel_masses
+        self.M_active = v.M - self.W @ np.diag(self.aux_masses) @ self.W.T
+        self.F_active = v.F_gravity + self.W @ (self.aux_masses * GRAVITY)
+        self.carbody_z = v.carbody_z
+        self.carbody_theta = v.carbody_theta
+
+    # ----------------------------------------------------------------------------------------------
+    def positions(self, t: float) -> np.ndarray:
+        """x of every contact point at time t."""
+        return self.start_position + self.speed * t - self.offsets
+
+    @property
+    def length(self) -> float:
+        """Distance from the leading to the last axle."""
+        return float(self.offsets.max()) if self.contacts else 0.0
+
+    def static_loads(self) -> np.ndarray:
+        """Static wheel loads on rigid level track (N, compression positive), per contact."""
+        if self.moving_load:
+            return self.axle_loads.copy()
+        from svbi.runtime.initial import vehicle_static_on_rigid_track
+
+        _, loads = vehicle_static_on_rigid_track(self, np.zeros((self.cars, self.wheels)))
+        return loads.reshape(-1)
