@@ -38,7 +38,6 @@ from typing import Any
 
 import casadi as ca
 import jinja2
-
 from svbi.codegen.casadi_emit import build_functions, casadi_files
 from svbi.codegen.kernels import ModelSpec
 
@@ -93,7 +92,13 @@ def _c_double(value: float) -> str:
 
 def _sparsity(sp: ca.Sparsity) -> dict[str, Any]:
     rows, cols = sp.get_triplet()
-    return {"rows": sp.size1(), "cols": sp.size2(), "nnz": sp.nnz(), "nz_row": list(rows), "nz_col": list(cols)}
+    return {
+        "rows": sp.size1(),
+        "cols": sp.size2(),
+        "nnz": sp.nnz(),
+        "nz_row": list(rows),
+        "nz_col": list(cols),
+    }
 
 
 def input_hash(model: ModelSpec, options: EmitOptions) -> str:

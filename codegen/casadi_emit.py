@@ -17,7 +17,6 @@ from pathlib import Path
 
 import casadi as ca
 import sympy as sp
-
 from svbi.codegen.kernels import KernelSpec, ModelSpec
 
 FUNCTION_OPTIONS = {"cse": True}
@@ -177,7 +176,9 @@ class SympyToCasadi:
                 sign = -sign
             elif isinstance(factor, sp.Pow) and factor.exp.is_Number and factor.exp.is_negative:
                 den.append(self._pow(factor.base, -factor.exp))
-            elif isinstance(factor, sp.Rational) and not isinstance(factor, sp.Integer) and factor.p in (1, -1):
+            elif (
+                isinstance(factor, sp.Rational) and not isinstance(factor, sp.Integer) and factor.p in (1, -1)
+            ):
                 # Rational(1, q) * x is emitted as x / q: exact for q a power of two, and the
                 # correctly rounded quotient otherwise.
                 if factor.p < 0:
@@ -191,6 +192,12 @@ class SympyToCasadi:
         return -result if sign < 0 else result
 
     def _pow(self, base: sp.Basic, exponent: sp.Basic) -> ca.SX:
+        if base.is_Number and exponent.is_Number:
+            # A constant such as 2**(1/3): SymPy rounds it correctly, pow() might not.
+            value = sp.Pow(base, exponent).evalf(30)
+            if value.is_extended_real is False:
+                raise UnsupportedExpression(f"complex constant {base}**{exponent}")
+            return ca.SX(float(value))
         b = self(base)
         if exponent.is_Integer:
             n = int(exponent)

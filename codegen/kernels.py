@@ -17,7 +17,7 @@ from __future__ import annotations
 
 import hashlib
 import re
-from collections.abc import Callable, Mapping, Sequence
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 from functools import cache
 from typing import Any
@@ -174,38 +174,544 @@ class ModelSpec:
 
 
 # ---------------------------------------------------------------------------------------------
-# Built-in models
+# Kernel lists of the built-in models
 # ---------------------------------------------------------------------------------------------
 
-KernelFactory = Callable[[Any], "KernelSpec | None"]
-"""Builds one kernel of a vehicle model, or returns None when it does not apply to that model."""
+GRAVITY = sp.Rational(981, 100)
+"""g = 9.81 m/s^2 (DESIGN.md section 2), substituted exactly into the gravity load."""
 
-VEHICLE_KERNELS: dict[str, KernelFactory] = {}
-"""Registry of vehicle kernels, in emission order. Add an entry to add a kernel to every vehicle."""
+BEAM_SAMPLE: dict[str, float] = {
+    # Scenario defaults of DESIGN.md section 3 (32 m span, 16 elements), with a nonzero rail height
+    # and contact position so that the sample exercises every term.
+    "E": 35.5e9,
+    "A": 8.63,
+    "I": 6.58,
+    "mu": 22.4e3,
+    "le": 2.0,
+    "h": 0.5,
+    "xi": 0.3,
+    "v": 83.33,
+    "dt": 1.0e-4,
+    "kappa": 1.0,
+    "zeta": 1.0,
+}
 
-BEAM_KERNELS: dict[str, Callable[[], KernelSpec | None]] = {}
-"""Registry of bridge-element (``frame2d``) kernels, in emission order."""
 
-
-def vehicle_kernel(name: str) -> Callable[[KernelFactory], KernelFactory]:
-    def register(fn: KernelFactory) -> KernelFactory:
-        VEHICLE_KERNELS[name] = fn
-        return fn
-
-    return register
-
-
-def beam_kernel(name: str) -> Callable[[Callable[[], KernelSpec | None]], Callable[[], KernelSpec | None]]:
-    def register(fn: Callable[[], KernelSpec | None]) -> Callable[[], KernelSpec | None]:
-        BEAM_KERNELS[name] = fn
-        return fn
-
-    return register
+def _state_sample(symbols: Sequence[sp.Symbol], scale: float) -> dict[str, float]:
+    """Distinct, nonzero sample values for state vectors (every entry contributes)."""
+    return {s.name: scale * (1.0 + 0.25 * i) * (-1) ** i for i, s in enumerate(symbols)}
 
 
 def column(symbols: Sequence[sp.Symbol]) -> sp.ImmutableMatrix:
     return sp.ImmutableMatrix(list(symbols))
 
 
-def sample_of(values: Mapping[str, Any]) -> dict[str, float]:
-    return {k: float(v) for k, v in values.items() if isinstance(v, (int, float))}
+def _row_matrix(values: Sequence[sp.Expr]) -> sp.Matrix:
+    return sp.Matrix(len(values), 1, list(values))
+
+
+VehicleFactory = Callable[[Any], "KernelSpec | None"]
+"""Builds one kernel of a vehicle model (a ``VehicleModel``), or None when it does not apply."""
+
+VEHICLE_KERNELS: dict[str, VehicleFactory] = {}
+"""Vehicle kernels in emission order. Registering a function here adds a kernel to every vehicle."""
+
+BEAM_KERNELS: dict[str, Callable[[], KernelSpec | None]] = {}
+"""Bridge-element (``frame2d``) kernels in emission order."""
+
+
+def vehicle_kernel(fn: VehicleFactory) -> VehicleFactory:
+    VEHICLE_KERNELS[fn.__name__.removeprefix("_k_")] = fn
+    return fn
+
+
+def beam_kernel(fn: Callable[[], KernelSpec | None]) -> Callable[[], KernelSpec | None]:
+    BEAM_KERNELS[fn.__name__.removeprefix("_k_")] = fn
+    return fn
+
+
+def _vehicle_inputs(model: Any) -> tuple[list[tuple[str, sp.ImmutableMatrix]], dict[str, float]]:
+    params = list(model.parameters)
+    defaults = model.topology.defaults()
+    return [("p", column(params))], {s.name: float(defaults[s.name]) for s in params}
+
+
+def _vehicle_spec(
+    model: Any, name: str, doc: str, outputs: list, extra_inputs=(), extra_sample=None
+) -> KernelSpec:
+    inputs, sample = _vehicle_inputs(model)
+    return KernelSpec(name, doc, inputs + list(extra_inputs), outputs, {**sample, **(extra_sample or {})})
+
+
+@vehicle_kernel
+def _k_mass_matrix(model: Any) -> KernelSpec:
+    return _vehicle_spec(
+        model, "mass_matrix", "Vehicle mass matrix m^V of Eq. (4).", [("M", model.mass_matrix)]
+    )
+
+
+@vehicle_kernel
+def _k_damping_matrix(model: Any) -> KernelSpec:
+    return _vehicle_spec(
+        model, "damping_matrix", "Vehicle damping matrix c^V of Eq. (4).", [("C", model.damping_matrix)]
+    )
+
+
+@vehicle_kernel
+def _k_stiffness_matrix(model: Any) -> KernelSpec:
+    return _vehicle_spec(
+        model, "stiffness_matrix", "Vehicle stiffness matrix k^V of Eq. (4).", [("K", model.stiffness_matrix)]
+    )
+
+
+@vehicle_kernel
+def _k_gravity_load(model: Any) -> KernelSpec:
+    from svbi.codegen.vehicle import g
+
+    return _vehicle_spec(
+        model,
+        "gravity_load",
+        "Generalized gravity forces on the vehicle DOFs (g = 9.81 m/s^2), right-hand side of Eq. (4).",
+        [("F", model.gravity_load.xreplace({g: GRAVITY}))],
+    )
+
+
+@vehicle_kernel
+def _k_contact_directions(model: Any) -> KernelSpec:
+    return _vehicle_spec(
+        model,
+        "contact_directions",
+        "Contact direction matrices W_N^V (normal) and W_T^V (tangential), one column per wheel (Eq. 4).",
+        [("W_N", model.contact_normal), ("W_T", model.contact_tangential)],
+    )
+
+
+@vehicle_kernel
+def _k_wheel_geometry(model: Any) -> KernelSpec:
+    return _vehicle_spec(
+        model,
+        "wheel_geometry",
+        "Per wheel: offset behind the car's leading axle, rolling radius, and mass W_i^T m^V W_i.",
+        [
+            ("offsets", _row_matrix(model.wheel_offsets)),
+            ("radii", _row_matrix(model.wheel_radii)),
+            ("masses", _row_matrix(model.wheel_masses)),
+        ],
+    )
+
+
+def _split_input() -> tuple[list[tuple[str, sp.ImmutableMatrix]], dict[str, float]]:
+    from svbi.codegen.vehicle import a_split
+
+    return [("split", column([a_split]))], {a_split.name: 0.5}
+
+
+@vehicle_kernel
+def _k_aux_masses(model: Any) -> KernelSpec:
+    inputs, sample = _split_input()
+    return _vehicle_spec(
+        model,
+        "aux_masses",
+        "Auxiliary contact point masses m^g = a W^T m^V W (diagonal, as a column) and the active "
+        "vehicle mass m~^V = m^V - W m^g W^T (Section 2.3).",
+        [
+            ("m_aux", _row_matrix(list(model.aux_masses().diagonal()))),
+            ("M_active", model.active_mass_matrix()),
+        ],
+        inputs,
+        sample,
+    )
+
+
+@vehicle_kernel
+def _k_vehicle_constraint(model: Any) -> KernelSpec:
+    from svbi.codegen import constraints
+
+    inputs, sample = _split_input()
+    n, nw = model.contact_normal.shape
+    active, aux = model.active_mass_matrix(), model.aux_masses()
+    b_columns, masses = [], []
+    for i in range(nw):
+        e = sp.zeros(nw, 1)
+        e[i, 0] = 1
+        b = constraints.b_vehicle(model.contact_normal[:, i], e)
+        b_columns.append(b)
+        masses.append(constraints.mass_vehicle_constraint(b, active, aux))
+    return _vehicle_spec(
+        model,
+        "vehicle_constraint",
+        "Wheel-aux constraints: b-vectors b_i^V over [u^V; u^g] (Eq. 25, one column per wheel) and "
+        "constraint masses m_N,ii^V (Eq. 27).",
+        [
+            ("b", sp.Matrix.hstack(*b_columns) if b_columns else sp.zeros(n + nw, 0)),
+            ("m_bar", _row_matrix(masses)),
+        ],
+        inputs,
+        sample,
+    )
+
+
+@vehicle_kernel
+def _k_gap_vehicle(model: Any) -> KernelSpec:
+    from svbi.codegen import constraints
+
+    n, nw = model.contact_normal.shape
+    u_v = [sp.Symbol(f"u_{q.name}", real=True) for q in model.dofs]
+    u_g = [sp.Symbol(f"ug_{i + 1}", real=True) for i in range(nw)]
+    gaps = [constraints.gap_vehicle(model.contact_normal[:, i], sp.Matrix(u_v), u_g[i]) for i in range(nw)]
+    return _vehicle_spec(
+        model,
+        "gap_vehicle",
+        "Wheel-aux gaps g_V,i = W_i^T u^V - u^g_i (Eq. 18), one per wheel.",
+        [("g_V", _row_matrix(gaps))],
+        [("u_V", column(u_v)), ("u_g", column(u_g))],
+        {**_state_sample(u_v, 1e-3), **_state_sample(u_g, 2e-3)},
+    )
+
+
+CREEP_SAMPLE: dict[str, float] = {
+    # Steel wheel on a UIC60-like rail head; creepage and load chosen so that random points around
+    # the sample reach the saturated branch (beta > 3) and the out-of-contact branch (N <= 0).
+    "E_wr": 2.1e11,
+    "nu_wr": 0.3,
+    "R_wheel": 0.4575,
+    "R_rail": 0.3,
+    "hertz_m": 1.2,
+    "hertz_n": 0.8,
+    "kalker_c11": 4.0,
+    "mu_f": 0.3,
+    "xi_x": 5.0e-3,
+    "N_c": 8.5e4,
+}
+
+
+@vehicle_kernel
+def _k_creepage(model: Any) -> KernelSpec:
+    from svbi.codegen import beam, creep
+
+    n, nw = model.contact_tangential.shape
+    ud_v = [sp.Symbol(f"ud_{q.name}", real=True) for q in model.dofs]
+    xis = [sp.Symbol(f"xi_{i + 1}", real=True) for i in range(nw)]
+    u_e = [sp.Symbol(f"ue{i + 1}_{d}", real=True) for i in range(nw) for d in beam.DOF_NAMES]
+    ud_e = [sp.Symbol(f"ude{i + 1}_{d}", real=True) for i in range(nw) for d in beam.DOF_NAMES]
+    rt_x = [sp.Symbol(f"rt_x_{i + 1}", real=True) for i in range(nw)]
+    w_b = sp.zeros(beam.NDOF * nw, nw)
+    w_bx = sp.zeros(beam.NDOF * nw, nw)
+    for i in range(nw):
+        rows = slice(beam.NDOF * i, beam.NDOF * (i + 1))
+        w_b[rows, i] = beam.tangential_row(0).T.xreplace({beam.xi: xis[i]})
+        w_bx[rows, i] = beam.tangential_row(1).T.xreplace({beam.xi: xis[i]})
+    creepages = creep.creepage(
+        model.contact_tangential, sp.Matrix(ud_v), w_b, sp.Matrix(ud_e), w_bx, sp.Matrix(u_e), sp.Matrix(rt_x)
+    )
+    sample = {
+        "v": BEAM_SAMPLE["v"],
+        "le": BEAM_SAMPLE["le"],
+        "h": BEAM_SAMPLE["h"],
+        **{s.name: 0.1 + 0.6 * i / max(nw - 1, 1) for i, s in enumerate(xis)},
+        **_state_sample(ud_v, 1e-2),
+        **_state_sample(u_e, 1e-3),
+        **_state_sample(ud_e, 1e-2),
+        **_state_sample(rt_x, 1e-4),
+    }
+    return _vehicle_spec(
+        model,
+        "creepage",
+        "Longitudinal creepage of every wheel, Eq. (16) with the rolling part removed: "
+        "(W_T^V' ud_V - W_T^B' ud_e - v W_T^B'' u_e - v r_T') / v. Wheel i sits at xi_i of an element "
+        "(element = [le, h]) whose DOFs are u_e[6i:6i+6].",
+        [("creepage", creepages)],
+        [
+            ("ud_V", column(ud_v)),
+            ("v", column([creep.v])),
+            ("element", column([beam.le, beam.h])),
+            ("xi", column(xis)),
+            ("u_e", column(u_e)),
+            ("ud_e", column(ud_e)),
+            ("rt_x", column(rt_x)),
+        ],
+        sample,
+    )
+
+
+def _beam_spec(name: str, doc: str, inputs: list, outputs: list, extra_sample=None) -> KernelSpec:
+    symbols = [s for _, m in inputs for s in m]
+    sample = {s.name: BEAM_SAMPLE[s.name] for s in symbols if s.name in BEAM_SAMPLE}
+    return KernelSpec(name, doc, inputs, outputs, {**sample, **(extra_sample or {})})
+
+
+def _section() -> list[tuple[str, sp.ImmutableMatrix]]:
+    from svbi.codegen import beam
+
+    return [("section", column([beam.E, beam.A, beam.I, beam.mu])), ("le", column([beam.le]))]
+
+
+@beam_kernel
+def _k_element_mass() -> KernelSpec:
+    from svbi.codegen import beam
+
+    return _beam_spec(
+        "element_mass",
+        "Consistent mass matrix of the 2D frame element, DOFs [u1, w1, theta1, u2, w2, theta2].",
+        _section(),
+        [("M_e", beam.element_mass())],
+    )
+
+
+@beam_kernel
+def _k_element_stiffness() -> KernelSpec:
+    from svbi.codegen import beam
+
+    return _beam_spec(
+        "element_stiffness",
+        "Stiffness matrix of the 2D frame element (axial EA and bending EI).",
+        _section(),
+        [("K_e", beam.element_stiffness())],
+    )
+
+
+@beam_kernel
+def _k_contact_rows() -> KernelSpec:
+    from svbi.codegen import beam
+
+    return _beam_spec(
+        "contact_rows",
+        "Contact rows at xi: W_N^B and its x-derivatives (Eq. 10), W_T^B = u - h dw/dx and its "
+        "x-derivative (Eqs. 10, 16); each 1x6 over the element DOFs.",
+        [("xi", column([beam.xi])), ("le", column([beam.le])), ("h", column([beam.h]))],
+        [
+            ("N", beam.normal_row(0)),
+            ("N_x", beam.normal_row(1)),
+            ("N_xx", beam.normal_row(2)),
+            ("T", beam.tangential_row(0)),
+            ("T_x", beam.tangential_row(1)),
+        ],
+    )
+
+
+@beam_kernel
+def _k_gap_bridge() -> KernelSpec:
+    from svbi.codegen import beam, constraints
+
+    gap = constraints.gap_bridge()
+    ue, ue1, ue2 = gap.u_elem
+    track = column([constraints.r, constraints.r1, constraints.r2])
+    inputs = [
+        ("xi", column([beam.xi])),
+        ("le", column([beam.le])),
+        ("v", column([constraints.v])),
+        ("u_g", column(gap.u_aux)),
+        ("u_e", column(ue)),
+        ("u_e_t", column(ue1)),
+        ("u_e_tt", column(ue2)),
+        ("track", track),
+    ]
+    states = [*gap.u_aux, *ue, *ue1, *ue2, *track]
+    return _beam_spec(
+        "gap_bridge",
+        "Aux-bridge gap g_B and its exact time derivatives with the convective terms of a contact "
+        "moving at speed v (Eqs. 20-21). u_g = [u^g, u^g', u^g''], track = [r, r', r''].",
+        inputs,
+        [("g", sp.Matrix([[gap.g]])), ("g_t", sp.Matrix([[gap.g_t]])), ("g_tt", sp.Matrix([[gap.g_tt]]))],
+        _state_sample(states, 1e-3),
+    )
+
+
+@beam_kernel
+def _k_gap_support() -> KernelSpec:
+    from svbi.codegen import constraints
+
+    u = sp.Symbol("u_support", real=True)
+    return _beam_spec(
+        "gap_support",
+        "Support gap g_G = q - E^T u^B (Eq. 23) for one support DOF.",
+        [("q", column([constraints.q])), ("u", column([u]))],
+        [("g_G", sp.Matrix([[constraints.gap_support(u)]]))],
+        {"q": 2e-3, "u_support": -1e-3},
+    )
+
+
+@beam_kernel
+def _k_bridge_constraint() -> KernelSpec:
+    from svbi.codegen import beam, constraints
+
+    m_aux = sp.Symbol("m_aux", positive=True)
+    return _beam_spec(
+        "bridge_constraint",
+        "Aux-bridge constraint at xi: b-vector b_i^B over [u^g_i; u_e] (Eq. 29) and constraint mass "
+        "m_N,ii^B with the element's consistent mass (Eq. 31).",
+        [
+            ("xi", column([beam.xi])),
+            ("le", column([beam.le])),
+            ("mu", column([beam.mu])),
+            ("m_aux", column([m_aux])),
+        ],
+        [("b", constraints.b_bridge()), ("m_bar", sp.Matrix([[constraints.mass_bridge_constraint(m_aux)]]))],
+        {"m_aux": 950.0},
+    )
+
+
+@beam_kernel
+def _k_support_constraint() -> KernelSpec:
+    from svbi.codegen import beam, constraints
+
+    masses = [constraints.mass_support_constraint(dof) for dof in range(beam.NDOF)]
+    return _beam_spec(
+        "support_constraint",
+        "Support constraint masses b^T m^B b (Eq. 34) for a support on each element DOF; the "
+        "b-vectors themselves are unit vectors (Eq. 33).",
+        [("mu", column([beam.mu])), ("le", column([beam.le]))],
+        [("m_bar", _row_matrix(masses))],
+    )
+
+
+def _newmark_input() -> tuple[str, sp.ImmutableMatrix]:
+    from svbi.codegen import constraints
+
+    return ("newmark", column([constraints.dt, constraints.kappa, constraints.zeta]))
+
+
+@beam_kernel
+def _k_discrete_bridge_row() -> KernelSpec:
+    from svbi.codegen import beam, constraints
+
+    row, names = constraints.discrete_bridge_row()
+    history = [names["P_ug"], names["Q_ug"]]
+    track = [constraints.r, constraints.r1, constraints.r2]
+    return _beam_spec(
+        "discrete_bridge_row",
+        "Aux-bridge constraint at t_{n+1} with Newmark: u^g - W_hat u_e = h_B (method notes section 2b). "
+        "newmark = [dt, kappa, zeta]; history = [P_ug, Q_ug]; track = [r, r', r''].",
+        [
+            ("xi", column([beam.xi])),
+            ("le", column([beam.le])),
+            ("v", column([constraints.v])),
+            _newmark_input(),
+            ("history", column(history)),
+            ("P_ue", column(names["P_ue"])),
+            ("Q_ue", column(names["Q_ue"])),
+            ("track", column(track)),
+        ],
+        [("W_hat", row.row), ("h_B", sp.Matrix([[row.rhs]])), ("d", sp.Matrix([[row.d]]))],
+        _state_sample([*history, *names["P_ue"], *names["Q_ue"], *track], 1e-3),
+    )
+
+
+@beam_kernel
+def _k_discrete_point_row() -> KernelSpec:
+    from svbi.codegen import constraints
+
+    row, names = constraints.discrete_point_row()
+    ground = [constraints.q, constraints.q1, constraints.q2]
+    history = [names["P_y"], names["Q_y"]]
+    return _beam_spec(
+        "discrete_point_row",
+        "Prescribed-motion constraint (supports, wheels off the bridge) at t_{n+1}: y = rhs. "
+        "newmark = [dt, kappa, zeta]; ground = [q, q', q'']; history = [P_y, Q_y].",
+        [_newmark_input(), ("ground", column(ground)), ("history", column(history))],
+        [("rhs", sp.Matrix([[row.rhs]])), ("d", sp.Matrix([[row.d]]))],
+        _state_sample([*ground, *history], 1e-3),
+    )
+
+
+@beam_kernel
+def _k_creep_force() -> KernelSpec:
+    from svbi.codegen import creep
+
+    return KernelSpec(
+        "creep_force",
+        "Longitudinal creep force F_x(xi, N) of one wheel, Eq. (15) with Kalker's linear coefficient and "
+        "Shen-Hedrick-Elkins saturation, and its slope dF_x/dxi. creep = [E_wr, nu_wr, R_wheel, "
+        "R_rail, hertz_m, hertz_n, kalker_c11, mu_f].",
+        [
+            ("creepage", column([creep.xi])),
+            ("N", column([creep.normal_load])),
+            ("creep", column(creep.PARAMETERS)),
+        ],
+        [
+            ("F_x", sp.Matrix([[creep.creep_force()]])),
+            ("dF_dxi", sp.Matrix([[creep.creep_force_derivative()]])),
+        ],
+        CREEP_SAMPLE,
+    )
+
+
+# ---------------------------------------------------------------------------------------------
+# Models
+# ---------------------------------------------------------------------------------------------
+
+
+def model_kernels(model: Any) -> list[KernelSpec]:
+    """Every kernel of a vehicle model (a ``VehicleModel``), in emission order."""
+    if model.kind != "rigid-body" or not model.dofs:
+        raise KernelError(
+            f"vehicle {model.name!r} ({model.kind}) has no vehicle dynamics: there is nothing to generate "
+            "(moving loads are prescribed forces, evaluated directly by the runtime)"
+        )
+    specs = (factory(model) for factory in VEHICLE_KERNELS.values())
+    return [s for s in specs if s is not None]
+
+
+def beam_kernels() -> list[KernelSpec]:
+    """Every kernel of the bridge frame element and its contact constraints (model ``frame2d``)."""
+    specs = (factory() for factory in BEAM_KERNELS.values())
+    return [s for s in specs if s is not None]
+
+
+def vehicle_model_spec(model: Any) -> ModelSpec:
+    """The :class:`ModelSpec` of a derived vehicle model."""
+    defaults = model.topology.defaults()
+    return ModelSpec(
+        name=model.name,
+        doc=f"Vehicle model {model.name}: {model.topology.description}",
+        kernels=model_kernels(model),
+        parameters=[(s.name, float(defaults[s.name])) for s in model.parameters],
+        sizes={"n_dofs": len(model.dofs), "n_wheels": int(model.contact_normal.shape[1])},
+    )
+
+
+@cache
+def frame2d_model_spec() -> ModelSpec:
+    """The :class:`ModelSpec` of the bridge element (``frame2d``)."""
+    from svbi.codegen import beam
+
+    return ModelSpec(
+        name=FRAME2D,
+        doc="2D Euler-Bernoulli frame element of the bridge, its contact rows and constraints.",
+        kernels=beam_kernels(),
+        parameters=[(s.name, BEAM_SAMPLE[s.name]) for s in (beam.E, beam.A, beam.I, beam.mu)],
+        sizes={"n_dofs": beam.NDOF, "n_nodes": 2},
+    )
+
+
+def skip_reason(name_or_path: str) -> str | None:
+    """Why a model has nothing to generate (moving loads), or None."""
+    if name_or_path == FRAME2D:
+        return None
+    from svbi.codegen.topology import load_topology
+
+    topology = load_topology(name_or_path)
+    if topology.kind != "rigid-body" or not topology.bodies:
+        return (
+            f"{topology.name}: a {topology.kind} vehicle has no dynamics; its prescribed axle forces need "
+            "no generated code"
+        )
+    return None
+
+
+def model_spec(name_or_path: Any) -> ModelSpec:
+    """The :class:`ModelSpec` of ``frame2d``, a built-in vehicle name or a topology file path."""
+    if isinstance(name_or_path, ModelSpec):
+        return name_or_path
+    if str(name_or_path) == FRAME2D:
+        return frame2d_model_spec()
+    from svbi.codegen.vehicle import derive_vehicle
+
+    return vehicle_model_spec(derive_vehicle(str(name_or_path)))
+
+
+def builtin_models() -> list[str]:
+    """Models whose generated code is committed: every rigid-body built-in vehicle, and ``frame2d``."""
+    from svbi.codegen.topology import builtin_topologies
+
+    return [n for n in builtin_topologies() if skip_reason(n) is None] + [FRAME2D]

@@ -81,6 +81,9 @@ class Bridge:
         self.C = self.alpha * self.M + self.beta * self.K
         self.T = self._quasi_static_field()
         self.CT = self.C @ self.T
+        ends = np.where(self.support_dofs == 3 * self.elements + 1, self.span_length, 0.0)
+        self.support_x = np.arange(self.spans)[:, None] * self.span_length + ends[None, :]
+        """Position of every support constraint, shape ``(spans, nsupport)``."""
 
     # ----------------------------------------------------------------------------------------------
     def _vertical_frequencies(self) -> np.ndarray:
@@ -121,12 +124,6 @@ class Bridge:
     @property
     def length(self) -> float:
         return self.spans * self.span_length
-
-    @property
-    def support_x(self) -> np.ndarray:
-        """Position of every support constraint, shape ``(spans, nsupport)``."""
-        ends = np.where(self.support_dofs == 3 * self.elements + 1, self.span_length, 0.0)
-        return np.arange(self.spans)[:, None] * self.span_length + ends[None, :]
 
     @property
     def support_vertical(self) -> np.ndarray:

@@ -148,7 +148,9 @@ def _discard(path: Path) -> None:
     shutil.rmtree(aside, ignore_errors=True)
 
 
-def _compile(cc: list[str], flags: Sequence[str], sources: Mapping[str, bytes], build: Path, name: str) -> None:
+def _compile(
+    cc: list[str], flags: Sequence[str], sources: Mapping[str, bytes], build: Path, name: str
+) -> None:
     for filename, data in sources.items():
         (build / filename).write_bytes(data)
     c_files = [f for f in sources if f.endswith(".c")]
@@ -295,7 +297,9 @@ class Kernel:
         for name, size, value in zip(self.input_names, self.input_sizes, args, strict=True):
             array = np.asarray(value, dtype=np.float64).reshape(-1)
             if array.size != size:
-                raise ValueError(f"kernel {self.name!r}: input {name!r} needs {size} values, got {array.size}")
+                raise ValueError(
+                    f"kernel {self.name!r}: input {name!r} needs {size} values, got {array.size}"
+                )
             arrays.append(array)
         return arrays
 
@@ -340,20 +344,21 @@ class CKernel(Kernel):
     def __init__(self, meta: _KernelMeta, library: ctypes.CDLL, int_type: type) -> None:
         super().__init__(meta)
         self._library = library  # keeps the library loaded while the kernel lives
-        fn = getattr(library, meta.symbol)
-        fn.argtypes = [ctypes.c_void_p, ctypes.c_void_p, ctypes.c_void_p, ctypes.c_void_p, ctypes.c_int]
+        # A fresh function pointer without argtypes, called with prebuilt ctypes arguments: this
+        # skips ctypes' per-call argument conversion (about 3x faster for small kernels).
+        fn = library[meta.symbol]
         fn.restype = ctypes.c_int
         self._fn = fn
 
         sizes = [int_type() for _ in range(4)]
-        work = getattr(library, f"{meta.symbol}_work")
+        work = library[f"{meta.symbol}_work"]
         work.argtypes = [ctypes.POINTER(int_type)] * 4
         work.restype = ctypes.c_int
         work(*[ctypes.byref(s) for s in sizes])
         sz_arg, sz_res, sz_iw, sz_w = (int(s.value) for s in sizes)
 
-        sparsity_in = getattr(library, f"{meta.symbol}_sparsity_in")
-        sparsity_out = getattr(library, f"{meta.symbol}_sparsity_out")
+        sparsity_in = library[f"{meta.symbol}_sparsity_in"]
+        sparsity_out = library[f"{meta.symbol}_sparsity_out"]
         for f in (sparsity_in, sparsity_out):
             f.argtypes = [int_type]
             f.restype = ctypes.POINTER(int_type)
@@ -378,13 +383,18 @@ class CKernel(Kernel):
         res_ptrs = [o.ctypes.data for o in self._out] + [None] * (sz_res - len(self._out))
         self._arg = (ctypes.c_void_p * max(sz_arg, 1))(*arg_ptrs)
         self._res = (ctypes.c_void_p * max(sz_res, 1))(*res_ptrs)
-        self._iw_ptr = self._iw.ctypes.data
-        self._w_ptr = self._w.ctypes.data
+        self._call_args = (
+            self._arg,
+            self._res,
+            ctypes.c_void_p(self._iw.ctypes.data),
+            ctypes.c_void_p(self._w.ctypes.data),
+            ctypes.c_int(0),
+        )
 
     def __call__(self, *args: Any) -> np.ndarray | tuple[np.ndarray, ...]:
         for buffer, value in zip(self._in, self._check_inputs(args), strict=True):
-            buffer[:] = value
-        status = self._fn(self._arg, self._res, self._iw_ptr, self._w_ptr, 0)
+            np.copyto(buffer, value)
+        status = self._fn(*self._call_args)
         if status != 0:
             raise RuntimeError(f"kernel {self.name!r} returned status {status}")
         outputs = []
@@ -528,7 +538,7 @@ def load_kernels(
             )
             used = "casadi"
         else:
-            size_fn = getattr(library, f"svbi_{manifest['c_name']}_cg_casadi_int_size")
+            size_fn = library[f"svbi_{manifest['c_name']}_cg_casadi_int_size"]
             size_fn.restype = ctypes.c_int
             int_type = _int_type(size_fn())
             kernels = {m.name: CKernel(m, library, int_type) for m in metas}

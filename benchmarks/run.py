@@ -1,0 +1,26 @@
+"""Run every benchmark script in this folder (``make bench``) and print their tables.
+
+Each ``bench_*.py`` is a stand-alone script that prints a table of medians and of ratios measured in
+the same run. Pass names to run a subset: ``python benchmarks/run.py codegen methods``.
+"""
+
+from __future__ import annotations
+
+import runpy
+import sys
+from pathlib import Path
+
+
+def main(argv: list[str]) -> int:
+    here = Path(__file__).resolve().parent
+    scripts = sorted(here.glob("bench_*.py"))
+    if argv:
+        scripts = [s for s in scripts if any(s.stem == f"bench_{a}" for a in argv)]
+    for script in scripts:
+        print(f"\n=== {script.stem} ===", flush=True)
+        runpy.run_path(str(script), run_name="__main__")
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main(sys.argv[1:]))

@@ -1,0 +1,162 @@
+"""coupled-classic: monolithic system with classic, acceleration-level (index-1) multipliers.
+
+No auxiliary points: the wheel (full mass) touches the rail directly. Unknowns
+``[u_V, u_B, P, R_G]``. Each constraint is imposed as ``g'' = 0`` at t_{n+1`` — the discrete row of the
+dynamic methods with ``kappa = 0`` (``omega = 0``), convective terms included. The multipliers are
+the forces themselves. Nothing pulls a gap back once it has opened, so the gaps drift, mostly at
+the slope kinks of span joints and bridge ends (method-notes section 0.4); that drift is the point of
+offering this method. Position-level (index-3) multipliers diverge with this Newmark scheme and are
+not offered.
+
+Rows and multiplier columns are scaled by ``a0 m_ref`` (method-notes pitfall 11): otherwise the
+constraint rows are ~1 against ~a0 M in the dynamic rows and the LU pivots badly.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from svbi.runtime.coupled import Triplets, solve_sparse
+from svbi.runtime.model import Contacts, Model, State
+from svbi.runtime.newmark import Newmark
+from svbi.runtime.numeric import ContactRowKernel, point_row, support_constraint_masses
+
+
+class CoupledClassic:
+    """Index-1 monolithic stepper; see the module docstring."""
+
+    name = "coupled-classic"
+
+    def __init__(self, model: Model, state: State) -> None:
+        self.model = model
+        self.state = state
+        s = model.settings
+        b, tr = model.bridge, model.train
+        self.nm = nm = Newmark(s.time_step)
+        self.point = point_row(s.time_step, 0.0, 0.0)
+        self.rows = ContactRowKernel(b.element_length, model.speed, s.time_step, 0.0, 0.0)
+        self.moving_load = tr.moving_load
+        nd, ns = b.ndof, b.nsupport
+        self.nV = 0 if self.moving_load else tr.ndof
+        self.NV = tr.cars * self.nV
+        self.NB = b.spans * nd
+        self.nc = 0 if self.moving_load else tr.contacts
+        self.NS = b.spans * ns
+        self.oB = self.NV
+        self.oP = self.oB + self.NB
+        self.oR = self.oP + self.nc
+        self.n = self.oR + self.NS
+        sup_elem_dof = [0 if d == 0 else (1 if d == 1 else 4) for d in b.support_dofs]
+        self.sG = nm.a0 * np.tile(support_constraint_masses(b.element_length, b.mass_per_length, sup_elem_dof),
+                                  b.spans)
+        self.sC = nm.a0 * float(np.mean(tr.wheel_masses)) if not self.moving_load else 1.0
+        if not self.moving_load:
+            # an index-1 contact carries the wheel with it: the wheel and its aux point are one body
+            state.ug = (state.uV @ tr.W).reshape(-1)
+            state.PV = state.P.copy()
+        self.const = self._constant_part()
+        self.contacts: Contacts | None = None
+
+    def _constant_part(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        m, nm = self.model, self.nm
+        b, tr = m.bridge, m.train
+        T = Triplets()
+        k_hat_B = b.K + nm.a1 * b.C + nm.a0 * b.M
+        nd, ns = b.ndof, b.nsupport
+        for s in range(b.spans):
+            o = self.oB + s * nd
+            T.dense(o, o, k_hat_B)
+            rows = o + b.support_dofs
+            cols = self.oR + s * ns + np.arange(ns)
+            sG = self.sG[s * ns : (s + 1) * ns]
+            T.add(rows, cols, -sG)
+            T.add(cols, rows, sG)
+        if not self.moving_load:
+            v = tr.vehicle
+            k_hat_V = v.K + nm.a1 * v.C + nm.a0 * v.M
+            nV, nw = self.nV, tr.wheels
+            for k in range(tr.cars):
+                o = k * nV
+                T.dense(o, o, k_hat_V)
+                T.dense(o, self.oP + k * nw, -self.sC * tr.W)
+                T.dense(self.oP + k * nw, o, self.sC * tr.W.T)
+        return T.arrays()
+
+    def step(self, n: int) -> State:
+        m, nm, st = self.model, self.nm, self.state
+        b, tr = m.bridge, m.train
+        t = (n + 1) * m.dt
+        c = m.contacts(t)
+        self.contacts = c
+        rows = self.rows(c.loc.xi)
+        nd = b.ndof
+        rhs = np.zeros(self.n)
+        T = Triplets()
+
+        PB, QB = nm.history(st.uB, st.vB, st.aB)
+        q, q1, q2 = m.supports(t)
+        sup = b.support_dofs
+        q_hat = self.point.target(PB[:, sup], QB[:, sup], q, q1, q2).reshape(-1)
+        fB = PB @ b.M + QB @ b.C + q1 @ b.CT.T
+        rhs[self.oR :] = self.sG * q_hat
+
+        on = c.on
+        sel = np.flatnonzero(on)
+        span = c.loc.span
+        idx = c.element_dofs()
+        gdofs = self.oB + span[:, None] * nd + idx
+
+        if self.moving_load:
+            P = np.where(on, tr.axle_loads, 0.0)
+            np.add.at(fB, (span[sel, None], idx[sel]), -rows.N0[sel] * P[sel, None])
+            rhs[self.oB : self.oB + self.NB] = fB.reshape(-1)
+            x = solve_sparse(self.const, T, self.n, rhs)
+            self._finish_bridge(x, PB, QB)
+            st.P = tr.axle_loads.copy()
+            st.PV = st.P
+            st.t = t
+            return st
+
+        PV_, QV_ = nm.history(st.uV, st.vV, st.aV)
+        fV = tr.vehicle.F_gravity + PV_ @ tr.vehicle.M + QV_ @ tr.vehicle.C
+        rhs[: self.NV] = fV.reshape(-1)
+        rhs[self.oB : self.oB + self.NB] = fB.reshape(-1)
+        # bridge rows: + N P
+        T.add(gdofs[sel], np.repeat(self.oP + sel, 6), rows.N0[sel] * self.sC)
+        # contact rows: wheel - W_hat^T u_B = h (wheel histories in place of the aux point's)
+        Pw = (PV_ @ tr.W).reshape(-1)
+        Qw = (QV_ @ tr.W).reshape(-1)
+        Pe = PB[span[:, None], idx]
+        Qe = QB[span[:, None], idx]
+        h_on = (
+            rows.c_P_ug * Pw
+            + rows.c_Q_ug * Qw
+            + np.einsum("ij,ij->i", rows.c_P_ue, Pe)
+            + np.einsum("ij,ij->i", rows.c_Q_ue, Qe)
+            + rows.c_r * c.r
+            + rows.c_r_x * c.r1
+            + rows.c_r_xx * c.r2
+        )
+        v = m.speed
+        h_off = self.point.target(Pw, Qw, c.q + c.r, c.q1 + v * c.r1, c.q2 + v * v * c.r2)
+        rhs[self.oP : self.oP + self.nc] = self.sC * np.where(on, h_on, h_off)
+        T.add(np.repeat(self.oP + sel, 6), gdofs[sel], -self.sC * rows.W_hat[sel])
+
+        x = solve_sparse(self.const, T, self.n, rhs)
+        uV = x[: self.NV].reshape(tr.cars, self.nV)
+        st.vV, st.aV = nm.update(uV, PV_, QV_)
+        st.uV = uV
+        self._finish_bridge(x, PB, QB)
+        st.P = self.sC * x[self.oP : self.oP + self.nc]
+        st.PV = st.P
+        st.ug = (uV @ tr.W).reshape(-1)
+        st.vg = (st.vV @ tr.W).reshape(-1)
+        st.ag = (st.aV @ tr.W).reshape(-1)
+        st.t = t
+        return st
+
+    def _finish_bridge(self, x: np.ndarray, PB: np.ndarray, QB: np.ndarray) -> None:
+        st, b = self.state, self.model.bridge
+        uB = x[self.oB : self.oB + self.NB].reshape(b.spans, b.ndof)
+        st.vB, st.aB = self.nm.update(uB, PB, QB)
+        st.uB = uB

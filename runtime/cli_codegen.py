@@ -1,0 +1,174 @@
+"""`svbi generate` and `svbi export`: emit the kernels of a model as CasADi and C files."""
+
+from __future__ import annotations
+
+import difflib
+import tempfile
+from pathlib import Path
+
+import typer
+
+MAX_DIFF_LINES = 400
+
+
+def _generated_root() -> Path:
+    from svbi.runtime.compiled import generated_root
+
+    return generated_root()
+
+
+def _is_file_target(target: str) -> bool:
+    return target.endswith(".toml") or Path(target).is_file()
+
+
+def _render(target: str, embedded: bool = False) -> tuple[str, dict[str, bytes]]:
+    from svbi.codegen import c_emit
+    from svbi.codegen.kernels import model_spec
+
+    spec = model_spec(target)
+    options = c_emit.EmitOptions.embedded() if embedded else c_emit.EmitOptions()
+    return spec.name, c_emit.render_model(spec, options)
+
+
+def _tree(folder: Path) -> dict[str, bytes]:
+    """Every model file under ``folder`` (``<model>/<file>``), skipping Python package files."""
+    files = {}
+    if folder.is_dir():
+        for path in sorted(folder.rglob("*")):
+            rel = path.relative_to(folder)
+            if not path.is_file() or rel.parts[0] in ("__init__.py", "__pycache__"):
+                continue
+            files[rel.as_posix()] = path.read_bytes()
+    return files
+
+
+def _diff(name: str, expected: bytes | None, actual: bytes | None) -> list[str]:
+    if expected is None:
+        return [f"only in the committed tree (stale): {name}\n"]
+    if actual is None:
+        return [f"missing from the committed tree: {name}\n"]
+    try:
+        new, old = expected.decode().splitlines(True), actual.decode().splitlines(True)
+    except UnicodeDecodeError:
+        return [f"binary file differs: {name}\n"]
+    if name.endswith(".casadi"):
+        return [f"serialized CasADi Function differs: {name}\n"]
+    return list(difflib.unified_diff(old, new, f"committed/{name}", f"regenerated/{name}"))
+
+
+def check_tree(committed: Path) -> list[str]:
+    """Regenerate every built-in model into a temporary folder and diff it against ``committed``.
+
+    Returns the unified diff lines (empty when the trees match).
+    """
+    from svbi.codegen import c_emit
+    from svbi.codegen.kernels import builtin_models
+
+    with tempfile.TemporaryDirectory(prefix="svbi-check-") as tmp:
+        for model in builtin_models():
+            name, files = _render(model)
+            c_emit.write_files(files, Path(tmp) / name)
+        fresh = _tree(Path(tmp))
+    current = _tree(committed)
+    lines: list[str] = []
+    for name in sorted(set(fresh) | set(current)):
+        if fresh.get(name) != current.get(name):
+            lines += _diff(name, fresh.get(name), current.get(name))
+    return lines
+
+
+def generate(
+    models: list[str] | None = typer.Argument(
+        None, help="Built-in model names (vehicles, or frame2d for the bridge element) or topology files."
+    ),
+    all_: bool = typer.Option(False, "--all", help="Every built-in model."),
+    out: Path | None = typer.Option(
+        None,
+        "--out",
+        help="Output folder, one sub-folder per model. Default: the package's generated/ for built-in "
+        "models, ./svbi-generated for topology files. With --check: the tree to compare against.",
+    ),
+    check: bool = typer.Option(
+        False, "--check", help="Regenerate every built-in model into a temporary folder and diff."
+    ),
+) -> None:
+    """Generate CasADi Functions (.casadi), C kernels, headers and build files for models."""
+    from svbi.codegen import c_emit
+    from svbi.codegen.kernels import builtin_models, skip_reason
+
+    if check:
+        committed = out or _generated_root()
+        lines = check_tree(committed)
+        if lines:
+            for line in lines[:MAX_DIFF_LINES]:
+                typer.echo(line, nl=not line.endswith("\n"))
+            if len(lines) > MAX_DIFF_LINES:
+                typer.echo(f"... ({len(lines) - MAX_DIFF_LINES} more diff lines)")
+            typer.echo(
+                f"\nGenerated code in {committed} is out of date. Update it with `make generate` "
+                "(or `svbi generate --all`) and commit the result.",
+                err=True,
+            )
+            raise typer.Exit(1)
+        typer.echo(f"generated code in {committed} is up to date")
+        return
+
+    targets = list(models or [])
+    if all_:
+        targets = builtin_models() + [t for t in targets if t not in builtin_models()]
+    if not targets:
+        typer.echo("Name one or more models (or topology files), or pass --all.", err=True)
+        raise typer.Exit(2)
+    for target in targets:
+        reason = skip_reason(target)
+        if reason:
+            typer.echo(f"skipped {reason}")
+            continue
+        base = out or (Path.cwd() / "svbi-generated" if _is_file_target(target) else _generated_root())
+        name, files = _render(target)
+        folder = c_emit.write_files(files, base / name)
+        typer.echo(f"generated {name}: {len(files)} files in {folder}")
+    if all_ and out is None:
+        # Remove folders of models that are no longer built in, so --check stays clean.
+        for folder in _generated_root().iterdir():
+            if (folder / "manifest.json").is_file() and folder.name not in builtin_models():
+                import shutil
+
+                shutil.rmtree(folder)
+                typer.echo(f"removed stale {folder}")
+
+
+EXPORTED_SUFFIXES = (".c", ".h", "Makefile", "CMakeLists.txt")
+
+
+def export(
+    model: str = typer.Argument(..., help="Built-in model name or topology file."),
+    folder: Path = typer.Argument(..., help="Folder to write the self-contained C sources into."),
+    solver: bool = typer.Option(False, "--solver", help="Also export the C time-loop solver."),
+    embedded: bool = typer.Option(
+        False, "--embedded", help="32-bit casadi_int and no stack temporaries (small embedded targets)."
+    ),
+) -> None:
+    """Write a model's C kernels, header, Makefile, CMakeLists.txt and example main.c to FOLDER.
+
+    The folder builds with `make` (or CMake) and needs no Python, CasADi or SymPy.
+    """
+    from svbi.codegen import c_emit
+    from svbi.codegen.kernels import skip_reason
+
+    if solver:
+        typer.echo("The C time-loop solver is not yet available; exporting the kernels only.", err=True)
+    reason = skip_reason(model)
+    if reason:
+        typer.echo(f"nothing to export: {reason}", err=True)
+        raise typer.Exit(1)
+    name, files = _render(model, embedded=embedded)
+    exported = {n: d for n, d in files.items() if n.endswith(EXPORTED_SUFFIXES)}
+    c_emit.write_files(exported, folder, prune=False)
+    typer.echo(f"exported {name} to {folder} ({len(exported)} files): build with `make -C {folder}`")
+
+
+def register(app: typer.Typer) -> None:
+    """Add the code-generation commands to the `svbi` app."""
+    app.command("generate")(generate)
+    app.command("export")(export)

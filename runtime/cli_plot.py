@@ -1,0 +1,78 @@
+"""`svbi plot` and `svbi compare`: the paper's Fig. 4 panels and a summary from results files."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import typer
+import xarray as xr
+from svbi.runtime.plots import (
+    ResultsFileError,
+    default_labels,
+    plot_results,
+    read_results,
+    summary_text,
+    write_atomic,
+)
+
+SUMMARY_NAME = "summary.txt"
+
+
+def _read(paths: list[Path]) -> list[xr.Dataset]:
+    try:
+        return [read_results(p) for p in paths]
+    except ResultsFileError as exc:
+        typer.echo(f"error: {exc}", err=True)
+        raise typer.Exit(2) from None
+
+
+def _draw(paths: list[Path], out_dir: Path) -> None:
+    datasets = _read(paths)
+    if out_dir.exists() and not out_dir.is_dir():
+        typer.echo(f"error: {out_dir}: output folder exists and is not a folder", err=True)
+        raise typer.Exit(2)
+    results = dict(zip(default_labels(datasets, [p.stem for p in paths]), datasets, strict=True))
+    written = plot_results(results, out_dir)
+    text = summary_text(results)
+    summary = out_dir / SUMMARY_NAME
+    write_atomic(summary, lambda tmp: tmp.write_text(text, encoding="utf-8"))
+    for path in [*written, summary]:
+        typer.echo(f"wrote {path}")
+    typer.echo("")
+    typer.echo(text, nl=False)
+
+
+def plot(
+    results: Path = typer.Argument(
+        ..., metavar="RESULTS.nc", help="Results NetCDF file written by `svbi run`."
+    ),
+    out: Path | None = typer.Option(
+        None, "--out", "-o", help="Folder for the figures (default: <stem>-figures/ next to the file)."
+    ),
+) -> None:
+    """Draw the Fig. 4 panels, the constraint violations and a summary for one results file."""
+    _draw([results], out if out is not None else results.with_name(f"{results.stem}-figures"))
+
+
+def compare(
+    results: list[Path] = typer.Argument(
+        ..., metavar="A.nc B.nc [MORE.nc...]", help="Two or more results NetCDF files to overlay."
+    ),
+    out: Path | None = typer.Option(
+        None,
+        "--out",
+        "-o",
+        help="Folder for the figures (default: <first stem>-compare-figures/ next to the first file).",
+    ),
+) -> None:
+    """Overlay two or more results files (e.g. the three methods) on the Fig. 4 panels."""
+    if len(results) < 2:
+        typer.echo("error: compare needs at least two results files (use `svbi plot` for one)", err=True)
+        raise typer.Exit(2)
+    first = results[0]
+    _draw(results, out if out is not None else first.with_name(f"{first.stem}-compare-figures"))
+
+
+def register(app: typer.Typer) -> None:
+    app.command("plot")(plot)
+    app.command("compare")(compare)

@@ -1,0 +1,293 @@
+"""coupled-dynamic: the paper's monolithic system, Eq. (36), refactored every step.
+
+Unknowns ``[u_V, u_B, lambda_V, lambda_B, u_g, lambda_G]``: vehicle and bridge DOFs, the dynamic
+multipliers of the wheel-aux, aux-bridge and support constraints, and the aux points. Each force is a
+dynamic multiplier through its constraint ODE (Eqs. 7, 12, 13)::
+
+    P = mbar lambda'' + cbar lambda' + kbar lambda = D lambda - H,
+    D = mbar (a0 + 2 zeta omega a1 + omega^2),  H = mbar (P[lambda] + 2 zeta omega Q[lambda])
+
+with ``cbar = 2 zeta omega mbar``, ``kbar = omega^2 mbar`` and the constraint masses ``mbar`` of
+Eqs. (25)-(35) from ``svbi.codegen.constraints`` (Eq. 27 with the active vehicle mass, Eq. 31 with the
+element holding the contact, so it changes as the wheel moves, Eq. 34). Each constraint row is the
+discrete constraint multiplied by ``D`` (Eqs. 19, 20, 24). The system is sparse and non-symmetric; it
+is assembled and LU-factored (``scipy.sparse.linalg.splu``) every step, which is what the
+localized method avoids. In exact arithmetic both solve the same discrete equations.
+
+Sign convention: ``lambda`` has the sign of the force it generates (compression positive).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import scipy.sparse as sps
+import scipy.sparse.linalg as spla
+
+from svbi.codegen.vehicle import GRAVITY
+from svbi.runtime.model import Contacts, Model, State
+from svbi.runtime.newmark import Newmark
+from svbi.runtime.numeric import (
+    BridgeConstraintMass,
+    ContactRowKernel,
+    point_row,
+    support_constraint_masses,
+    vehicle_constraint_masses,
+)
+
+
+class Triplets:
+    """COO entries of a sparse matrix, collected from blocks."""
+
+    def __init__(self) -> None:
+        self.rows: list[np.ndarray] = []
+        self.cols: list[np.ndarray] = []
+        self.vals: list[np.ndarray] = []
+
+    def dense(self, r0: int, c0: int, block: np.ndarray) -> None:
+        nz = np.nonzero(block)
+        self.add(nz[0] + r0, nz[1] + c0, block[nz])
+
+    def add(self, r: np.ndarray, c: np.ndarray, v: np.ndarray) -> None:
+        self.rows.append(np.asarray(r, dtype=np.intp).ravel())
+        self.cols.append(np.asarray(c, dtype=np.intp).ravel())
+        self.vals.append(np.asarray(v, dtype=float).ravel())
+
+    def arrays(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        if not self.rows:
+            e = np.zeros(0)
+            return e.astype(np.intp), e.astype(np.intp), e
+        return np.concatenate(self.rows), np.concatenate(self.cols), np.concatenate(self.vals)
+
+
+def solve_sparse(const: tuple[np.ndarray, np.ndarray, np.ndarray], step: Triplets, n: int,
+                 rhs: np.ndarray) -> np.ndarray:
+    """Assemble constant + per-step entries and solve with a sparse LU."""
+    r1, c1, v1 = const
+    r2, c2, v2 = step.arrays()
+    A = sps.csc_matrix((np.concatenate([v1, v2]), (np.concatenate([r1, r2]), np.concatenate([c1, c2]))),
+                       shape=(n, n))
+    return spla.splu(A).solve(rhs)
+
+
+def support_reactions(model: Model, state: State, contacts: Contacts, P: np.ndarray) -> np.ndarray:
+    """Support forces ``R_G`` (spans x nsupport) from the bridge equations of motion."""
+    b = model.bridge
+    _, q1, _ = model.supports(state.t)
+    f = state.aB @ b.M + (state.vB - q1 @ b.T.T) @ b.C + state.uB @ b.K
+    from svbi.runtime.numeric import ShapeKernel
+
+    (N0,) = ShapeKernel(b.element_length)(contacts.loc.xi)
+    idx = contacts.element_dofs()
+    sel = np.flatnonzero(contacts.on)
+    np.add.at(f, (contacts.loc.span[sel, None], idx[sel]), N0[sel] * P[sel, None])
+    return f[:, b.support_dofs]
+
+
+class CoupledDynamic:
+    """Monolithic stepper with dynamic multipliers; see the module docstring."""
+
+    name = "coupled-dynamic"
+
+    def __init__(self, model: Model, state: State) -> None:
+        self.model = model
+        self.state = state
+        s = model.settings
+        b, tr = model.bridge, model.train
+        self.nm = nm = Newmark(s.time_step)
+        self.point = point_row(s.time_step, s.kappa, s.zeta)
+        self.rows = ContactRowKernel(b.element_length, model.speed, s.time_step, s.kappa, s.zeta)
+        omega = s.kappa / s.time_step
+        self.c2 = 2 * s.zeta * omega
+        self.w2 = omega * omega
+        self.d = self.point.d
+        self.moving_load = tr.moving_load
+        nd, ns = b.ndof, b.nsupport
+        self.nV = 0 if self.moving_load else tr.ndof
+        self.NV = tr.cars * self.nV
+        self.NB = b.spans * nd
+        self.nc = 0 if self.moving_load else tr.contacts
+        self.NS = b.spans * ns
+        self.oB = self.NV
+        self.oLV = self.oB + self.NB
+        self.oLB = self.oLV + self.nc
+        self.oG = self.oLB + self.nc
+        self.oLG = self.oG + self.nc
+        self.n = self.oLG + self.NS
+        sup_elem_dof = [0 if d == 0 else (1 if d == 1 else 4) for d in b.support_dofs]
+        self.mG = np.tile(support_constraint_masses(b.element_length, b.mass_per_length, sup_elem_dof),
+                          b.spans)
+        self.DG = self.d * self.mG
+        # multipliers start consistent with the initial forces (method-notes section 5)
+        c0 = model.contacts(0.0)
+        RG0 = support_reactions(model, state, c0, np.where(c0.on, state.P, 0.0)).reshape(-1)
+        self.lamG = self._initial_lambda(RG0, self.mG)
+        if not self.moving_load:
+            self.m_g = np.tile(tr.aux_masses, tr.cars)
+            self.mV = np.tile(vehicle_constraint_masses(tr.topology_name, tr.parameter_values, s.split),
+                              tr.cars)
+            self.DV = self.d * self.mV
+            self.mB_kernel = BridgeConstraintMass(b.element_length, b.mass_per_length, tr.aux_masses[0])
+            self.lamV = self._initial_lambda(state.PV, self.mV)
+            self.lamB = self._initial_lambda(state.P, self._mB(c0))
+        self.const = self._constant_part()
+        self.contacts: Contacts | None = None
+
+    # ----------------------------------------------------------------------------------------------
+    def _initial_lambda(self, force: np.ndarray, mbar: np.ndarray) -> list[np.ndarray]:
+        z = np.zeros_like(force)
+        if self.w2 > 0:
+            return [force / (self.w2 * mbar), z.copy(), z.copy()]
+        return [z.copy(), z.copy(), force / mbar]
+
+    def _mB(self, c: Contacts) -> np.ndarray:
+        """Eq. (31) on the bridge; off it the constraint touches only the aux point (mbar = m_g)."""
+        tr = self.model.train
+        m_g = np.tile(tr.aux_masses, tr.cars)
+        return np.where(c.on, self.mB_kernel(c.loc.xi), m_g)
+
+    def _force(self, lam: list[np.ndarray], D: np.ndarray, mbar: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        P, Q = self.nm.history(*lam)
+        H = mbar * (P + self.c2 * Q)
+        return H, D
+
+    def _constant_part(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        m, nm = self.model, self.nm
+        b, tr = m.bridge, m.train
+        T = Triplets()
+        k_hat_B = b.K + nm.a1 * b.C + nm.a0 * b.M
+        nd, ns = b.ndof, b.nsupport
+        for s in range(b.spans):
+            o = self.oB + s * nd
+            T.dense(o, o, k_hat_B)
+            rows = o + b.support_dofs
+            cols = self.oLG + s * ns + np.arange(ns)
+            T.add(rows, cols, -self.DG[s * ns : (s + 1) * ns])
+            T.add(cols, rows, self.DG[s * ns : (s + 1) * ns])
+        if not self.moving_load:
+            v = tr.vehicle
+            k_hat_V = v.K + nm.a1 * v.C + nm.a0 * tr.M_active
+            nV, nw = self.nV, tr.wheels
+            for k in range(tr.cars):
+                o = k * nV
+                T.dense(o, o, k_hat_V)
+                lv = self.oLV + k * nw + np.arange(nw)
+                DV = self.DV[k * nw : (k + 1) * nw]
+                T.dense(o, self.oLV + k * nw, -tr.W * DV[None, :])
+                T.dense(self.oLV + k * nw, o, (tr.W * DV[None, :]).T)
+                T.add(lv, self.oG + k * nw + np.arange(nw), -DV)
+                T.add(self.oG + k * nw + np.arange(nw), lv, DV)
+            g = self.oG + np.arange(self.nc)
+            T.add(g, g, nm.a0 * self.m_g)
+        return T.arrays()
+
+    # ----------------------------------------------------------------------------------------------
+    def step(self, n: int) -> State:
+        m, nm, st = self.model, self.nm, self.state
+        b, tr = m.bridge, m.train
+        t = (n + 1) * m.dt
+        c = m.contacts(t)
+        self.contacts = c
+        rows = self.rows(c.loc.xi)
+        nd, ns = b.ndof, b.nsupport
+        rhs = np.zeros(self.n)
+        T = Triplets()
+
+        PB, QB = nm.history(st.uB, st.vB, st.aB)
+        q, q1, q2 = m.supports(t)
+        sup = b.support_dofs
+        q_hat = self.point.target(PB[:, sup], QB[:, sup], q, q1, q2).reshape(-1)
+        fB = PB @ b.M + QB @ b.C + q1 @ b.CT.T
+        HG, _ = self._force(self.lamG, self.DG, self.mG)
+        fB[:, sup] -= HG.reshape(b.spans, ns)
+        rhs[self.oLG : self.oLG + self.NS] = self.DG * q_hat
+
+        on = c.on
+        sel = np.flatnonzero(on)
+        span = c.loc.span
+        idx = c.element_dofs()
+        gdofs = self.oB + span[:, None] * nd + idx  # global bridge DOFs of each contact's element
+
+        if self.moving_load:
+            P = np.where(on, tr.axle_loads, 0.0)
+            np.add.at(fB, (span[sel, None], idx[sel]), -rows.N0[sel] * P[sel, None])
+            rhs[self.oB : self.oB + self.NB] = fB.reshape(-1)
+            x = solve_sparse(self.const, T, self.n, rhs)
+            self._finish_bridge(x, PB, QB)
+            self._update_lambda(self.lamG, x[self.oLG :])
+            st.P = tr.axle_loads.copy()
+            st.PV = st.P
+            st.t = t
+            return st
+
+        PV_, QV_ = nm.history(st.uV, st.vV, st.aV)
+        Pg, Qg = nm.history(st.ug, st.vg, st.ag)
+        mB = self._mB(c)
+        DB = self.d * mB
+        HV, _ = self._force(self.lamV, self.DV, self.mV)
+        HB, _ = self._force(self.lamB, DB, mB)
+
+        # vehicle rows
+        fV = tr.F_active + PV_ @ tr.M_active + QV_ @ tr.vehicle.C
+        fV -= (HV.reshape(tr.cars, tr.wheels) @ tr.W.T)
+        rhs[: self.NV] = fV.reshape(-1)
+        # bridge rows: + N D_B lambda_B on the left, + N H_B on the right
+        np.add.at(fB, (span[sel, None], idx[sel]), rows.N0[sel] * HB[sel, None])
+        rhs[self.oB : self.oB + self.NB] = fB.reshape(-1)
+        T.add(gdofs[sel], np.repeat(self.oLB + sel, 6), rows.N0[sel] * DB[sel, None])
+        # wheel-aux rows
+        h_V = self.point.c_P * ((PV_ @ tr.W).reshape(-1) - Pg) + self.point.c_Q * (
+            (QV_ @ tr.W).reshape(-1) - Qg
+        )
+        rhs[self.oLV : self.oLV + self.nc] = self.DV * h_V
+        # aux-bridge rows
+        Pe = PB[span[:, None], idx]
+        Qe = QB[span[:, None], idx]
+        h_on = (
+            rows.c_P_ug * Pg
+            + rows.c_Q_ug * Qg
+            + np.einsum("ij,ij->i", rows.c_P_ue, Pe)
+            + np.einsum("ij,ij->i", rows.c_Q_ue, Qe)
+            + rows.c_r * c.r
+            + rows.c_r_x * c.r1
+            + rows.c_r_xx * c.r2
+        )
+        v = m.speed
+        h_off = self.point.target(Pg, Qg, c.q + c.r, c.q1 + v * c.r1, c.q2 + v * v * c.r2)
+        h_B = np.where(on, h_on, h_off)
+        lb = self.oLB + np.arange(self.nc)
+        T.add(lb, self.oG + np.arange(self.nc), DB)
+        T.add(np.repeat(self.oLB + sel, 6), gdofs[sel], -rows.W_hat[sel] * DB[sel, None])
+        rhs[lb] = DB * h_B
+        # aux rows
+        T.add(self.oG + np.arange(self.nc), lb, -DB)
+        rhs[self.oG : self.oG + self.nc] = self.m_g * (Pg - GRAVITY) - HB + HV
+
+        x = solve_sparse(self.const, T, self.n, rhs)
+
+        uV = x[: self.NV].reshape(tr.cars, self.nV)
+        st.vV, st.aV = nm.update(uV, PV_, QV_)
+        st.uV = uV
+        ug = x[self.oG : self.oG + self.nc]
+        st.vg, st.ag = nm.update(ug, Pg, Qg)
+        st.ug = ug
+        self._finish_bridge(x, PB, QB)
+        lamV = x[self.oLV : self.oLV + self.nc]
+        lamB = x[self.oLB : self.oLB + self.nc]
+        st.PV = self.DV * lamV - HV
+        st.P = DB * lamB - HB
+        self._update_lambda(self.lamV, lamV)
+        self._update_lambda(self.lamB, lamB)
+        self._update_lambda(self.lamG, x[self.oLG :])
+        st.t = t
+        return st
+
+    def _finish_bridge(self, x: np.ndarray, PB: np.ndarray, QB: np.ndarray) -> None:
+        st, b = self.state, self.model.bridge
+        uB = x[self.oB : self.oB + self.NB].reshape(b.spans, b.ndof)
+        st.vB, st.aB = self.nm.update(uB, PB, QB)
+        st.uB = uB
+
+    def _update_lambda(self, lam: list[np.ndarray], new: np.ndarray) -> None:
+        P, Q = self.nm.history(*lam)
+        v, a = self.nm.update(new, P, Q)
+        lam[0], lam[1], lam[2] = np.array(new), v, a

@@ -1,0 +1,277 @@
+"""Ground motion at the bridge supports and under the approach track: q, q', q'' (paper Eqs. 22-24).
+
+:class:`GroundMotion` answers ``motion(component, t, x) -> (q, qd, qdd)`` for the components
+``"vertical"`` and ``"longitudinal"``, broadcasting t against the positions x (support positions,
+or wheel positions on the approach ground). Three spatial models:
+
+* **synchronous** (the paper's case): every x moves with q(t);
+* **wave passage**: the motion at x is q(t - (x - x_ref)/c_app), a wave with apparent velocity
+  c_app that reaches ``x_ref`` (default 0, the first support) at the arrival time. An infinite
+  velocity gives the synchronous motion exactly (the delay is 0.0);
+* **one record per support**: ``records`` is a list, one per support position; x must be one of
+  those positions.
+
+A component given as ``"none"`` is identically zero. Every history starts with q = q' = q'' = 0 (the
+records' tapers, see :mod:`~svbi.runtime.excitation.processing`), and is at rest after it ends.
+"""
+
+from __future__ import annotations
+
+import math
+import warnings
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+from svbi.runtime.excitation.processing import MotionHistory, Processing, process_record
+from svbi.runtime.excitation.records import Record, read_record
+from svbi.runtime.excitation.synthetic import DEFAULT_SEED, synthetic_motion
+
+COMPONENTS = ("vertical", "longitudinal")
+Triple = tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]]
+Source = str | Path | Record
+"""A component's source: ``"none"``, ``"synthetic"``, a record file path, or a :class:`Record`."""
+
+
+@dataclass(frozen=True, eq=False)
+class ComponentMotion:
+    """The motion of one component: a single history, or one history per support position."""
+
+    histories: tuple[MotionHistory, ...]
+    positions: NDArray[np.float64] | None = None
+    """Support positions (m) of the histories when there is one per support; None otherwise."""
+
+    @property
+    def end_time(self) -> float:
+        """Latest end of the histories (s, simulation time, before any wave-passage delay)."""
+        return max(h.end_time for h in self.histories)
+
+
+@dataclass(frozen=True, eq=False)
+class GroundMotion:
+    """Support and approach-ground motion of a run (see the module doc)."""
+
+    vertical: ComponentMotion | None = None
+    longitudinal: ComponentMotion | None = None
+    apparent_velocity: float | None = None
+    """Wave-passage apparent velocity (m/s); None (or inf) is synchronous."""
+    reference_position: float = 0.0
+    """Where the wave passes at the arrival time (m)."""
+
+    def __post_init__(self) -> None:
+        c = self.apparent_velocity
+        if c is not None and (math.isnan(c) or c == 0.0):
+            raise ValueError(f"earthquake.apparent_velocity must be nonzero (got {c} m/s)")
+        for name in COMPONENTS:
+            comp = getattr(self, name)
+            if comp is not None and comp.positions is not None and c is not None and math.isfinite(c):
+                raise ValueError(
+                    f"earthquake.{name}: one record per support and a wave-passage apparent velocity "
+                    "cannot be combined; give one or the other"
+                )
+
+    def component(self, name: str) -> ComponentMotion | None:
+        """The motion of a component, None when it is ``"none"``."""
+        if name not in COMPONENTS:
+            raise ValueError(f"unknown ground-motion component {name!r} (expected one of {COMPONENTS})")
+        return getattr(self, name)
+
+    def is_active(self, name: str) -> bool:
+        """Whether a component moves at all."""
+        return self.component(name) is not None
+
+    @property
+    def end_time(self) -> float:
+        """Simulation time after which every active component is at rest at x_ref (0 if none)."""
+        ends = [c.end_time for c in (self.vertical, self.longitudinal) if c is not None]
+        return max(ends, default=0.0)
+
+    def delay(self, x: ArrayLike) -> NDArray[np.float64]:
+        """Wave-passage delay (x - x_ref)/c_app (s); zeros when synchronous."""
+        xa = np.asarray(x, dtype=float)
+        c = self.apparent_velocity
+        if c is None:
+            return np.zeros_like(xa)
+        return (xa - self.reference_position) / c
+
+    def motion(self, name: str, t: ArrayLike, x: ArrayLike = 0.0) -> Triple:
+        """q, q', q'' (m, m/s, m/s²) of component ``name`` at times t and positions x (broadcast)."""
+        comp = self.component(name)
+        ta = np.asarray(t, dtype=float)
+        xa = np.asarray(x, dtype=float)
+        shape = np.broadcast_shapes(ta.shape, xa.shape)
+        if comp is None:
+            zero = np.zeros(shape)
+            return zero, zero.copy(), zero.copy()
+        if comp.positions is None:
+            history = comp.histories[0]
+            if self.apparent_velocity is None:
+                q = history.evaluate(ta)
+                return tuple(np.broadcast_to(v, shape).copy() for v in q)  # type: ignore[return-value]
+            delay = self.delay(xa)
+            early = history.arrival + delay < 0.0
+            if np.any(early):
+                bad = xa[early]
+                raise ValueError(
+                    f"earthquake.{name}: with apparent velocity {self.apparent_velocity} m/s the wave "
+                    f"reaches x = {bad.min():.2f} m before t = 0 (arrival {history.arrival} s); "
+                    "increase earthquake.arrival so that the motion starts after t = 0 everywhere"
+                )
+            return history.evaluate(ta - delay)
+        return _per_support(name, comp, ta, xa, shape)
+
+
+def _per_support(name: str, comp: ComponentMotion, t: NDArray, x: NDArray, shape: tuple) -> Triple:
+    assert comp.positions is not None
+    xb = np.broadcast_to(x, shape)
+    tb = np.broadcast_to(t, shape)
+    index = np.full(shape, -1, dtype=np.intp)
+    for k, pos in enumerate(comp.positions):
+        index[np.isclose(xb, pos, rtol=0.0, atol=1e-9)] = k
+    if np.any(index < 0):
+        bad = np.unique(xb[index < 0])
+        raise ValueError(
+            f"earthquake.{name}: one record per support is given at x = {list(comp.positions)} m, "
+            f"but the motion was asked at x = {list(bad[:5])} m"
+        )
+    out = [np.zeros(shape), np.zeros(shape), np.zeros(shape)]
+    for k, history in enumerate(comp.histories):
+        sel = index == k
+        if np.any(sel):
+            q = history.evaluate(tb[sel])
+            for o, v in zip(out, q, strict=True):
+                o[sel] = v
+    return out[0], out[1], out[2]
+
+
+def _history(
+    source: Source,
+    component: str,
+    *,
+    scale: float,
+    arrival: float,
+    seed: int,
+    dt: float | None,
+    options: Processing | None,
+) -> MotionHistory:
+    if isinstance(source, Record):
+        return process_record(source, scale=scale, arrival=arrival, options=options)
+    if str(source) == "synthetic":
+        return synthetic_motion(component, seed, scale=scale, arrival=arrival, options=options)
+    path = Path(source)
+    if not path.is_file():
+        raise ValueError(
+            f"earthquake.{component} = {str(source)!r}: expected 'none', 'synthetic' or the path of "
+            "an existing record file"
+        )
+    return process_record(read_record(path, dt=dt), scale=scale, arrival=arrival, options=options)
+
+
+def ground_motion(
+    *,
+    vertical: Source | Sequence[Source] = "none",
+    longitudinal: Source | Sequence[Source] = "none",
+    scale: float = 1.0,
+    arrival: float = 0.0,
+    apparent_velocity: float | None = None,
+    support_positions: Sequence[float] | None = None,
+    duration: float | None = None,
+    seed: int = DEFAULT_SEED,
+    dt: float | None = None,
+    options: Processing | None = None,
+) -> GroundMotion:
+    """Build the :class:`GroundMotion` of a scenario's ``[earthquake]`` table.
+
+    Each component is ``"none"``, ``"synthetic"``, a record path (AT2 or text; ``dt`` for
+    one-column files), a :class:`Record`, or a list of those, one per entry of
+    ``support_positions``. ``scale`` multiplies every record (the synthetic one is first brought to
+    its documented PGA). ``arrival`` (s, >= 0) is the simulation time of record time 0.
+
+    ``duration`` (s), the length of the run, enables two checks: an arrival at or after the end of
+    the run is an error (the earthquake would never act), and a record that ends before the run
+    does gives a warning (the ground then stays at rest at its final displacement).
+    """
+    if not (math.isfinite(arrival) and arrival >= 0.0):
+        raise ValueError(
+            f"earthquake.arrival = {arrival} s must be >= 0: a negative arrival would start the run "
+            "in the middle of the record, and the train starts in static equilibrium at t = 0"
+        )
+    if duration is not None and arrival >= duration:
+        raise ValueError(
+            f"earthquake.arrival = {arrival} s is not before the end of the run ({duration} s): "
+            "the earthquake would never act; lower the arrival or lengthen solver.duration"
+        )
+    if apparent_velocity is not None and math.isinf(apparent_velocity):
+        apparent_velocity = None
+    comps: dict[str, ComponentMotion | None] = {}
+    for name, spec in (("vertical", vertical), ("longitudinal", longitudinal)):
+        kwargs = dict(scale=scale, arrival=arrival, seed=seed, dt=dt, options=options)
+        if isinstance(spec, (str, Path, Record)):
+            if str(spec) == "none" and not isinstance(spec, Record):
+                comps[name] = None
+                continue
+            comps[name] = ComponentMotion((_history(spec, name, **kwargs),))
+            continue
+        specs = list(spec)
+        if support_positions is None or len(specs) != len(support_positions):
+            n_pos = "no" if support_positions is None else len(support_positions)
+            raise ValueError(
+                f"earthquake.{name}: {len(specs)} records given for {n_pos} support positions; "
+                "one record per support needs support_positions of the same length"
+            )
+        histories = tuple(_history(s, name, **kwargs) for s in specs)
+        comps[name] = ComponentMotion(histories, np.asarray(support_positions, dtype=float))
+    motion = GroundMotion(
+        vertical=comps["vertical"],
+        longitudinal=comps["longitudinal"],
+        apparent_velocity=apparent_velocity,
+    )
+    if duration is not None:
+        for name in COMPONENTS:
+            comp = motion.component(name)
+            if comp is not None and comp.end_time < duration:
+                names = ", ".join(sorted({h.name for h in comp.histories}))
+                warnings.warn(
+                    f"earthquake.{name} ({names}) ends at t = {comp.end_time:.2f} s, before the run "
+                    f"ends at {duration:.2f} s; the ground then stays at rest at its final displacement",
+                    UserWarning,
+                    stacklevel=2,
+                )
+    return motion
+
+
+def ground_from_scenario(scenario: Any, duration: float | None = None) -> Any:
+    """The runtime's ``Ground`` (``svbi.runtime.model.FunctionGround``) for a scenario's ``[earthquake]``.
+
+    Record paths are resolved against the scenario's folder (``scenario.resolve_path``).
+    ``duration`` (default ``solver.duration``) enables the checks of :func:`ground_motion`.
+    """
+    from svbi.runtime.model import FunctionGround
+
+    eq = scenario.earthquake
+
+    def source(value: str) -> Source:
+        return value if value in ("none", "synthetic") else scenario.resolve_path(value)
+
+    motion = ground_motion(
+        vertical=source(eq.vertical),
+        longitudinal=source(eq.longitudinal),
+        scale=eq.scale,
+        arrival=eq.arrival,
+        apparent_velocity=eq.apparent_velocity,
+        duration=duration if duration is not None else scenario.solver.duration,
+    )
+
+    def component(name: str) -> Callable[[float, NDArray], Triple] | None:
+        if not motion.is_active(name):
+            return None
+        return lambda t, x: motion.motion(name, t, x)
+
+    return FunctionGround(
+        vertical=component("vertical"),
+        longitudinal=component("longitudinal"),
+        apparent_velocity=motion.apparent_velocity,
+    )

@@ -1,0 +1,186 @@
+"""localized-dynamic: the paper's partitioned method (Sections 2-4, Eq. 36 solved by condensation).
+
+Three subsystems: the vehicles (active mass, Eq. 4), the auxiliary contact points (mass ``a m_w``,
+Eq. 14) and the bridge with its support constraints (Eqs. 10, 22-24). Every constraint is imposed at
+t_{n+1} as ``g'' + 2 zeta omega g' + omega^2 g = 0`` (Eqs. 17, 20, 22 divided by the constraint mass),
+which with Newmark becomes one linear row per constraint (``svbi.codegen.constraints``).
+
+Everything constant is factored once: each car's effective matrix and its wheel flexibility, the aux
+compliance, and the bridge compliance with the supports held (``S``) together with the effect of
+the support targets (``R``). Each step then solves one small interface system for the contact forces
+``P`` (method-notes section 2, step 3)::
+
+    (F_B + F*) P = h_B - p~ + W_hat^T u~_B - c_g B d_V
+
+with ``F* = c_g - c_g B c_g`` (the full-vehicle wheel flexibility) and ``F_B = W_hat^T S N`` (the bridge
+flexibility between contacts on the same span). It is non-symmetric: the force acts along ``N`` but
+the constraint row is ``W_hat``, which carries the convective terms. We solve for forces, not for the
+dynamic multipliers, which lose digits (method-notes pitfall 7). Sign convention: ``P`` is the
+compression in the contact; it pushes the wheel (or aux point) up and the bridge down.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import scipy.linalg as sla
+
+from svbi.codegen.vehicle import GRAVITY
+from svbi.runtime.model import Contacts, Model, State
+from svbi.runtime.newmark import Newmark
+from svbi.runtime.numeric import ContactRowKernel, ContactRows, point_row
+
+
+class BridgeCompliance:
+    """``S`` and ``R`` of one span: ``u = S f + R q_hat`` solves ``K^ u = f + E R_G``, ``E^T u = q_hat``."""
+
+    def __init__(self, model: Model, nm: Newmark) -> None:
+        b = model.bridge
+        k_hat = b.K + nm.a1 * b.C + nm.a0 * b.M
+        k_inv = sla.cho_solve(sla.cho_factor(k_hat), np.eye(b.ndof))
+        k_inv = 0.5 * (k_inv + k_inv.T)
+        ke = k_inv @ b.E
+        se_inv = np.linalg.inv(b.E.T @ ke)
+        self.S = k_inv - ke @ se_inv @ ke.T
+        self.S = 0.5 * (self.S + self.S.T)
+        self.R = ke @ se_inv
+
+
+class LocalizedDynamic:
+    """Partitioned stepper; see the module docstring."""
+
+    name = "localized-dynamic"
+
+    def __init__(self, model: Model, state: State) -> None:
+        self.model = model
+        self.state = state
+        s = model.settings
+        self.nm = nm = Newmark(s.time_step)
+        self.point = point_row(s.time_step, s.kappa, s.zeta)
+        self.rows = ContactRowKernel(model.bridge.element_length, model.speed, s.time_step, s.kappa, s.zeta)
+        self.bridge = BridgeCompliance(model, nm)
+        tr = model.train
+        self.moving_load = tr.moving_load
+        if not self.moving_load:
+            self._vehicle_setup()
+        self.contacts: Contacts | None = None
+
+    def _vehicle_setup(self) -> None:
+        tr, nm = self.model.train, self.nm
+        v = tr.vehicle
+        k_hat = v.K + nm.a1 * v.C + nm.a0 * tr.M_active
+        self.k_inv = np.linalg.inv(k_hat)
+        self.A = self.k_inv @ tr.W  # ndof x nw
+        F_V = tr.W.T @ self.A
+        self.m_g = np.tile(tr.aux_masses, tr.cars)
+        c_g = 1.0 / (nm.a0 * tr.aux_masses)
+        self.c_g = np.tile(c_g, tr.cars)
+        self.B = np.linalg.inv(F_V + np.diag(c_g))
+        f_star = np.diag(c_g) - c_g[:, None] * self.B * c_g[None, :]
+        self.F_star = sla.block_diag(*([f_star] * tr.cars))
+
+    # ----------------------------------------------------------------------------------------------
+    def step(self, n: int) -> State:
+        """Advance from t_n to t_{n+1} = (n + 1) dt."""
+        m, nm, st = self.model, self.nm, self.state
+        b, tr = m.bridge, m.train
+        t = (n + 1) * m.dt
+        c = m.contacts(t)
+        rows = self.rows(c.loc.xi)
+        self.contacts = c
+
+        # bridge predictor (all contact forces zero), supports at their targets
+        PB, QB = nm.history(st.uB, st.vB, st.aB)
+        q, q1, q2 = m.supports(t)
+        sup = b.support_dofs
+        q_hat = self.point.target(PB[:, sup], QB[:, sup], q, q1, q2)
+        fB = PB @ b.M + QB @ b.C + q1 @ b.CT.T
+        uB_t = fB @ self.bridge.S + q_hat @ self.bridge.R.T
+
+        on = c.on
+        span = c.loc.span
+        idx = c.element_dofs()
+        if self.moving_load:
+            P = np.where(on, tr.axle_loads, 0.0)
+            uB = uB_t - self._bridge_load(c, rows, idx, P) @ self.bridge.S
+            self._finish_bridge(uB, PB, QB)
+            st.P = tr.axle_loads.copy()
+            st.PV = st.P
+            st.t = t
+            return st
+
+        # vehicle and aux predictors, wheel-aux target h_V
+        PV_, QV_ = nm.history(st.uV, st.vV, st.aV)
+        Pg, Qg = nm.history(st.ug, st.vg, st.ag)
+        fV = tr.F_active + PV_ @ tr.M_active + QV_ @ tr.vehicle.C
+        uV_t = fV @ self.k_inv
+        wheel_t = (uV_t @ tr.W).reshape(-1)
+        p_t = (Pg - GRAVITY) / nm.a0
+        h_V = self.point.c_P * ((PV_ @ tr.W).reshape(-1) - Pg) + self.point.c_Q * (
+            (QV_ @ tr.W).reshape(-1) - Qg
+        )
+        d_V = wheel_t - p_t - h_V
+
+        # aux-bridge rows: W_hat, h_B (on the bridge), or the ground target (off)
+        Pe = PB[span[:, None], idx]
+        Qe = QB[span[:, None], idx]
+        h_on = (
+            rows.c_P_ug * Pg
+            + rows.c_Q_ug * Qg
+            + np.einsum("ij,ij->i", rows.c_P_ue, Pe)
+            + np.einsum("ij,ij->i", rows.c_Q_ue, Qe)
+            + rows.c_r * c.r
+            + rows.c_r_x * c.r1
+            + rows.c_r_xx * c.r2
+        )
+        v = m.speed
+        h_off = self.point.target(Pg, Qg, c.q + c.r, c.q1 + v * c.r1, c.q2 + v * v * c.r2)
+        h_B = np.where(on, h_on, h_off)
+
+        # interface: (F_B + F*) P = rhs
+        W_full, N_full = self._placed_rows(c, rows, idx)
+        WS = W_full @ self.bridge.S
+        same = on[:, None] & on[None, :] & (span[:, None] == span[None, :])
+        F_B = np.where(same, WS @ N_full.T, 0.0)
+        Wu = np.einsum("ij,ij->i", W_full, uB_t[span])
+        Bd = (d_V.reshape(tr.cars, tr.wheels) @ self.B.T).reshape(-1)
+        rhs = h_B - p_t + Wu - self.c_g * Bd
+        P = np.linalg.solve(self.F_star + F_B, rhs)
+
+        # back-substitution
+        PV = ((self.c_g * P - d_V).reshape(tr.cars, tr.wheels) @ self.B.T).reshape(-1)
+        ug = p_t + self.c_g * (P - PV)
+        uV = uV_t + PV.reshape(tr.cars, tr.wheels) @ self.A.T
+        uB = uB_t - self._bridge_load(c, rows, idx, np.where(on, P, 0.0)) @ self.bridge.S
+
+        st.vV, st.aV = nm.update(uV, PV_, QV_)
+        st.uV = uV
+        st.vg, st.ag = nm.update(ug, Pg, Qg)
+        st.ug = ug
+        self._finish_bridge(uB, PB, QB)
+        st.P, st.PV, st.t = P, PV, t
+        return st
+
+    # ----------------------------------------------------------------------------------------------
+    def _finish_bridge(self, uB: np.ndarray, PB: np.ndarray, QB: np.ndarray) -> None:
+        st = self.state
+        st.vB, st.aB = self.nm.update(uB, PB, QB)
+        st.uB = uB
+
+    def _placed_rows(self, c: Contacts, rows: ContactRows, idx: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """``W_hat`` and ``N`` of each contact placed in its span's DOF vector (zero off the bridge)."""
+        nd = self.model.bridge.ndof
+        n = len(c.on)
+        W_full = np.zeros((n, nd))
+        N_full = np.zeros((n, nd))
+        sel = np.flatnonzero(c.on)
+        W_full[sel[:, None], idx[sel]] = rows.W_hat[sel]
+        N_full[sel[:, None], idx[sel]] = rows.N0[sel]
+        return W_full, N_full
+
+    def _bridge_load(self, c: Contacts, rows: ContactRows, idx: np.ndarray, P: np.ndarray) -> np.ndarray:
+        """``sum_i N_i P_i`` per span, shape ``(spans, ndof)``."""
+        b = self.model.bridge
+        load = np.zeros((b.spans, b.ndof))
+        sel = np.flatnonzero(c.on)
+        np.add.at(load, (c.loc.span[sel, None], idx[sel]), rows.N0[sel] * P[sel, None])
+        return load

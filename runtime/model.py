@@ -1,0 +1,222 @@
+"""Numeric model assembly: bridge + train + excitations + solver settings, and the state they share.
+
+The methods (``localized``, ``coupled``, ``classic``) step a :class:`State`; everything they need
+about the world at a time ``t`` comes from :meth:`Model.contacts` (where each wheel is, the rail
+irregularity under it, the ground under off-bridge wheels) and :meth:`Model.supports` (the ground
+motion the bearings follow). Excitations plug in through two tiny interfaces, so the loop does not
+change when new ones arrive:
+
+* irregularity: ``evaluate(x) -> (r, dr/dx, d2r/dx2)`` (``svbi.runtime.excitation.irregularity``);
+* ground: :class:`Ground` (``supports``, ``under`` and ``at``), adapting a ground-motion object.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+from typing import Any, Protocol
+
+import numpy as np
+
+from svbi.runtime.bridge import Bridge, Location
+from svbi.runtime.train import Train
+
+Triple = tuple[np.ndarray, np.ndarray, np.ndarray]
+
+
+class IrregularityLike(Protocol):
+    def evaluate(self, x: np.ndarray) -> Triple: ...
+
+
+class FlatTrack:
+    """Perfect track: r = 0."""
+
+    def evaluate(self, x: np.ndarray) -> Triple:
+        z = np.zeros_like(np.asarray(x, dtype=float))
+        return z, z, z
+
+
+class Ground:
+    """Ground motion as seen by the solver. The base class is the ground at rest.
+
+    ``motion(t, x)`` returns the vertical and longitudinal ground displacement, velocity and
+    acceleration at time t and positions x (partial time derivatives at fixed x), as two triples.
+    ``apparent_velocity`` (m/s) is set for a travelling (asynchronous) motion ``q(t - x/c)``.
+    """
+
+    apparent_velocity: float | None = None
+    uniform: bool = True
+
+    def motion(self, t: float, x: np.ndarray) -> tuple[Triple, Triple]:
+        z = np.zeros_like(np.asarray(x, dtype=float))
+        return (z, z, z), (z, z, z)
+
+    def supports(self, t: float, bridge: Bridge) -> Triple:
+        """Targets ``q, q', q''`` of every support constraint, shape ``(spans, nsupport)``."""
+        x = bridge.support_x
+        vert, lon = self.motion(t, x.reshape(-1))
+        mask = bridge.support_vertical[None, :]
+        return tuple(  # type: ignore[return-value]
+            np.where(mask, v.reshape(x.shape), h.reshape(x.shape)) for v, h in zip(vert, lon, strict=True)
+        )
+
+    def under(self, t: float, x: np.ndarray, speed: float) -> Triple:
+        """Vertical ground motion under points moving at ``speed`` (total time derivatives).
+
+        For a travelling motion ``q(t - x/c)`` seen from a point with ``x' = v``, d/dt carries the
+        factor ``(1 - v/c)``; a uniform motion has none.
+        """
+        (q, q1, q2), _ = self.motion(t, x)
+        if self.apparent_velocity:
+            f = 1.0 - speed / self.apparent_velocity
+            return q, f * q1, f * f * q2
+        return q, q1, q2
+
+
+class GroundAtRest(Ground):
+    """No earthquake: every target is zero (cached, the loop asks at every step)."""
+
+    def __init__(self) -> None:
+        self._zeros: dict[tuple[int, ...], Triple] = {}
+
+    def _z(self, shape: tuple[int, ...]) -> Triple:
+        if shape not in self._zeros:
+            z = np.zeros(shape)
+            z.flags.writeable = False
+            self._zeros[shape] = (z, z, z)
+        return self._zeros[shape]
+
+    def motion(self, t: float, x: np.ndarray) -> tuple[Triple, Triple]:
+        z = self._z(np.shape(x))
+        return z, z
+
+    def supports(self, t: float, bridge: Bridge) -> Triple:
+        return self._z(bridge.support_x.shape)
+
+    def under(self, t: float, x: np.ndarray, speed: float) -> Triple:
+        return self._z(np.shape(x))
+
+
+class FunctionGround(Ground):
+    """Ground motion from two functions ``f(t, x) -> (q, q', q'')`` (vertical, longitudinal)."""
+
+    def __init__(self, vertical: Any = None, longitudinal: Any = None,
+                 apparent_velocity: float | None = None) -> None:
+        self._v, self._h = vertical, longitudinal
+        self.apparent_velocity = apparent_velocity
+        self.uniform = apparent_velocity is None
+
+    def motion(self, t: float, x: np.ndarray) -> tuple[Triple, Triple]:
+        x = np.asarray(x, dtype=float)
+        zero = np.zeros_like(x)
+        vert = tuple(np.broadcast_to(a, x.shape).astype(float) for a in self._v(t, x)) if self._v else (
+            zero, zero, zero)
+        lon = tuple(np.broadcast_to(a, x.shape).astype(float) for a in self._h(t, x)) if self._h else (
+            zero, zero, zero)
+        return vert, lon  # type: ignore[return-value]
+
+
+@dataclass
+class Contacts:
+    """The contact points at one instant: location, irregularity and ground under each."""
+
+    t: float
+    loc: Location
+    r: np.ndarray
+    r1: np.ndarray
+    r2: np.ndarray
+    q: np.ndarray
+    q1: np.ndarray
+    q2: np.ndarray
+
+    @property
+    def on(self) -> np.ndarray:
+        return self.loc.on
+
+    def element_dofs(self) -> np.ndarray:
+        """Span-local DOF indices of the element of each contact, ``(n, 6)``."""
+        return self.loc.first_dof[:, None] + np.arange(6)[None, :]
+
+
+@dataclass
+class State:
+    """Positions, velocities, accelerations and forces at one time (see docs/method.md)."""
+
+    t: float
+    uV: np.ndarray
+    vV: np.ndarray
+    aV: np.ndarray
+    uB: np.ndarray
+    vB: np.ndarray
+    aB: np.ndarray
+    ug: np.ndarray
+    vg: np.ndarray
+    ag: np.ndarray
+    P: np.ndarray
+    """Wheel-rail (aux-bridge) contact force, N, compression positive."""
+    PV: np.ndarray
+    """Wheel-aux force, N, compression positive (equals ``P`` less the aux point's inertia)."""
+    extra: dict[str, Any] = field(default_factory=dict)
+
+    def copy(self) -> State:
+        return State(self.t, *(np.array(getattr(self, k)) for k in
+                               ("uV", "vV", "aV", "uB", "vB", "aB", "ug", "vg", "ag", "P", "PV")),
+                     extra=dict(self.extra))
+
+
+@dataclass
+class Settings:
+    """Solver settings of one run."""
+
+    method: str = "localized-dynamic"
+    backend: str = "numpy"
+    time_step: float = 1.0e-4
+    steps: int = 1
+    output_every: int = 1
+    kappa: float = 1.0
+    zeta: float = 1.0
+    split: float = 0.5
+    force_filter_hz: float = 20.0
+
+
+class Model:
+    """Everything one run needs, in numbers."""
+
+    def __init__(
+        self,
+        bridge: Bridge,
+        train: Train,
+        settings: Settings,
+        irregularity: IrregularityLike | None = None,
+        ground: Ground | None = None,
+    ) -> None:
+        self.bridge = bridge
+        self.train = train
+        self.settings = settings
+        self.irregularity = irregularity or FlatTrack()
+        self.ground = ground or GroundAtRest()
+
+    @property
+    def dt(self) -> float:
+        return self.settings.time_step
+
+    @property
+    def speed(self) -> float:
+        return self.train.speed
+
+    def contacts(self, t: float) -> Contacts:
+        x = self.train.positions(t)
+        loc = self.bridge.locate(x)
+        r, r1, r2 = (np.asarray(a, dtype=float) for a in self.irregularity.evaluate(x))
+        q, q1, q2 = self.ground.under(t, x, self.speed)
+        return Contacts(t, loc, r, r1, r2, q, q1, q2)
+
+    def supports(self, t: float) -> Triple:
+        return self.ground.supports(t, self.bridge)
+
+
+def crossing_duration(bridge: Bridge, train: Train) -> float:
+    """Time until the last axle leaves the last span (DESIGN.md section 3, solver.duration)."""
+    if train.speed <= 0:
+        return math.inf
+    return max(bridge.length + train.length - train.start_position, 0.0) / train.speed

@@ -1,0 +1,483 @@
+"""Scenario files: the TOML contract of DESIGN.md section 3, validated with pydantic.
+
+``load_scenario(path)`` reads a file, applies ``--set``-style overrides, validates every key and
+returns a :class:`Scenario` with the defaults filled in. Unknown keys are errors. Every problem is
+reported with the dotted path of the offending key and the file and line where it was written, all
+problems at once::
+
+    bad.toml:7: bridge.span_length: must be greater than 0 (got -32.0)
+
+A time step too coarse for the vehicle is a :class:`ScenarioWarning`, not an error.
+"""
+
+from __future__ import annotations
+
+import math
+import re
+import sys
+import warnings
+from collections.abc import Iterable, Mapping, Sequence
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Annotated, Any, Literal
+
+import tomli_w
+from pydantic import BaseModel, ConfigDict, Field, PrivateAttr, ValidationError, model_validator
+
+if sys.version_info >= (3, 11):
+    import tomllib
+else:  # pragma: no cover - Python 3.10
+    import tomli as tomllib
+
+METHODS = ("localized-dynamic", "coupled-dynamic", "coupled-classic")
+BACKENDS = ("numpy", "casadi", "c")
+IRREGULARITIES = ("none", "german-low", "german-high")
+HSLM_TRAINS = tuple(f"A{i}" for i in range(1, 11))
+KMH = 1.0 / 3.6
+
+TIME_STEP_RESOLUTION = 20
+"""Steps per period of the fastest vehicle mode below which a warning is given. Newmark's average
+acceleration lengthens a period by about (omega dt)^2 / 12: at 20 steps per period that is 0.8 %."""
+
+
+class ScenarioWarning(UserWarning):
+    """A scenario that runs but whose results may be inaccurate (e.g. a coarse time step)."""
+
+
+@dataclass(frozen=True)
+class Problem:
+    """One invalid key: its dotted path, what is wrong, and where it was written."""
+
+    key: str
+    message: str
+    where: str = ""
+
+    def __str__(self) -> str:
+        prefix = f"{self.where}: " if self.where else ""
+        return f"{prefix}{self.key}: {self.message}"
+
+
+class ScenarioError(ValueError):
+    """A scenario file (or override) is invalid. ``problems`` lists every offending key."""
+
+    def __init__(self, problems: Sequence[Problem], source: str = "") -> None:
+        self.problems = list(problems)
+        self.source = source
+        head = f"invalid scenario {source}" if source else "invalid scenario"
+        super().__init__(head + ":\n" + "\n".join(f"  {p}" for p in self.problems))
+
+
+# --------------------------------------------------------------------------------------------------
+# schema
+
+Positive = Annotated[float, Field(gt=0)]
+NonNegative = Annotated[float, Field(ge=0)]
+
+
+class _Table(BaseModel):
+    model_config = ConfigDict(extra="forbid", strict=True, allow_inf_nan=False, validate_default=True)
+
+
+class BridgeSpec(_Table):
+    """``[bridge]``: a chain of identical simply supported spans."""
+
+    spans: Annotated[int, Field(ge=1)] = 1
+    span_length: Positive
+    mass_per_length: Positive
+    youngs_modulus: Positive
+    area: Positive
+    second_moment: Positive
+    damping_ratio: Annotated[float, Field(ge=0, lt=1)] = 0.02
+    elements_per_span: Annotated[int, Field(ge=1)] = 16
+    rail_height: float = 0.0
+
+
+class TrainSpec(_Table):
+    """``[train]``: vehicle type, number of cars, speed and start position."""
+
+    vehicle: Annotated[str, Field(min_length=1)] = "pioneer-2d"
+    cars: Annotated[int, Field(ge=1)] = 1
+    speed_kmh: Positive | None = None
+    speed: Positive | None = None
+    start_position: float = 0.0
+    hslm: Literal[HSLM_TRAINS] | None = None  # type: ignore[valid-type]
+    parameters: dict[str, float | list[float]] = Field(default_factory=dict)
+
+    @model_validator(mode="after")
+    def _speed_given_once(self) -> TrainSpec:
+        if (self.speed is None) == (self.speed_kmh is None):
+            which = "both" if self.speed is not None else "neither"
+            raise ValueError(f"give exactly one of train.speed (m/s) and train.speed_kmh ({which} given)")
+        return self
+
+    @property
+    def speed_ms(self) -> float:
+        """Speed in m/s, whichever key gave it."""
+        return float(self.speed) if self.speed is not None else float(self.speed_kmh) * KMH
+
+
+class TrackSpec(_Table):
+    """``[track]``: rail irregularity."""
+
+    irregularity: Literal[IRREGULARITIES] = "none"  # type: ignore[valid-type]
+    seed: int = 1
+    wavelength_min: Positive = 0.5
+    wavelength_max: Positive = 80.0
+
+
+class EarthquakeSpec(_Table):
+    """``[earthquake]``: ground motion at the supports and under the approach track."""
+
+    vertical: Annotated[str, Field(min_length=1)] = "none"
+    longitudinal: Annotated[str, Field(min_length=1)] = "none"
+    scale: NonNegative = 1.0
+    arrival: float = 0.0
+    apparent_velocity: Positive | None = None
+
+
+class SolverSpec(_Table):
+    """``[solver]``: method, backend, time step and constraint coefficients."""
+
+    method: Literal[METHODS] = "localized-dynamic"  # type: ignore[valid-type]
+    backend: Literal[BACKENDS] = "c"  # type: ignore[valid-type]
+    time_step: Positive = 1.0e-4
+    duration: Positive | None = None
+    output_every: Annotated[int, Field(ge=1)] = 10
+    constraint_kappa: NonNegative = 1.0
+    constraint_zeta: NonNegative = 1.0
+    contact_split: Annotated[float, Field(gt=0, lt=1)] = 0.5
+
+
+class OutputSpec(_Table):
+    """``[output]``."""
+
+    force_filter_hz: Positive = 20.0
+
+
+class Scenario(_Table):
+    """A validated scenario (DESIGN.md section 3) with every default filled in."""
+
+    title: str = ""
+    bridge: BridgeSpec
+    train: TrainSpec
+    track: TrackSpec = Field(default_factory=TrackSpec)
+    earthquake: EarthquakeSpec | None = None
+    solver: SolverSpec = Field(default_factory=SolverSpec)
+    output: OutputSpec = Field(default_factory=OutputSpec)
+
+    _source: str = PrivateAttr(default="")
+    _base_dir: Path = PrivateAttr(default_factory=Path.cwd)
+
+    @property
+    def source(self) -> str:
+        """File the scenario came from ("" for one built in Python)."""
+        return self._source
+
+    @property
+    def base_dir(self) -> Path:
+        """Folder that relative paths (vehicle topology, records) are resolved against."""
+        return self._base_dir
+
+    def resolve_path(self, value: str) -> Path:
+        path = Path(value).expanduser()
+        return path if path.is_absolute() else self._base_dir / path
+
+    def to_dict(self) -> dict[str, Any]:
+        return self.model_dump(mode="json", exclude_none=True)
+
+    def to_toml(self) -> str:
+        """Normalised TOML text: every key, defaults filled in (echoed into the results)."""
+        return tomli_w.dumps(self.to_dict())
+
+
+# --------------------------------------------------------------------------------------------------
+# loading
+
+
+def load_scenario(
+    path: str | Path, overrides: Sequence[str] | Mapping[str, Any] | None = None, check: bool = True
+) -> Scenario:
+    """Read, override, validate a scenario file. Raises :class:`ScenarioError` naming file and line."""
+    path = Path(path)
+    try:
+        text = path.read_text(encoding="utf-8")
+    except (OSError, UnicodeDecodeError) as exc:
+        raise ScenarioError([Problem("<file>", f"cannot read: {exc}", str(path))], str(path)) from None
+    return loads_scenario(text, source=str(path), base_dir=path.resolve().parent, overrides=overrides,
+                          check=check)
+
+
+def loads_scenario(
+    text: str,
+    source: str = "<string>",
+    base_dir: str | Path | None = None,
+    overrides: Sequence[str] | Mapping[str, Any] | None = None,
+    check: bool = True,
+) -> Scenario:
+    """Validate scenario TOML text (see :func:`load_scenario`)."""
+    try:
+        data = tomllib.loads(text)
+    except tomllib.TOMLDecodeError as exc:
+        line = getattr(exc, "lineno", None) or _line_from_message(str(exc))
+        where = f"{source}:{line}" if line else source
+        msg = getattr(exc, "msg", None) or re.sub(r"\s*\(at line \d+, column \d+\)", "", str(exc))
+        raise ScenarioError([Problem("<toml>", f"malformed TOML: {msg}", where)], source) from None
+    overridden = apply_overrides(data, overrides or [])
+    return validate_scenario(data, source=source, base_dir=base_dir, text=text, overridden=overridden,
+                             check=check)
+
+
+def validate_scenario(
+    data: Mapping[str, Any],
+    source: str = "<dict>",
+    base_dir: str | Path | None = None,
+    text: str = "",
+    overridden: Mapping[str, str] | None = None,
+    check: bool = True,
+) -> Scenario:
+    """Validate a scenario given as a (TOML-shaped) dictionary."""
+    lines = _key_lines(text) if text else {}
+    overridden = dict(overridden or {})
+
+    def where(key: str) -> str:
+        for k, spec in overridden.items():
+            if key == k or key.startswith(k + ".") or k.startswith(key + "."):
+                return f"--set {spec}"
+        parts = key.split(".")
+        while parts:
+            line = lines.get(".".join(parts))
+            if line:
+                return f"{source}:{line}"
+            parts.pop()
+        return source
+
+    try:
+        scenario = Scenario.model_validate(dict(data))
+    except ValidationError as exc:
+        raise ScenarioError([_problem(err, where) for err in exc.errors()], source) from None
+    scenario._source = source if source not in ("<dict>", "<string>") else ""
+    scenario._base_dir = Path(base_dir) if base_dir is not None else Path.cwd()
+    if check:
+        problems = list(_semantic_problems(scenario))
+        if problems:
+            raise ScenarioError([Problem(k, m, where(k)) for k, m in problems], source)
+        for message in time_step_warnings(scenario):
+            warnings.warn(f"{source}: {message}" if source else message, ScenarioWarning, stacklevel=3)
+    return scenario
+
+
+def apply_overrides(data: dict[str, Any], overrides: Sequence[str] | Mapping[str, Any]) -> dict[str, str]:
+    """Apply ``key.path=value`` overrides in place; values are parsed as TOML literals, and a value
+    that is not a valid literal (``coupled-dynamic``) is taken as a string. Returns key -> spec."""
+    items: Iterable[tuple[str, Any]]
+    if isinstance(overrides, Mapping):
+        items = [(k, v) for k, v in overrides.items()]
+        specs = {k: f"{k}={v!r}" for k, v in items}
+    else:
+        parsed = []
+        specs = {}
+        for spec in overrides:
+            if "=" not in spec:
+                raise ScenarioError([Problem(spec, "expected key.path=value", f"--set {spec}")])
+            key, raw = spec.split("=", 1)
+            key = key.strip()
+            parsed.append((key, parse_literal(raw.strip())))
+            specs[key] = spec
+        items = parsed
+    for key, value in items:
+        parts = key.split(".")
+        if not key or any(not p for p in parts):
+            raise ScenarioError([Problem(key, "empty key in override", f"--set {specs[key]}")])
+        node = data
+        for i, part in enumerate(parts[:-1]):
+            child = node.setdefault(part, {})
+            if not isinstance(child, dict):
+                where = ".".join(parts[: i + 1])
+                raise ScenarioError([Problem(where, "is not a table; cannot set a key inside it",
+                                             f"--set {specs[key]}")])
+            node = child
+        node[parts[-1]] = value
+    return specs
+
+
+def parse_literal(raw: str) -> Any:
+    """A TOML literal (``1e-4``, ``true``, ``[1, 2]``, ``"x"``), or the raw text as a string."""
+    try:
+        return tomllib.loads(f"v = {raw}")["v"]
+    except tomllib.TOMLDecodeError:
+        return raw
+
+
+# --------------------------------------------------------------------------------------------------
+# semantic checks that need more than one key, or the vehicle topology
+
+
+def _semantic_problems(s: Scenario) -> Iterable[tuple[str, str]]:
+    from svbi.codegen.topology import TopologyError
+
+    t, sol, trk = s.train, s.solver, s.track
+    if trk.wavelength_min >= trk.wavelength_max:
+        yield "track.wavelength_min", (
+            f"must be smaller than track.wavelength_max ({trk.wavelength_min:g} >= {trk.wavelength_max:g})"
+        )
+    if sol.duration is not None and sol.duration < sol.time_step:
+        yield "solver.duration", f"shorter than one time step ({sol.duration:g} s < {sol.time_step:g} s)"
+    if s.earthquake is not None:
+        for comp in ("vertical", "longitudinal"):
+            value = getattr(s.earthquake, comp)
+            if value not in ("none", "synthetic") and not s.resolve_path(value).is_file():
+                yield f"earthquake.{comp}", (
+                    f"not 'none', 'synthetic' or an existing record file: {s.resolve_path(value)}"
+                )
+    try:
+        topo = vehicle_topology(s)
+    except TopologyError as exc:
+        yield "train.vehicle", exc.problem if exc.key == "vehicle" else str(exc)
+        return
+    if t.hslm is not None:
+        if topo.kind != "moving-load":
+            yield "train.hslm", f"needs train.vehicle = 'moving-load' (got {t.vehicle!r})"
+        if t.cars != 1:
+            yield "train.cars", f"an HSLM train is one unit: cars must be 1 with train.hslm (got {t.cars})"
+        clash = sorted(set(t.parameters) & {"axle_loads", "axle_offsets", "car_length"})
+        if clash:
+            yield f"train.parameters.{clash[0]}", "is set by train.hslm; remove it or remove train.hslm"
+    try:
+        values = topo.values(t.parameters, where="train.parameters")
+    except TopologyError as exc:
+        key = exc.key if exc.key.startswith("train.parameters") else f"train.parameters ({exc.key})"
+        yield key, exc.problem
+        return
+    if topo.kind == "moving-load":
+        loads = values.get("axle_loads", ())
+        if any(not (float(p) > 0) for p in loads):
+            yield "train.parameters.axle_loads", "axle loads must be positive (N, downward)"
+        return
+    for key, message in _vehicle_problems(s, values):
+        yield key, message
+
+
+def _vehicle_problems(s: Scenario, values: dict[str, Any]) -> Iterable[tuple[str, str]]:
+    from svbi.runtime.train import vehicle_model
+
+    vehicle = vehicle_model(_vehicle_ref(s)).numeric(values)
+    if vehicle.nwheels and not (vehicle.wheel_masses > 0).all():
+        yield "train.parameters", "every wheel needs a positive mass (the contact constraint carries it)"
+    if not math.isfinite(float(abs(vehicle.M).sum())):
+        yield "train.parameters", "the vehicle mass matrix is not finite"
+
+
+def vehicle_topology(s: Scenario):  # noqa: ANN201 - Topology, imported lazily
+    from svbi.runtime.train import topology
+
+    return topology(_vehicle_ref(s))
+
+
+def _vehicle_ref(s: Scenario) -> str:
+    from svbi.codegen.topology import builtin_topologies
+
+    name = s.train.vehicle
+    return name if name in builtin_topologies() else str(s.resolve_path(name))
+
+
+def time_step_warnings(s: Scenario) -> list[str]:
+    """Warn when the time step does not resolve the fastest vehicle mode on rigid track."""
+    from svbi.runtime.modes import vehicle_modes
+    from svbi.runtime.train import vehicle_model
+
+    topo = vehicle_topology(s)
+    if topo.kind == "moving-load":
+        return []
+    vehicle = vehicle_model(_vehicle_ref(s)).numeric(topo.values(s.train.parameters))
+    freqs = vehicle_modes(vehicle).frequencies_hz
+    if not len(freqs):
+        return []
+    f_max = float(freqs.max())
+    limit = 1.0 / (TIME_STEP_RESOLUTION * f_max)
+    if s.solver.time_step > limit:
+        steps = 1.0 / (f_max * s.solver.time_step)
+        err = (2 * math.pi / steps) ** 2 / 12 * 100
+        return [
+            f"solver.time_step = {s.solver.time_step:g} s resolves the fastest vehicle mode "
+            f"({f_max:.3g} Hz, period {1 / f_max:.3g} s) with only {steps:.1f} steps per period "
+            f"(period error about {err:.2g} %); use time_step <= {limit:.3g} s "
+            f"({TIME_STEP_RESOLUTION} steps per period)"
+        ]
+    return []
+
+
+# --------------------------------------------------------------------------------------------------
+# error reporting helpers
+
+_ALLOWED_BY_TABLE: dict[str, type[BaseModel]] = {
+    "": Scenario,
+    "bridge": BridgeSpec,
+    "train": TrainSpec,
+    "track": TrackSpec,
+    "earthquake": EarthquakeSpec,
+    "solver": SolverSpec,
+    "output": OutputSpec,
+}
+
+
+def _dotted(loc: Sequence[Any]) -> str:
+    out = ""
+    for part in loc:
+        if isinstance(part, int):
+            out += f"[{part}]"
+        else:
+            out += f".{part}" if out else str(part)
+    return out
+
+
+def _problem(err: Mapping[str, Any], where: Any) -> Problem:
+    loc = [p for p in err.get("loc", ()) if p not in ("float", "int", "list[float]", "function-after")]
+    # drop pydantic's union-branch labels such as 'constrained-float' from the location
+    loc = [p for p in loc if not (isinstance(p, str) and ("[" in p or p.startswith(("constrained", "literal"))))]
+    key = _dotted(loc) or "<root>"
+    kind = err.get("type", "")
+    value = err.get("input")
+    if kind == "extra_forbidden":
+        table = _dotted(loc[:-1])
+        model = _ALLOWED_BY_TABLE.get(table)
+        allowed = f" (allowed: {', '.join(model.model_fields)})" if model else ""
+        message = f"unknown key{allowed}"
+    elif kind == "missing":
+        message = "required key is missing"
+    elif kind == "value_error":
+        message = str(err.get("ctx", {}).get("error", err.get("msg", "")))
+    else:
+        message = err.get("msg", "invalid").replace("Input should be", "must be")
+        if value is not None and not isinstance(value, dict):
+            message += f" (got {value!r})"
+    return Problem(key, message, where(key))
+
+
+_HEADER = re.compile(r"^\s*\[\[?\s*([^\]\[]+?)\s*\]\]?\s*(?:#.*)?$")
+_KEY = re.compile(r"^\s*((?:[A-Za-z0-9_\-]+|\"[^\"]*\"|'[^']*')(?:\s*\.\s*(?:[A-Za-z0-9_\-]+|\"[^\"]*\"|'[^']*'))*)\s*=")
+
+
+def _clean_key(raw: str) -> str:
+    return ".".join(p.strip().strip("\"'") for p in raw.split("."))
+
+
+def _key_lines(text: str) -> dict[str, int]:
+    """Line number of every table header and key in TOML text, by dotted path."""
+    lines: dict[str, int] = {}
+    table = ""
+    for number, line in enumerate(text.splitlines(), start=1):
+        m = _HEADER.match(line)
+        if m:
+            table = _clean_key(m.group(1))
+            lines.setdefault(table, number)
+            continue
+        m = _KEY.match(line)
+        if m:
+            key = _clean_key(m.group(1))
+            lines.setdefault(f"{table}.{key}" if table else key, number)
+    return lines
+
+
+def _line_from_message(message: str) -> int | None:
+    m = re.search(r"line (\d+)", message)
+    return int(m.group(1)) if m else None

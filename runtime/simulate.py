@@ -1,0 +1,326 @@
+"""``svbi.simulate(scenario)``: assemble the model, run the Newmark loop, return the results.
+
+Backends plug in through :func:`register_backend`: a backend maps a method name to a stepper class
+with ``__init__(model, state)``, ``step(n) -> State`` and a ``contacts`` attribute (the geometry of
+the last step). This issue ships the NumPy backend; ``"c"`` and ``"casadi"`` fall back to it with a
+one-time warning until they are registered.
+
+A run that goes unstable (NaN or Inf, a runaway gap, an absurd contact force) stops with a message
+naming the time, the quantity and the likely cause. What was computed until then is returned,
+marked ``complete = 0`` with the message in the ``incomplete`` attribute; nothing non-finite is
+stored.
+"""
+
+from __future__ import annotations
+
+import math
+import time
+import warnings
+from collections.abc import Callable, Mapping
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import xarray as xr
+
+from svbi.runtime.bridge import Bridge
+from svbi.runtime.initial import initial_state, vehicle_static_on_rigid_track
+from svbi.runtime.model import Ground, GroundAtRest, Model, Settings, crossing_duration
+from svbi.runtime.results import Recorder
+from svbi.runtime.scenario import Scenario, _vehicle_ref, load_scenario, validate_scenario
+from svbi.runtime.train import Train, vehicle_model
+
+GAP_LIMIT = 1.0
+"""|gap| (m) beyond which a run is declared diverged: a wheel a metre off its rail is no longer a
+constraint violation but a failed integration."""
+FORCE_LIMIT_FACTOR = 1.0e3
+"""A contact force beyond this multiple of the largest static wheel load stops the run. Joint
+impulses give peaks of tens of static loads at dt = 1e-4 s (method-notes section 4)."""
+
+
+class SimulationIncomplete(RuntimeWarning):
+    """The run stopped early (diverged); the returned results are partial."""
+
+
+class BackendFallback(UserWarning):
+    """The requested backend is not available; the NumPy backend runs instead."""
+
+
+class Diverged(RuntimeError):
+    """Raised inside the loop; caught by :func:`simulate`."""
+
+
+# --------------------------------------------------------------------------------------------------
+# backends
+
+_BACKENDS: dict[str, dict[str, Callable[..., Any]]] = {}
+_WARNED: set[str] = set()
+
+
+def register_backend(name: str, steppers: Mapping[str, Callable[..., Any]]) -> None:
+    """Register a backend: ``steppers`` maps each method name to a stepper class."""
+    _BACKENDS[name] = dict(steppers)
+
+
+def _numpy_steppers() -> dict[str, Callable[..., Any]]:
+    from svbi.runtime.classic import CoupledClassic
+    from svbi.runtime.coupled import CoupledDynamic
+    from svbi.runtime.localized import LocalizedDynamic
+
+    return {
+        "localized-dynamic": LocalizedDynamic,
+        "coupled-dynamic": CoupledDynamic,
+        "coupled-classic": CoupledClassic,
+    }
+
+
+def stepper_class(backend: str, method: str) -> tuple[str, Callable[..., Any]]:
+    """The stepper for ``method`` on ``backend``, or the NumPy one (warning once)."""
+    if "numpy" not in _BACKENDS:
+        register_backend("numpy", _numpy_steppers())
+    if backend not in _BACKENDS or method not in _BACKENDS[backend]:
+        if backend not in _WARNED:
+            _WARNED.add(backend)
+            warnings.warn(
+                f"solver.backend = {backend!r} is not available in this version; running the NumPy "
+                "backend (same results, slower)",
+                BackendFallback,
+                stacklevel=3,
+            )
+        backend = "numpy"
+    return backend, _BACKENDS[backend][method]
+
+
+# --------------------------------------------------------------------------------------------------
+# model assembly
+
+
+def build_model(scenario: Scenario, hold_train: bool = False) -> Model:
+    """Numbers for everything: bridge, train, excitations and solver settings."""
+    bs, ts, ss = scenario.bridge, scenario.train, scenario.solver
+    bridge = Bridge(bs.spans, bs.span_length, bs.mass_per_length, bs.youngs_modulus, bs.area,
+                    bs.second_moment, bs.damping_ratio, bs.elements_per_span, bs.rail_height)
+    ref = _vehicle_ref(scenario)
+    model_sym = vehicle_model(ref)
+    values = model_sym.topology.values(ts.parameters, where="train.parameters")
+    if ts.hslm is not None:
+        values.update(hslm_parameters(ts.hslm))
+    vehicle = model_sym.numeric(values)
+    speed = 0.0 if hold_train else ts.speed_ms
+    train = Train(vehicle, ts.cars, speed, ts.start_position, ss.contact_split, ref, values)
+    duration = ss.duration if ss.duration is not None else crossing_duration(bridge, train)
+    if not math.isfinite(duration):
+        raise ValueError("a held train needs solver.duration")
+    steps = max(int(math.ceil(duration / ss.time_step - 1e-9)), 1)
+    settings = Settings(
+        method=ss.method,
+        backend=ss.backend,
+        time_step=ss.time_step,
+        steps=steps,
+        output_every=ss.output_every,
+        kappa=ss.constraint_kappa,
+        zeta=ss.constraint_zeta,
+        split=ss.contact_split,
+        force_filter_hz=scenario.output.force_filter_hz,
+    )
+    irregularity = _irregularity(scenario, train, duration)
+    ground = _ground(scenario)
+    return Model(bridge, train, settings, irregularity, ground)
+
+
+def hslm_parameters(name: str) -> dict[str, Any]:
+    """Axle layout of an EN 1991-2 HSLM-A train (provided by ``svbi.runtime.excitation.hslm``)."""
+    try:
+        from svbi.runtime.excitation.hslm import hslm_axles  # type: ignore[import-not-found]
+    except ModuleNotFoundError:
+        raise NotImplementedError(
+            f"train.hslm = {name!r}: the HSLM axle layouts are not available in this version"
+        ) from None
+    loads, offsets, length = hslm_axles(name)
+    return {"axle_loads": tuple(loads), "axle_offsets": tuple(offsets), "car_length": length}
+
+
+def _irregularity(scenario: Scenario, train: Train, duration: float):  # noqa: ANN202
+    spec = scenario.track
+    if spec.irregularity == "none":
+        return None
+    from svbi.runtime.excitation.irregularity import make_irregularity
+
+    return make_irregularity(
+        spec.irregularity,
+        seed=spec.seed,
+        length=max(train.speed * duration, 1.0),
+        wavelength_min=spec.wavelength_min,
+        wavelength_max=spec.wavelength_max,
+        start=train.start_position,
+    )
+
+
+def _ground(scenario: Scenario) -> Ground:
+    eq = scenario.earthquake
+    if eq is None or (eq.vertical == "none" and eq.longitudinal == "none"):
+        return GroundAtRest()
+    try:
+        from svbi.runtime.excitation.ground import ground_from_scenario  # type: ignore[import-not-found]
+    except ModuleNotFoundError:
+        raise NotImplementedError(
+            "[earthquake]: ground motion is not available in this version of the runtime"
+        ) from None
+    return ground_from_scenario(scenario)
+
+
+# --------------------------------------------------------------------------------------------------
+# the loop
+
+
+def simulate(
+    scenario: Scenario | str | Path | Mapping[str, Any],
+    *,
+    progress: bool = False,
+    hold_train: bool = False,
+    start: str = "rigid-track",
+    model: Model | None = None,
+) -> xr.Dataset:
+    """Run a scenario and return the results (DESIGN.md section 4).
+
+    ``scenario`` is a :class:`Scenario`, a path to a scenario file, or a TOML-shaped dict.
+    Python-API-only options: ``hold_train`` keeps the train at its start position (speed 0, needs
+    ``solver.duration``); ``start="static"`` starts from the static equilibrium of the train on the
+    deflected bridge instead of on rigid track; ``model`` replaces the assembled model (e.g. with
+    an analytic ground motion) — the scenario then only provides the echo and attributes.
+    """
+    scenario = _as_scenario(scenario)
+    if model is None:
+        model = build_model(scenario, hold_train=hold_train)
+    s = model.settings
+    backend, cls = stepper_class(s.backend, s.method)
+    t0 = time.perf_counter()
+    state = initial_state(model, start)
+    stepper = cls(model, state)
+    static = None
+    if not model.train.moving_load:
+        u0, _ = vehicle_static_on_rigid_track(model.train, np.zeros((1, model.train.wheels)))
+        static = u0[0]
+    recorder = Recorder(model, static)
+    aux_is_wheel = s.method == "coupled-classic"
+    recorder.force(0, state.P)
+    recorder.record(state, model.contacts(0.0), aux_is_wheel)
+    guard = _Guard(model)
+    message = ""
+    bar = _progress(s.steps) if progress else None
+    try:
+        for n in range(s.steps):
+            st = stepper.step(n)
+            guard.check_finite(st)
+            recorder.force(n + 1, st.P)
+            if (n + 1) % s.output_every == 0:
+                gaps = recorder.record(st, stepper.contacts, aux_is_wheel)
+                guard.check_gaps(st, gaps)
+                if bar is not None:
+                    bar.update(s.output_every)
+    except Diverged as exc:
+        message = str(exc)
+        _drop_bad_rows(recorder)
+    finally:
+        if bar is not None:
+            bar.close()
+    wall = time.perf_counter() - t0
+    from svbi import __version__
+
+    attrs: dict[str, Any] = {
+        "svbi_version": __version__,
+        "method": s.method,
+        "backend": backend,
+        "backend_requested": s.backend,
+        "time_step": s.time_step,
+        "steps": int(recorder.steps_done),
+        "output_every": s.output_every,
+        "constraint_kappa": s.kappa,
+        "constraint_zeta": s.zeta,
+        "contact_split": s.split,
+        "wall_time_s": wall,
+        "scenario": _echo(scenario, model),
+        "complete": 0 if message else 1,
+    }
+    if message:
+        attrs["incomplete"] = message
+    ds = recorder.dataset(attrs)
+    if message:
+        warnings.warn(message, SimulationIncomplete, stacklevel=2)
+    return ds
+
+
+def _as_scenario(scenario: Scenario | str | Path | Mapping[str, Any]) -> Scenario:
+    if isinstance(scenario, Scenario):
+        return scenario
+    if isinstance(scenario, str | Path):
+        return load_scenario(scenario)
+    return validate_scenario(dict(scenario))
+
+
+def _echo(scenario: Scenario, model: Model) -> str:
+    data = scenario.to_dict()
+    data["solver"]["duration"] = model.settings.steps * model.settings.time_step
+    if scenario.solver.duration is not None:
+        data["solver"]["duration"] = scenario.solver.duration
+    import tomli_w
+
+    return tomli_w.dumps(data)
+
+
+def _progress(total: int):  # noqa: ANN202
+    from tqdm.auto import tqdm
+
+    return tqdm(total=total, unit="step", delay=1.0, mininterval=0.5, dynamic_ncols=True)
+
+
+def _drop_bad_rows(recorder: Recorder) -> None:
+    k = recorder.count
+    while k > 0 and not all(np.isfinite(a[k - 1]).all() for a in recorder.data.values()):
+        k -= 1
+    recorder.count = k
+    f = recorder.forces[: recorder.steps_done + 1]
+    bad = ~np.isfinite(f).all(axis=1)
+    if bad.any():
+        recorder.steps_done = int(np.argmax(bad)) - 1
+
+
+class _Guard:
+    """Stops a run that has gone unstable, with the time, the quantity and the likely cause."""
+
+    def __init__(self, model: Model) -> None:
+        self.model = model
+        tr = model.train
+        static = tr.axle_loads if tr.moving_load else tr.static_loads()
+        self.force_limit = FORCE_LIMIT_FACTOR * max(float(np.abs(static).max(initial=0.0)), 1.0)
+        self.classic = model.settings.method == "coupled-classic"
+
+    def _cause(self) -> str:
+        s = self.model.settings
+        if self.classic:
+            return ("coupled-classic imposes the constraints at acceleration level only, so the gaps drift "
+                    "(use localized-dynamic or coupled-dynamic)")
+        if s.kappa > 2:
+            return (f"constraint_kappa = {s.kappa:g} > 2 makes the gap correction overshoot and oscillate; "
+                    "use 0.5 <= kappa <= 2")
+        return f"the time step ({s.time_step:g} s) may be too large for this model; try a smaller one"
+
+    def check_finite(self, st: Any) -> None:
+        total = float(np.sum(st.P)) + float(np.sum(st.uB)) + float(np.sum(st.uV))
+        if not math.isfinite(total):
+            which = "contact_force" if not np.isfinite(st.P).all() else (
+                "bridge displacement" if not np.isfinite(st.uB).all() else "vehicle displacement")
+            raise Diverged(f"run diverged at t = {st.t:.6g} s: {which} is not finite (NaN or Inf); "
+                           f"likely cause: {self._cause()}")
+        P = np.abs(st.P).max(initial=0.0)
+        if P > self.force_limit:
+            raise Diverged(f"run diverged at t = {st.t:.6g} s: contact_force = {P:.4g} N exceeds "
+                           f"{self.force_limit:.3g} N ({FORCE_LIMIT_FACTOR:g} x the static wheel load); "
+                           f"likely cause: {self._cause()}")
+
+    def check_gaps(self, st: Any, gaps: Mapping[str, np.ndarray]) -> None:
+        for name, g in gaps.items():
+            worst = float(np.abs(g).max(initial=0.0))
+            if not worst <= GAP_LIMIT:
+                raise Diverged(f"run diverged at t = {st.t:.6g} s: |gap_{name}| = {worst:.4g} m exceeds "
+                               f"{GAP_LIMIT:g} m; likely cause: {self._cause()}")

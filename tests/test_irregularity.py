@@ -1,0 +1,177 @@
+"""Track irregularity: spectrum convention, exact derivatives, onset ramp, measured profiles."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+from scipy import integrate, signal
+from svbi.runtime.excitation.irregularity import (
+    GermanSpectrum,
+    NoIrregularity,
+    OnsetRamp,
+    SampledIrregularity,
+    SpectralIrregularity,
+    make_irregularity,
+)
+
+# German high-speed spectra, written out here from shared/data/vehicles.md (not imported).
+OMEGA_C, OMEGA_R = 0.8246, 0.0206
+A_V = {"low": 4.032e-7, "high": 1.080e-6}
+
+
+def german_density(omega: np.ndarray | float, level: str) -> np.ndarray:
+    w2 = np.asarray(omega, dtype=float) ** 2
+    return A_V[level] * OMEGA_C**2 / ((w2 + OMEGA_R**2) * (w2 + OMEGA_C**2))
+
+
+def band_variance(level: str, lam_min: float, lam_max: float) -> float:
+    lo, hi = 2 * math.pi / lam_max, 2 * math.pi / lam_min
+    return integrate.quad(german_density, lo, hi, args=(level,), limit=400, points=[OMEGA_C])[0]
+
+
+@pytest.mark.parametrize("level", ["low", "high"])
+def test_rms_matches_integral_of_spectrum(level: str) -> None:
+    """One-sided convention: RMS² = ∫ S dΩ over the band (a two-sided reading would be off by √2)."""
+    target = math.sqrt(band_variance(level, 0.5, 80.0))
+    for seed in (1, 7):
+        profile = SpectralIrregularity(GermanSpectrum(level), seed=seed, length=1000.0)
+        r, _, _ = profile.evaluate_unramped(np.arange(0.0, 1000.0, 0.05))
+        assert abs(math.sqrt(np.mean(r**2)) / target - 1.0) < 0.05
+        assert abs(np.mean(r)) < 0.1 * target
+
+
+def test_welch_psd_follows_target_spectrum() -> None:
+    """Welch PSD of a sampled profile follows S(Ω) across the band.
+
+    With a 204.8 m Hann segment over 3000 m (about 28 averages, 50 % overlap) one bin's log-PSD
+    scatters by about 1/sqrt(28) ≈ 0.2; the mean over ~300 bins (half of them independent) has a
+    standard error near 0.02. Tolerances 0.1 on the whole band and 0.15 on each half (≈ 5σ) still
+    catch a factor-2 convention error (log 2 = 0.69) or a wrong corner frequency.
+    """
+    dx = 0.1
+    profile = SpectralIrregularity(GermanSpectrum("low"), seed=5, length=3000.0)
+    r, _, _ = profile.evaluate_unramped(np.arange(0.0, 3000.0, dx))
+    f, psd = signal.welch(r, fs=1.0 / dx, nperseg=2048)
+    omega = 2 * math.pi * f
+    s_est = psd / (2 * math.pi)  # one-sided per Hz -> one-sided per rad/m
+    inside = (omega > 2 * (2 * math.pi / 80.0)) & (omega < 0.8 * (2 * math.pi / 0.5))
+    log_ratio = np.log(s_est[inside] / german_density(omega[inside], "low"))
+    assert abs(log_ratio.mean()) < 0.1
+    low_half = omega[inside] < 1.0
+    assert abs(log_ratio[low_half].mean()) < 0.15
+    assert abs(log_ratio[~low_half].mean()) < 0.15
+
+
+def test_fast_sum_equals_direct_cosine_sum() -> None:
+    profile = SpectralIrregularity(GermanSpectrum("high"), seed=3, length=600.0)
+    x = np.linspace(-30.0, 700.0, 997)
+    w, a, phi = profile.frequencies, profile.amplitudes, profile.phases
+    arg = np.multiply.outer(x, w) + phi
+    direct = (np.cos(arg) @ a, -np.sin(arg) @ (a * w), -np.cos(arg) @ (a * w**2))
+    fast = profile.evaluate_unramped(x)
+    for got, ref in zip(fast, direct, strict=True):
+        np.testing.assert_allclose(got, ref, rtol=0, atol=1e-10 * np.abs(ref).max())
+
+
+def test_derivatives_match_finite_differences() -> None:
+    ramp = OnsetRamp(start=10.0, length=20.0)
+    profile = SpectralIrregularity(GermanSpectrum("low"), seed=2, length=200.0, ramp=ramp)
+    x = np.concatenate([np.linspace(0.0, 200.0, 801), [10.0, 30.0]])  # ramp ends included
+    h = 1e-3
+    r_p, dr_p, _ = profile.evaluate(x + h)
+    r_m, dr_m, _ = profile.evaluate(x - h)
+    _, dr, ddr = profile.evaluate(x)
+    np.testing.assert_allclose((r_p - r_m) / (2 * h), dr, atol=1e-4 * np.abs(dr).max())
+    np.testing.assert_allclose((dr_p - dr_m) / (2 * h), ddr, atol=1e-4 * np.abs(ddr).max())
+
+
+def test_ramp_gives_zero_start_and_full_profile_after() -> None:
+    ramp = OnsetRamp(start=-5.0, length=20.0)
+    profile = SpectralIrregularity(GermanSpectrum("high"), seed=4, length=500.0, ramp=ramp)
+    before = np.linspace(-100.0, -5.0, 50)
+    for v in profile.evaluate(before):
+        assert np.all(v == 0.0)
+    after = np.linspace(15.0, 400.0, 50)
+    for got, ref in zip(profile.evaluate(after), profile.evaluate_unramped(after), strict=True):
+        np.testing.assert_array_equal(got, ref)
+
+
+def test_seed_reproducible_and_distinct() -> None:
+    x = np.linspace(0.0, 100.0, 101)
+    a = SpectralIrregularity(GermanSpectrum("low"), seed=11, length=300.0).evaluate(x)[0]
+    b = SpectralIrregularity(GermanSpectrum("low"), seed=11, length=300.0).evaluate(x)[0]
+    c = SpectralIrregularity(GermanSpectrum("low"), seed=12, length=300.0).evaluate(x)[0]
+    np.testing.assert_array_equal(a, b)
+    assert np.abs(a - c).max() > 1e-4
+
+
+def test_period_covers_length_and_cap_errors() -> None:
+    band = 2 * math.pi / 0.5 - 2 * math.pi / 80.0
+    auto = SpectralIrregularity(GermanSpectrum("low"), seed=1, length=5000.0)
+    assert 2 * math.pi / (auto.frequencies[1] - auto.frequencies[0]) >= 5000.0
+    assert auto.period >= 5000.0
+    n_needed = math.ceil(band * 5000.0 / (2 * math.pi))
+    SpectralIrregularity(GermanSpectrum("low"), seed=1, length=5000.0, n_frequencies=n_needed)
+    with pytest.raises(ValueError, match=r"period .* shorter than the simulated track length"):
+        SpectralIrregularity(GermanSpectrum("low"), seed=1, length=5000.0, n_frequencies=n_needed - 2)
+
+
+def test_wavelength_order_error() -> None:
+    with pytest.raises(ValueError, match="wavelength_min"):
+        SpectralIrregularity(GermanSpectrum("low"), seed=1, length=100.0, wavelength_min=80.0)
+    with pytest.raises(ValueError, match="wavelength_min"):
+        make_irregularity("german-low", length=100.0, wavelength_min=10.0, wavelength_max=5.0)
+
+
+def test_tabulated_profile_matches_exact() -> None:
+    profile = SpectralIrregularity(GermanSpectrum("low"), seed=8, length=200.0)
+    table = profile.tabulate(-10.0, 210.0)
+    x = np.random.default_rng(0).uniform(0.0, 200.0, 500)
+    for got, ref in zip(table.evaluate(x), profile.evaluate(x), strict=True):
+        np.testing.assert_allclose(got, ref, atol=1e-5 * np.abs(ref).max())
+
+
+def test_measured_profile_interpolates_with_c2_spline(tmp_path) -> None:
+    k = 2 * math.pi / 7.0
+    xs = np.arange(0.0, 100.0 + 1e-9, 0.25)
+    path = tmp_path / "profile.txt"
+    path.write_text("# x r\n" + "\n".join(f"{x:.4f} {1e-3 * math.sin(k * x):.12e}" for x in xs) + "\n")
+    profile = SampledIrregularity.from_file(path, OnsetRamp(start=0.0, length=0.0))
+    x = np.linspace(5.0, 95.0, 333)
+    r, dr, ddr = profile.evaluate(x)
+    np.testing.assert_allclose(r, 1e-3 * np.sin(k * x), atol=1e-3 * 1e-4)
+    np.testing.assert_allclose(dr, 1e-3 * k * np.cos(k * x), atol=1e-3 * k * 1e-3)
+    np.testing.assert_allclose(ddr, -1e-3 * k**2 * np.sin(k * x), atol=1e-3 * k**2 * 1e-2)
+    with pytest.raises(ValueError, match="outside the profile's range"):
+        profile.evaluate(np.array([50.0, 120.0]))
+
+
+@pytest.mark.parametrize(
+    ("body", "line", "what"),
+    [
+        ("0 0\n1 1e-3\n1 2e-3\n3 0\n4 0\n", 3, "does not increase"),
+        ("0 0\n1 1e-3\n2 nan\n3 0\n4 0\n", 3, "non-finite"),
+        ("0 0\n1 1e-3\n2 abc\n3 0\n4 0\n", 3, "not a number"),
+        ("0 0\n1 1e-3 5\n2 0\n3 0\n", 2, "two columns"),
+    ],
+)
+def test_measured_profile_errors_name_file_and_line(tmp_path, body: str, line: int, what: str) -> None:
+    path = tmp_path / "bad_profile.txt"
+    path.write_text(body)
+    with pytest.raises(ValueError) as err:
+        SampledIrregularity.from_file(path)
+    message = str(err.value)
+    assert str(path) in message and f"line {line}" in message and what in message
+
+
+def test_factory_kinds(tmp_path) -> None:
+    none = make_irregularity("none", length=100.0)
+    assert isinstance(none, NoIrregularity)
+    assert all(np.all(v == 0) for v in none.evaluate(np.linspace(0, 1, 5)))
+    high = make_irregularity("german-high", seed=3, length=100.0, start=2.0)
+    assert isinstance(high, SpectralIrregularity) and high.spectrum.level == "high"
+    assert high.ramp.start == 2.0
+    with pytest.raises(ValueError, match="german-low"):
+        make_irregularity("german-medium", length=100.0)
