@@ -22,11 +22,15 @@ from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
-import tomllib
 import xarray as xr
 from matplotlib.axes import Axes
 from matplotlib.figure import Figure
 from matplotlib.lines import Line2D
+
+try:
+    import tomllib
+except ModuleNotFoundError:  # Python 3.10: the same parser as the tomli backport (pyproject)
+    import tomli as tomllib
 
 DPI = 150
 REFERENCE_METHOD = "localized-dynamic"
@@ -35,6 +39,7 @@ DRIFTING_METHOD = "coupled-classic"
 # so values below this floor are drawn on it (and the axes say so).
 GAP_FLOOR_M = 1e-18
 DEFAULT_FILTER_HZ = 20.0  # DESIGN §3 default of output.force_filter_hz
+MESSAGE_CHARS = 70  # of a stopped run's `incomplete` message, in panel titles
 
 # Variables without which a file is not a results file worth plotting, with their dims (DESIGN §4).
 REQUIRED_VARIABLES: dict[str, tuple[str, ...]] = {
@@ -291,16 +296,21 @@ def _run_notes(runs: Sequence[Run], missing: list[str]) -> list[str]:
 
 
 def _incomplete_note(ds: xr.Dataset) -> str:
-    """'incomplete run', with the last time at which the bridge response was stored."""
+    """'incomplete run', with the last time whose bridge response was stored and the run's message."""
+    note = "incomplete run"
     uz = ds["midspan_uz"] if "midspan_uz" in ds.variables else None
-    if uz is None or "time" not in ds.variables:
-        return "incomplete run"
-    values = np.asarray(uz.transpose("time", ...).values, dtype=float)
-    stored = np.isfinite(values).reshape(uz.sizes["time"], -1).all(axis=1)
-    if not stored.any():
-        return "incomplete run, nothing stored"
-    last = float(_seconds(ds["time"])[np.flatnonzero(stored)[-1]])
-    return f"incomplete run, stops at t = {last:.4g} s"
+    if uz is not None and "time" in ds.variables:
+        values = np.asarray(uz.transpose("time", ...).values, dtype=float)
+        stored = np.isfinite(values).reshape(uz.sizes["time"], -1).all(axis=1)
+        if stored.any():
+            note += f", stops at t = {float(_seconds(ds['time'])[np.flatnonzero(stored)[-1]]):.4g} s"
+        else:
+            note += ", nothing stored"
+    message = str(ds.attrs.get("incomplete", "")).strip()
+    if message:
+        # The simulator's message names time, quantity and cause; the title keeps its start.
+        note += ": " + (message if len(message) <= MESSAGE_CHARS else message[: MESSAGE_CHARS - 1] + "…")
+    return note
 
 
 def _time_history(
@@ -632,4 +642,7 @@ def summary_text(results: Results) -> str:
         )
     if not all(run.complete for run in runs):
         lines.append("complete = no: the run stopped early; values cover the stored part only.")
+        for run in runs:
+            if not run.complete and str(run.data.attrs.get("incomplete", "")).strip():
+                lines.append(f"  {run.label}: {str(run.data.attrs['incomplete']).strip()}")
     return "\n".join(lines) + "\n"

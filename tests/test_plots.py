@@ -317,6 +317,26 @@ def test_incomplete_run_and_missing_optional_variables_still_plot_with_a_note(tm
     assert "contact_force_filtered missing" in figures["fig4c_contact_force"].axes[0].get_title()
 
 
+def test_simulator_style_file_without_title_attribute_and_with_a_stop_message(tmp_path: Path) -> None:
+    """As `svbi.simulate` writes it: title only in the scenario text, `incomplete` message, extra
+    support coordinates, uniform ground motion per time only."""
+    ds = make_results("coupled-classic", title="from the scenario text")
+    del ds.attrs["title"]
+    ds.attrs["complete"] = 0
+    ds.attrs["incomplete"] = "t = 0.3 s: |gap_vehicle| = 2 m exceeds 1 m: the run diverged"
+    ds = ds.assign_coords(support_component=("support", ["uz", "uz", "ux", "uz"]))
+    path = write(ds, tmp_path / "sim.nc")
+    out = tmp_path / "f"
+    result = runner.invoke(make_app(), ["plot", str(path), "-o", str(out)])
+    assert result.exit_code == 0, result.output
+    text = (out / "summary.txt").read_text()
+    assert text.startswith("Summary: from the scenario text")
+    assert ds.attrs["incomplete"] in text
+    figures = plots.make_figures(plots.read_results(path))
+    assert figures["fig4a_midspan_uz"].get_suptitle() == "from the scenario text"
+    assert "the run diverged" in figures["fig4a_midspan_uz"].axes[0].get_title()
+
+
 def test_missing_file_is_a_clear_error(tmp_path: Path) -> None:
     missing = tmp_path / "nope.nc"
     result = runner.invoke(make_app(), ["plot", str(missing)])
