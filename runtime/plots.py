@@ -17,6 +17,7 @@ from __future__ import annotations
 import math
 import os
 import tempfile
+import textwrap
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass
 from pathlib import Path
@@ -40,6 +41,7 @@ DRIFTING_METHOD = "coupled-classic"
 GAP_FLOOR_M = 1e-18
 DEFAULT_FILTER_HZ = 20.0  # DESIGN §3 default of output.force_filter_hz
 MESSAGE_CHARS = 70  # of a stopped run's `incomplete` message, in panel titles
+NOTE_CHARS = 80  # line length of the notes under a panel title
 
 # Variables without which a file is not a results file worth plotting, with their dims (DESIGN §4).
 REQUIRED_VARIABLES: dict[str, tuple[str, ...]] = {
@@ -280,7 +282,10 @@ def _draw(ax: Axes, t: xr.DataArray | np.ndarray, y: np.ndarray, style: LineStyl
 def _finish(ax: Axes, title: str, ylabel: str, notes: list[str]) -> None:
     ax.set_xlabel("time t (s)")
     ax.set_ylabel(ylabel)
-    ax.set_title(title + ("\n(" + "; ".join(notes) + ")" if notes else ""), fontsize="medium")
+    if notes:
+        # Wrapped to the width of one overview column, so that neighbouring titles never overlap.
+        title += "\n" + textwrap.fill("(" + "; ".join(notes) + ")", width=NOTE_CHARS, break_on_hyphens=False)
+    ax.set_title(title, fontsize="medium")
     ax.grid(True, lw=0.4, alpha=0.5)
     if ax.get_legend_handles_labels()[0]:
         # Outside, right of the axes: time histories fill the whole width, so any place inside
@@ -303,13 +308,14 @@ def _incomplete_note(ds: xr.Dataset) -> str:
         values = np.asarray(uz.transpose("time", ...).values, dtype=float)
         stored = np.isfinite(values).reshape(uz.sizes["time"], -1).all(axis=1)
         if stored.any():
-            note += f", stops at t = {float(_seconds(ds['time'])[np.flatnonzero(stored)[-1]]):.4g} s"
+            note += f", last stored t = {float(_seconds(ds['time'])[np.flatnonzero(stored)[-1]]):.4g} s"
         else:
             note += ", nothing stored"
     message = str(ds.attrs.get("incomplete", "")).strip()
     if message:
         # The simulator's message names time, quantity and cause; the title keeps its start.
-        note += ": " + (message if len(message) <= MESSAGE_CHARS else message[: MESSAGE_CHARS - 1] + "…")
+        short = message if len(message) <= MESSAGE_CHARS else message[: MESSAGE_CHARS - 1] + "…"
+        note += f", reason: {short}"
     return note
 
 
