@@ -132,17 +132,16 @@ class Bridge:
 
     def locate(self, x: np.ndarray) -> Location:
         """Span (``floor(x / L)``, so a point on a joint belongs to the span ahead), element
-        (clamped to the span) and local coordinate of the points ``x``."""
+        (clamped to the span) and local coordinate of the points ``x``. Off the bridge, span,
+        element and ``xi`` are clamped placeholders: always use them together with ``on``."""
         x = np.asarray(x, dtype=float)
-        span = np.floor(x / self.span_length).astype(np.intp)
-        on = (span >= 0) & (span < self.spans)
-        local = x - span * self.span_length
-        element = np.clip(np.floor(local / self.element_length).astype(np.intp), 0, self.elements - 1)
-        xi = local / self.element_length - element
-        span = np.where(on, span, 0)
-        element = np.where(on, element, 0)
-        xi = np.where(on, xi, 0.0)
-        return Location(x, on, span, element, xi)
+        span_f = np.floor(x * (1.0 / self.span_length))
+        on = (span_f >= 0) & (span_f < self.spans)
+        span = np.clip(span_f, 0, self.spans - 1)
+        local = (x - span * self.span_length) * (1.0 / self.element_length)
+        element = np.clip(np.floor(local), 0, self.elements - 1)
+        xi = np.clip(local - element, 0.0, 1.0)
+        return Location(x, on, span.astype(np.intp), element.astype(np.intp), xi)
 
     def midspan_location(self) -> tuple[int, float]:
         """Element and local coordinate of the midspan point (same for every span)."""

@@ -118,7 +118,7 @@ class CoupledClassic:
             return st
 
         PV_, QV_ = nm.history(st.uV, st.vV, st.aV)
-        fV = tr.vehicle.F_gravity + PV_ @ tr.vehicle.M + QV_ @ tr.vehicle.C
+        fV = tr.F_full + PV_ @ tr.vehicle.M + QV_ @ tr.vehicle.C
         rhs[: self.NV] = fV.reshape(-1)
         rhs[self.oB : self.oB + self.NB] = fB.reshape(-1)
         # bridge rows: + N P

@@ -10,9 +10,10 @@ constraints once, at t = 0, for consistent accelerations and contact forces. For
 vehicles resting on the deflected bridge. A held train (speed 0) then stays exactly still, which is
 the static check of the test-suite.
 
-The wheelset spin DOFs have no stiffness and no load: they are rigid modes of the static problem.
-We solve the singular but consistent saddle-point systems by least squares (minimum norm, so the
-spins are zero) and check the residual, which would reveal a rigid mode that *is* loaded.
+The wheelset spin DOFs have no stiffness and no load: they are rigid modes of the static problem,
+which is singular. We find such free modes (the null space of ``[K; W^T]``), check that gravity does
+no work on them, and hold them at zero with extra constraints; the bordered systems are regular and
+solved by LU with one step of iterative refinement.
 """
 
 from __future__ import annotations
@@ -30,36 +31,56 @@ class StaticEquilibriumError(RuntimeError):
     """The static problem has no solution (a rigid mode carries a load)."""
 
 
-def _lstsq(A: np.ndarray, b: np.ndarray, what: str) -> np.ndarray:
-    x, *_ = sla.lstsq(A, b, lapack_driver="gelsy", cond=1e-13)
-    residual = np.abs(A @ x - b).max()
-    scale = max(np.abs(b).max(), np.abs(A).max() * np.abs(x).max(), 1e-300)
-    if residual > 1e-8 * scale:
-        raise StaticEquilibriumError(f"{what}: no static equilibrium (residual {residual:.3g}); "
-                                     "a rigid-body mode of the model is loaded")
-    return x
+def free_modes(train: Train) -> np.ndarray:
+    """Vehicle motions with no stiffness and no contact (e.g. wheelset spins), as columns.
+
+    They are rigid modes of the static problem; we hold them at zero, which is only right if gravity
+    does no work on them.
+    """
+    v = train.vehicle
+    Z = sla.null_space(np.vstack([v.K, train.W.T]))
+    if Z.size and np.abs(Z.T @ v.F_gravity).max() > 1e-9 * max(np.abs(v.F_gravity).max(), 1.0):
+        raise StaticEquilibriumError("the vehicle has a free (rigid-body) mode loaded by gravity: "
+                                     "it has no static equilibrium on the track")
+    return Z
+
+
+def _solve(A: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """LU solve with one step of iterative refinement (the blocks span ~12 orders of magnitude)."""
+    lu = sla.lu_factor(A)
+    x = sla.lu_solve(lu, b)
+    return x + sla.lu_solve(lu, b - A @ x)
 
 
 def vehicle_static_on_rigid_track(train: Train, z_track: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Static state of every car with its wheels held at heights ``z_track`` (cars x wheels).
+    """Static state of cars with their wheels held at heights ``z_track`` (cars x wheels).
 
     Full wheel masses (no aux split), gravity only: ``K u - W P = F``, ``W^T u = z``. Returns the car
     displacements (cars x ndof) and the wheel loads P (cars x wheels, compression positive).
     """
     n, nw = train.ndof, train.wheels
     W = train.W
-    A = np.block([[train.vehicle.K, -W], [W.T, np.zeros((nw, nw))]])
-    rhs = np.concatenate(
-        [np.repeat(train.vehicle.F_gravity[:, None], train.cars, axis=1), np.asarray(z_track).T], axis=0
-    )
-    sol = _lstsq(A, rhs, "vehicle on rigid track")
-    return sol[:n].T.copy(), sol[n:].T.copy()
+    Z = free_modes(train)
+    nz = Z.shape[1]
+    A = np.block([
+        [train.vehicle.K, -W, Z],
+        [W.T, np.zeros((nw, nw + nz))],
+        [Z.T, np.zeros((nz, nw + nz))],
+    ])
+    z_track = np.atleast_2d(np.asarray(z_track, dtype=float))
+    cars = z_track.shape[0]
+    rhs = np.concatenate([
+        np.repeat(train.vehicle.F_gravity[:, None], cars, axis=1),
+        z_track.T,
+        np.zeros((nz, cars)),
+    ], axis=0)
+    sol = _solve(A, rhs)
+    return sol[:n].T.copy(), sol[n : n + nw].T.copy()
 
 
 def initial_state(model: Model, start: str = "rigid-track") -> State:
     """The state at t = 0 (see the module docstring); ``start`` is "rigid-track" or "static"."""
     b, tr = model.bridge, model.train
-    nspan, nd = b.spans, b.ndof
     q, q1, _ = model.supports(0.0)
     uB = q @ b.T.T
     vB = q1 @ b.T.T
@@ -70,21 +91,17 @@ def initial_state(model: Model, start: str = "rigid-track") -> State:
     rail = np.where(c.on, np.einsum("ij,ij->i", N0, uB[c.loc.span[:, None], idx]), c.q) + c.r
 
     if tr.moving_load:
-        nV = 0
         uV = np.zeros((tr.cars, 0))
         P = tr.axle_loads.copy()
     else:
-        nV = tr.ndof
         if start == "static":
             uV, uB, P = _static_on_bridge(model, N0, idx, q)
         else:
             uV, Pc = vehicle_static_on_rigid_track(tr, rail.reshape(tr.cars, tr.wheels))
             P = Pc.reshape(-1)
+            uV = uV - tr.u_static[None, :]  # the state holds displacements from static equilibrium
     vV = np.zeros_like(uV)
     aV, aB, P = consistent_accelerations(model, uV, vV, uB, vB, P)
-    if start == "static" and not tr.moving_load:
-        # the static solve is the reference; keep its forces exactly (accelerations are ~0)
-        pass
     if tr.moving_load:
         ug = np.zeros(tr.contacts)
         vg = np.zeros(tr.contacts)
@@ -96,7 +113,6 @@ def initial_state(model: Model, start: str = "rigid-track") -> State:
         ag = (aV @ tr.W).reshape(-1)
         m_g = np.tile(tr.aux_masses, tr.cars)
         PV = P - m_g * (ag + GRAVITY)
-    del nV, nspan, nd
     return State(0.0, uV, vV, aV, uB, vB, aB, ug, vg, ag, P, PV)
 
 
@@ -107,13 +123,18 @@ def _static_on_bridge(model: Model, N0: np.ndarray, idx: np.ndarray, q: np.ndarr
     nV, nd, ns = tr.ndof, b.ndof, b.nsupport
     NV, NB = tr.cars * nV, b.spans * nd
     nc, NS = tr.contacts, b.spans * ns
-    n = NV + NB + nc + NS
+    Z = free_modes(tr)
+    nz = Z.shape[1]
+    n = NV + NB + nc + NS + tr.cars * nz
     A = np.zeros((n, n))
     rhs = np.zeros(n)
     for k in range(tr.cars):
         sl = slice(k * nV, (k + 1) * nV)
         A[sl, sl] = tr.vehicle.K
-        rhs[sl] = tr.vehicle.F_gravity
+        rhs[sl] = tr.F_full  # unknowns: displacements from static equilibrium on level track
+        zs = slice(NV + NB + nc + NS + k * nz, NV + NB + nc + NS + (k + 1) * nz)
+        A[sl, zs] = Z
+        A[zs, sl] = Z.T
     for s in range(b.spans):
         sl = slice(NV + s * nd, NV + (s + 1) * nd)
         A[sl, sl] = b.K
@@ -134,7 +155,7 @@ def _static_on_bridge(model: Model, N0: np.ndarray, idx: np.ndarray, q: np.ndarr
             A[col, dofs] -= N0[i]  # ... - N^T u_B = r
         else:
             rhs[col] += c.q[i]
-    sol = _lstsq(A, rhs, "train on the bridge")
+    sol = _solve(A, rhs)
     uV = sol[:NV].reshape(tr.cars, nV)
     uB = sol[NV : NV + NB].reshape(b.spans, nd)
     P = sol[NV + NB : NV + NB + nc]
@@ -146,7 +167,8 @@ def consistent_accelerations(
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Accelerations and contact forces at t = 0 from the equations of motion and ``g'' = 0``.
 
-    Full wheel masses (an aux point moves with its wheel). Returns ``aV, aB, P``.
+    Full wheel masses (an aux point moves with its wheel); ``uV`` from static equilibrium.
+    Returns ``aV, aB, P``.
     """
     b, tr = model.bridge, model.train
     v = model.speed
@@ -166,7 +188,7 @@ def consistent_accelerations(
     for k in range(tr.cars if nV else 0):
         sl = slice(k * nV, (k + 1) * nV)
         A[sl, sl] = tr.vehicle.M
-        rhs[sl] = tr.vehicle.F_gravity - tr.vehicle.C @ vV[k] - tr.vehicle.K @ uV[k]
+        rhs[sl] = tr.F_full - tr.vehicle.C @ vV[k] - tr.vehicle.K @ uV[k]
     for s in range(b.spans):
         sl = slice(NV + s * nd, NV + (s + 1) * nd)
         A[sl, sl] = b.M
@@ -194,7 +216,7 @@ def consistent_accelerations(
                 rhs[col] += 2 * v * N1[i] @ vB[s, idx[i]] + v * v * N2[i] @ uB[s, idx[i]]
             else:
                 rhs[col] += c.q2[i]
-    sol = np.linalg.solve(A, rhs)
+    sol = _solve(A, rhs)
     aV = sol[:NV].reshape(tr.cars, nV)
     aB = sol[NV : NV + NB].reshape(b.spans, nd)
     if not tr.moving_load:

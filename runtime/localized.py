@@ -30,6 +30,17 @@ from svbi.runtime.newmark import Newmark
 from svbi.runtime.numeric import ContactRowKernel, ContactRows, point_row
 
 
+def _solve(A: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """Dense LU solve (LAPACK gesv) without NumPy's per-call checks: the interface is tiny."""
+    _, _, x, info = _gesv(A, b, overwrite_a=True, overwrite_b=False)
+    if info != 0:
+        raise np.linalg.LinAlgError(f"singular interface matrix (gesv info {info})")
+    return x
+
+
+_gesv = sla.get_lapack_funcs("gesv", dtype=np.float64)
+
+
 class BridgeCompliance:
     """``S`` and ``R`` of one span: ``u = S f + R q_hat`` solves ``K^ u = f + E R_G``, ``E^T u = q_hat``."""
 
@@ -132,9 +143,12 @@ class LocalizedDynamic:
             + rows.c_r_x * c.r1
             + rows.c_r_xx * c.r2
         )
-        v = m.speed
-        h_off = self.point.target(Pg, Qg, c.q + c.r, c.q1 + v * c.r1, c.q2 + v * v * c.r2)
-        h_B = np.where(on, h_on, h_off)
+        if on.all():
+            h_B = h_on
+        else:
+            v = m.speed
+            h_off = self.point.target(Pg, Qg, c.q + c.r, c.q1 + v * c.r1, c.q2 + v * v * c.r2)
+            h_B = np.where(on, h_on, h_off)
 
         # interface: (F_B + F*) P = rhs
         W_full, N_full = self._placed_rows(c, rows, idx)
@@ -144,7 +158,7 @@ class LocalizedDynamic:
         Wu = np.einsum("ij,ij->i", W_full, uB_t[span])
         Bd = (d_V.reshape(tr.cars, tr.wheels) @ self.B.T).reshape(-1)
         rhs = h_B - p_t + Wu - self.c_g * Bd
-        P = np.linalg.solve(self.F_star + F_B, rhs)
+        P = _solve(self.F_star + F_B, rhs)
 
         # back-substitution
         PV = ((self.c_g * P - d_V).reshape(tr.cars, tr.wheels) @ self.B.T).reshape(-1)

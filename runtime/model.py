@@ -31,8 +31,15 @@ class IrregularityLike(Protocol):
 class FlatTrack:
     """Perfect track: r = 0."""
 
+    def __init__(self) -> None:
+        self._zeros: dict[tuple[int, ...], np.ndarray] = {}
+
     def evaluate(self, x: np.ndarray) -> Triple:
-        z = np.zeros_like(np.asarray(x, dtype=float))
+        shape = np.shape(x)
+        z = self._zeros.get(shape)
+        if z is None:
+            z = self._zeros[shape] = np.zeros(shape)
+            z.flags.writeable = False
         return z, z, z
 
 
@@ -207,7 +214,7 @@ class Model:
     def contacts(self, t: float) -> Contacts:
         x = self.train.positions(t)
         loc = self.bridge.locate(x)
-        r, r1, r2 = (np.asarray(a, dtype=float) for a in self.irregularity.evaluate(x))
+        r, r1, r2 = self.irregularity.evaluate(x)
         q, q1, q2 = self.ground.under(t, x, self.speed)
         return Contacts(t, loc, r, r1, r2, q, q1, q2)
 

@@ -29,7 +29,7 @@ FILTER_ORDER = 4
 class Recorder:
     """Collects the output variables of one run."""
 
-    def __init__(self, model: Model, carbody_static: np.ndarray | None = None) -> None:
+    def __init__(self, model: Model) -> None:
         self.model = model
         b, tr, s = model.bridge, model.train, model.settings
         self.nout = s.steps // s.output_every + 1
@@ -60,7 +60,6 @@ class Recorder:
         }
         self.forces = np.zeros((s.steps + 1, tr.contacts))
         self.steps_done = 0
-        self.carbody_static = carbody_static
 
     # ----------------------------------------------------------------------------------------------
     def force(self, n: int, P: np.ndarray) -> None:
@@ -99,12 +98,12 @@ class Recorder:
             gaps["vehicle"] = wheel - aux
             gaps["bridge"] = aux - rail
             cz, ct = tr.carbody_z, tr.carbody_theta
-            static = self.carbody_static
+            # vehicle DOFs are already measured from static equilibrium on rigid level track
             if cz is not None:
-                d["carbody_uz"][k] = state.uV[:, cz] - (static[cz] if static is not None else 0.0)
+                d["carbody_uz"][k] = state.uV[:, cz]
                 d["carbody_az"][k] = state.aV[:, cz]
             if ct is not None:
-                d["carbody_pitch"][k] = state.uV[:, ct] - (static[ct] if static is not None else 0.0)
+                d["carbody_pitch"][k] = state.uV[:, ct]
         d["gap_vehicle"][k] = gaps["vehicle"].reshape(shape)
         d["gap_bridge"][k] = gaps["bridge"].reshape(shape)
         self.count += 1
@@ -185,6 +184,9 @@ def write_netcdf(ds: xr.Dataset, path: str | Path) -> Path:
             if name in out.coords:
                 out.coords[name] = out.coords[name].astype(str)
         out.to_netcdf(tmp, engine="h5netcdf")
+        umask = os.umask(0)
+        os.umask(umask)
+        os.chmod(tmp, 0o666 & ~umask)  # mkstemp makes the file private; give it the usual mode
         os.replace(tmp, path)
     except BaseException:
         Path(tmp).unlink(missing_ok=True)

@@ -345,8 +345,7 @@ def _semantic_problems(s: Scenario) -> Iterable[tuple[str, str]]:
     try:
         values = topo.values(t.parameters, where="train.parameters")
     except TopologyError as exc:
-        key = exc.key if exc.key.startswith("train.parameters") else f"train.parameters ({exc.key})"
-        yield key, exc.problem
+        yield _parameter_key(topo, exc.key, t.parameters), exc.problem
         return
     if topo.kind == "moving-load":
         loads = values.get("axle_loads", ())
@@ -355,6 +354,23 @@ def _semantic_problems(s: Scenario) -> Iterable[tuple[str, str]]:
         return
     for key, message in _vehicle_problems(s, values):
         yield key, message
+
+
+def _parameter_key(topo: Any, key: str, overrides: Mapping[str, Any]) -> str:
+    """Dotted key of the parameter behind a topology error such as ``bodies[0].mass``."""
+    if key.startswith("train.parameters"):
+        return key
+    m = re.match(r"(bodies|wheels)\[(\d+)\]\.(\w+)", key)
+    if m:
+        items = topo.bodies if m.group(1) == "bodies" else topo.wheels
+        expr = getattr(items[int(m.group(2))], m.group(3), None)
+        names = sorted(str(sym) for sym in getattr(expr, "free_symbols", ()))
+        given = [n for n in names if n in overrides] or names
+        if given:
+            return f"train.parameters.{given[0]}"
+    if key in topo.parameters:
+        return f"train.parameters.{key}"
+    return f"train.parameters ({key})"
 
 
 def _vehicle_problems(s: Scenario, values: dict[str, Any]) -> Iterable[tuple[str, str]]:

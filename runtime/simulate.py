@@ -24,7 +24,7 @@ import numpy as np
 import xarray as xr
 
 from svbi.runtime.bridge import Bridge
-from svbi.runtime.initial import initial_state, vehicle_static_on_rigid_track
+from svbi.runtime.initial import initial_state
 from svbi.runtime.model import Ground, GroundAtRest, Model, Settings, crossing_duration
 from svbi.runtime.results import Recorder
 from svbi.runtime.scenario import Scenario, _vehicle_ref, load_scenario, validate_scenario
@@ -124,18 +124,14 @@ def build_model(scenario: Scenario, hold_train: bool = False) -> Model:
         force_filter_hz=scenario.output.force_filter_hz,
     )
     irregularity = _irregularity(scenario, train, duration)
-    ground = _ground(scenario)
+    ground = _ground(scenario, duration)
     return Model(bridge, train, settings, irregularity, ground)
 
 
 def hslm_parameters(name: str) -> dict[str, Any]:
-    """Axle layout of an EN 1991-2 HSLM-A train (provided by ``svbi.runtime.excitation.hslm``)."""
-    try:
-        from svbi.runtime.excitation.hslm import hslm_axles  # type: ignore[import-not-found]
-    except ModuleNotFoundError:
-        raise NotImplementedError(
-            f"train.hslm = {name!r}: the HSLM axle layouts are not available in this version"
-        ) from None
+    """Axle layout of an EN 1991-2 HSLM-A train (``svbi.runtime.hslm``) as moving-load parameters."""
+    from svbi.runtime.hslm import hslm_axles
+
     loads, offsets, length = hslm_axles(name)
     return {"axle_loads": tuple(loads), "axle_offsets": tuple(offsets), "car_length": length}
 
@@ -156,17 +152,13 @@ def _irregularity(scenario: Scenario, train: Train, duration: float):  # noqa: A
     )
 
 
-def _ground(scenario: Scenario) -> Ground:
+def _ground(scenario: Scenario, duration: float) -> Ground:
     eq = scenario.earthquake
     if eq is None or (eq.vertical == "none" and eq.longitudinal == "none"):
         return GroundAtRest()
-    try:
-        from svbi.runtime.excitation.ground import ground_from_scenario  # type: ignore[import-not-found]
-    except ModuleNotFoundError:
-        raise NotImplementedError(
-            "[earthquake]: ground motion is not available in this version of the runtime"
-        ) from None
-    return ground_from_scenario(scenario)
+    from svbi.runtime.excitation.ground import ground_from_scenario
+
+    return ground_from_scenario(scenario, duration)
 
 
 # --------------------------------------------------------------------------------------------------
@@ -197,11 +189,7 @@ def simulate(
     t0 = time.perf_counter()
     state = initial_state(model, start)
     stepper = cls(model, state)
-    static = None
-    if not model.train.moving_load:
-        u0, _ = vehicle_static_on_rigid_track(model.train, np.zeros((1, model.train.wheels)))
-        static = u0[0]
-    recorder = Recorder(model, static)
+    recorder = Recorder(model)
     aux_is_wheel = s.method == "coupled-classic"
     recorder.force(0, state.P)
     recorder.record(state, model.contacts(0.0), aux_is_wheel)
@@ -306,13 +294,13 @@ class _Guard:
         return f"the time step ({s.time_step:g} s) may be too large for this model; try a smaller one"
 
     def check_finite(self, st: Any) -> None:
-        total = float(np.sum(st.P)) + float(np.sum(st.uB)) + float(np.sum(st.uV))
+        total = st.P.sum() + st.uB.sum() + st.uV.sum()
         if not math.isfinite(total):
             which = "contact_force" if not np.isfinite(st.P).all() else (
                 "bridge displacement" if not np.isfinite(st.uB).all() else "vehicle displacement")
             raise Diverged(f"run diverged at t = {st.t:.6g} s: {which} is not finite (NaN or Inf); "
                            f"likely cause: {self._cause()}")
-        P = np.abs(st.P).max(initial=0.0)
+        P = max(st.P.max(initial=0.0), -st.P.min(initial=0.0))
         if P > self.force_limit:
             raise Diverged(f"run diverged at t = {st.t:.6g} s: contact_force = {P:.4g} N exceeds "
                            f"{self.force_limit:.3g} N ({FORCE_LIMIT_FACTOR:g} x the static wheel load); "

@@ -73,9 +73,17 @@ class Train:
         # point is its share of the wheel weight, so the vehicle keeps only the rest.
         self.aux_masses = self.split * self.wheel_masses
         self.M_active = v.M - self.W @ np.diag(self.aux_masses) @ self.W.T
-        self.F_active = v.F_gravity + self.W @ (self.aux_masses * GRAVITY)
         self.carbody_z = v.carbody_z
         self.carbody_theta = v.carbody_theta
+        # Vehicle DOFs are measured from the static equilibrium on rigid level track, u = u_s + d
+        # (an exact change of variables: the model is linear). W^T u_s = 0 there, so wheel heights
+        # and gaps are unchanged, and the small d keeps digits that Newmark's a0 u would lose.
+        from svbi.runtime.initial import vehicle_static_on_rigid_track
+
+        u_s, _ = vehicle_static_on_rigid_track(self, np.zeros((1, self.wheels)))
+        self.u_static = u_s[0]
+        self.F_full = v.F_gravity - v.K @ self.u_static
+        self.F_active = self.F_full + self.W @ (self.aux_masses * GRAVITY)
 
     # ----------------------------------------------------------------------------------------------
     def positions(self, t: float) -> np.ndarray:

@@ -26,40 +26,58 @@ L, E, I, MU = 25.0, 2.87e9, 2.9, 2303.0
 M_S, K_S, M_W = 5750.0, 1.595e6, 500.0
 V = 100.0 / 3.6
 G = 9.81
-MODES = 30
+MODES = 20
 
 
 def modal_reference(n_modes: int = MODES):
-    """Dense-output solution: returns a function t -> midspan deflection (m)."""
+    """Dense-output solution: returns a function t -> midspan deflection (m).
+
+    Truncating the series after ``n_modes`` leaves out the quasi-static response of the higher
+    modes; we add it back for the output (mode-acceleration correction): the contact force times the
+    closed-form static influence of a unit load at x on the midspan, less its first ``n_modes``
+    modal terms. With 20 modes this agrees with 40 modes to about 2e-6 of the peak.
+    """
     n = np.arange(1, n_modes + 1)
     k_n = n * np.pi / L
     w2 = k_n**4 * E * I / MU
     m0 = MU * L / 2  # modal mass of sin(n pi x / L)
+    mid = np.sin(n * np.pi / 2)
 
-    def rhs(t: float, y: np.ndarray) -> np.ndarray:
-        q, qd = y[:n_modes], y[n_modes : 2 * n_modes]
-        z, zd = y[-2], y[-1]
+    def motion(t: float, y: np.ndarray) -> tuple[np.ndarray, float]:
+        q, qd, z = y[:n_modes], y[n_modes : 2 * n_modes], y[-2]
         x = V * t
         phi = np.sin(k_n * x)
         phi1 = k_n * np.cos(k_n * x)
         phi2 = -(k_n**2) * phi
-        w, wd = phi @ q, phi @ qd
-        spring = K_S * (w - z)  # z: sprung mass from its static position; w: wheel = beam under it
-        # contact force P = m_w (w_c'' + g) + M g + spring; w_c'' = phi.q'' + 2 v phi'.q' + v^2 phi''.q
+        spring = K_S * (phi @ q - z)  # z: sprung mass from its static position; wheel = beam under it
+        # contact force P = m_w (w_c'' + g) + M g + spring, w_c'' = phi.q'' + 2 v phi'.q' + v^2 phi''.q
         conv = 2 * V * (phi1 @ qd) + V * V * (phi2 @ q)
         f = -m0 * w2 * q - phi * (M_W * (conv + G) + M_S * G + spring)
         # (m0 I + m_w phi phi^T) q'' = f, by Sherman-Morrison
         qdd = f / m0 - (M_W * phi * (phi @ f) / m0**2) / (1 + M_W * (phi @ phi) / m0)
-        zdd = spring / M_S
-        return np.concatenate([qd, qdd, [zd, zdd]])
+        force = M_W * (phi @ qdd + conv + G) + M_S * G + spring
+        return qdd, force
 
-    y0 = np.zeros(2 * n_modes + 2)
-    sol = solve_ivp(rhs, (0.0, L / V), y0, method="DOP853", rtol=1e-11, atol=1e-14, dense_output=True)
+    def rhs(t: float, y: np.ndarray) -> np.ndarray:
+        qdd, _ = motion(t, y)
+        spring = K_S * (np.sin(k_n * V * t) @ y[:n_modes] - y[-2])
+        return np.concatenate([y[n_modes : 2 * n_modes], qdd, [y[-1], spring / M_S]])
+
+    sol = solve_ivp(rhs, (0.0, L / V), np.zeros(2 * n_modes + 2), method="DOP853", rtol=1e-10,
+                    atol=1e-13, dense_output=True)
     assert sol.success
-    mid = np.sin(n * np.pi / 2)
 
     def midspan(t: np.ndarray) -> np.ndarray:
-        return mid @ sol.sol(t)[:n_modes]
+        t = np.atleast_1d(t)
+        y = sol.sol(t)
+        w = mid @ y[:n_modes]
+        for i, ti in enumerate(t):
+            x = V * ti
+            a = min(x, L - x)
+            green = -a * (3 * L * L - 4 * a * a) / (48 * E * I)  # midspan deflection, unit load at x
+            truncated = green + np.sum(np.sin(k_n * x) * mid / (m0 * w2))
+            w[i] += motion(ti, y[:, i])[1] * truncated
+        return w
 
     return midspan
 
@@ -88,23 +106,34 @@ def error(ds, reference) -> tuple[float, float]:
 
 
 def test_reference_is_converged_in_modes(reference):
-    """The modal series is converged: half the modes change the peak by far less than the tolerance."""
-    t = np.linspace(0, L / V, 400)
+    """The corrected modal series is converged: 10 modes agree with 20 to far below the tolerance."""
+    t = np.linspace(0, L / V, 200)
     coarse = modal_reference(MODES // 2)(t)
     assert np.abs(coarse - reference(t)).max() < 1e-4 * np.abs(reference(t)).max()
 
 
+@pytest.fixture(scope="module")
+def fine_run():
+    return svbi.simulate(scenario(1e-4))
+
+
 @pytest.mark.slow
-def test_midspan_history_matches_modal_solution(reference):
-    ds = svbi.simulate(scenario(1e-4))
-    err, peak = error(ds, reference)
+def test_midspan_history_matches_modal_solution(reference, fine_run):
+    err, peak = error(fine_run, reference)
     assert 2.0e-3 < peak < 3.5e-3  # the benchmark's order of magnitude (2.4 mm without wheel mass)
     assert err < 5e-3, f"max error {err:.3g} of the peak"
 
 
-def test_second_order_in_time(reference):
-    """Halving the time step divides the error by about four (Newmark is second order)."""
-    dts = [8e-3, 4e-3, 2e-3]
-    errors = [error(svbi.simulate(scenario(dt)), reference)[0] for dt in dts]
+@pytest.mark.slow
+def test_second_order_in_time(reference, fine_run):
+    """Halving the time step divides the error by about four (Newmark is second order).
+
+    At coarser steps the higher bridge modes (43 Hz, 120 Hz, ...) are not yet in Newmark's
+    asymptotic range, and their accumulated phase error makes the error fall irregularly
+    (about 1.4 between 8e-3 and 1e-3 s); from 4e-4 s down the rate is second order.
+    """
+    dts = [4e-4, 2e-4, 1e-4]
+    errors = [error(svbi.simulate(scenario(dt)), reference)[0] for dt in dts[:-1]]
+    errors.append(error(fine_run, reference)[0])
     order = np.polyfit(np.log(dts), np.log(errors), 1)[0]
-    assert 1.7 < order < 2.4, f"observed order {order:.2f} from errors {errors}"
+    assert 1.75 < order < 2.3, f"observed order {order:.2f} from errors {errors}"
