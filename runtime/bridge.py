@@ -20,7 +20,6 @@ from dataclasses import dataclass
 
 import numpy as np
 import scipy.linalg as sla
-
 from svbi.runtime.modes import span_matrices, span_support_dofs
 
 SUPPORT_COMPONENTS = ("longitudinal", "vertical", "vertical")

@@ -15,7 +15,6 @@ constraint rows are ~1 against ~a0 M in the dynamic rows and the LU pivots badly
 from __future__ import annotations
 
 import numpy as np
-
 from svbi.runtime.coupled import Triplets, solve_sparse
 from svbi.runtime.model import Contacts, Model, State
 from svbi.runtime.newmark import Newmark
@@ -47,8 +46,9 @@ class CoupledClassic:
         self.oR = self.oP + self.nc
         self.n = self.oR + self.NS
         sup_elem_dof = [0 if d == 0 else (1 if d == 1 else 4) for d in b.support_dofs]
-        self.sG = nm.a0 * np.tile(support_constraint_masses(b.element_length, b.mass_per_length, sup_elem_dof),
-                                  b.spans)
+        self.sG = nm.a0 * np.tile(
+            support_constraint_masses(b.element_length, b.mass_per_length, sup_elem_dof), b.spans
+        )
         self.sC = nm.a0 * float(np.mean(tr.wheel_masses)) if not self.moving_load else 1.0
         if not self.moving_load:
             # an index-1 contact carries the wheel with it: the wheel and its aux point are one body

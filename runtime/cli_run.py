@@ -21,8 +21,11 @@ def run(
     output: Annotated[Path, typer.Option("--output", "-o", help="Results file to write (NetCDF).")],
     set_: Annotated[
         list[str] | None,
-        typer.Option("--set", help="Override a scenario key: --set solver.method=coupled-dynamic "
-                                   "(the value is read as a TOML literal, else as text). Repeatable."),
+        typer.Option(
+            "--set",
+            help="Override a scenario key: --set solver.method=coupled-dynamic "
+            "(the value is read as a TOML literal, else as text). Repeatable.",
+        ),
     ] = None,
     quiet: Annotated[bool, typer.Option("--quiet", "-q", help="No progress bar.")] = False,
 ) -> None:

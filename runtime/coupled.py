@@ -22,7 +22,6 @@ from __future__ import annotations
 import numpy as np
 import scipy.sparse as sps
 import scipy.sparse.linalg as spla
-
 from svbi.codegen.vehicle import GRAVITY
 from svbi.runtime.model import Contacts, Model, State
 from svbi.runtime.newmark import Newmark
@@ -59,13 +58,29 @@ class Triplets:
         return np.concatenate(self.rows), np.concatenate(self.cols), np.concatenate(self.vals)
 
 
-def solve_sparse(const: tuple[np.ndarray, np.ndarray, np.ndarray], step: Triplets, n: int,
-                 rhs: np.ndarray) -> np.ndarray:
-    """Assemble constant + per-step entries and solve with a sparse LU."""
+def solve_sparse(
+    const: tuple[np.ndarray, np.ndarray, np.ndarray], step: Triplets, n: int, rhs: np.ndarray
+) -> np.ndarray:
+    """Assemble constant + per-step entries into CSC and solve with a sparse LU (SuperLU).
+
+    The entries are unique by construction, so we sort them into CSC ourselves (scipy's COO
+    conversion, which also sums duplicates, costs more than the factorisation on small systems).
+    """
     r1, c1, v1 = const
     r2, c2, v2 = step.arrays()
-    A = sps.csc_matrix((np.concatenate([v1, v2]), (np.concatenate([r1, r2]), np.concatenate([c1, c2]))),
-                       shape=(n, n))
+    rows = np.concatenate([r1, r2])
+    cols = np.concatenate([c1, c2])
+    vals = np.concatenate([v1, v2])
+    key = cols * n + rows
+    order = np.argsort(key)
+    if np.any(np.diff(key[order]) == 0):  # pragma: no cover - a duplicate slipped in: sum it
+        A = sps.csc_matrix((vals, (rows, cols)), shape=(n, n))
+    else:
+        indptr = np.zeros(n + 1, dtype=np.int32)
+        np.cumsum(np.bincount(cols, minlength=n), out=indptr[1:])
+        A = sps.csc_matrix((n, n))
+        A.data, A.indices, A.indptr = vals[order], rows[order].astype(np.int32), indptr
+        A.has_sorted_indices = True
     return spla.splu(A).solve(rhs)
 
 
@@ -93,7 +108,7 @@ class CoupledDynamic:
         self.state = state
         s = model.settings
         b, tr = model.bridge, model.train
-        self.nm = nm = Newmark(s.time_step)
+        self.nm = Newmark(s.time_step)
         self.point = point_row(s.time_step, s.kappa, s.zeta)
         self.rows = ContactRowKernel(b.element_length, model.speed, s.time_step, s.kappa, s.zeta)
         omega = s.kappa / s.time_step
@@ -114,8 +129,9 @@ class CoupledDynamic:
         self.oLG = self.oG + self.nc
         self.n = self.oLG + self.NS
         sup_elem_dof = [0 if d == 0 else (1 if d == 1 else 4) for d in b.support_dofs]
-        self.mG = np.tile(support_constraint_masses(b.element_length, b.mass_per_length, sup_elem_dof),
-                          b.spans)
+        self.mG = np.tile(
+            support_constraint_masses(b.element_length, b.mass_per_length, sup_elem_dof), b.spans
+        )
         self.DG = self.d * self.mG
         # multipliers start consistent with the initial forces (method-notes section 5)
         c0 = model.contacts(0.0)
@@ -123,8 +139,9 @@ class CoupledDynamic:
         self.lamG = self._initial_lambda(RG0, self.mG)
         if not self.moving_load:
             self.m_g = np.tile(tr.aux_masses, tr.cars)
-            self.mV = np.tile(vehicle_constraint_masses(tr.topology_name, tr.parameter_values, s.split),
-                              tr.cars)
+            self.mV = np.tile(
+                vehicle_constraint_masses(tr.topology_name, tr.parameter_values, s.split), tr.cars
+            )
             self.DV = self.d * self.mV
             self.mB_kernel = BridgeConstraintMass(b.element_length, b.mass_per_length, tr.aux_masses[0])
             self.lamV = self._initial_lambda(state.PV, self.mV)
@@ -228,7 +245,7 @@ class CoupledDynamic:
 
         # vehicle rows
         fV = tr.F_active + PV_ @ tr.M_active + QV_ @ tr.vehicle.C
-        fV -= (HV.reshape(tr.cars, tr.wheels) @ tr.W.T)
+        fV -= HV.reshape(tr.cars, tr.wheels) @ tr.W.T
         rhs[: self.NV] = fV.reshape(-1)
         # bridge rows: + N D_B lambda_B on the left, + N H_B on the right
         np.add.at(fB, (span[sel, None], idx[sel]), rows.N0[sel] * HB[sel, None])

@@ -20,7 +20,6 @@ from __future__ import annotations
 
 import numpy as np
 import scipy.linalg as sla
-
 from svbi.codegen.vehicle import GRAVITY
 from svbi.runtime.model import Model, State
 from svbi.runtime.numeric import ShapeKernel
@@ -40,8 +39,10 @@ def free_modes(train: Train) -> np.ndarray:
     v = train.vehicle
     Z = sla.null_space(np.vstack([v.K, train.W.T]))
     if Z.size and np.abs(Z.T @ v.F_gravity).max() > 1e-9 * max(np.abs(v.F_gravity).max(), 1.0):
-        raise StaticEquilibriumError("the vehicle has a free (rigid-body) mode loaded by gravity: "
-                                     "it has no static equilibrium on the track")
+        raise StaticEquilibriumError(
+            "the vehicle has a free (rigid-body) mode loaded by gravity: "
+            "it has no static equilibrium on the track"
+        )
     return Z
 
 
@@ -62,18 +63,23 @@ def vehicle_static_on_rigid_track(train: Train, z_track: np.ndarray) -> tuple[np
     W = train.W
     Z = free_modes(train)
     nz = Z.shape[1]
-    A = np.block([
-        [train.vehicle.K, -W, Z],
-        [W.T, np.zeros((nw, nw + nz))],
-        [Z.T, np.zeros((nz, nw + nz))],
-    ])
+    A = np.block(
+        [
+            [train.vehicle.K, -W, Z],
+            [W.T, np.zeros((nw, nw + nz))],
+            [Z.T, np.zeros((nz, nw + nz))],
+        ]
+    )
     z_track = np.atleast_2d(np.asarray(z_track, dtype=float))
     cars = z_track.shape[0]
-    rhs = np.concatenate([
-        np.repeat(train.vehicle.F_gravity[:, None], cars, axis=1),
-        z_track.T,
-        np.zeros((nz, cars)),
-    ], axis=0)
+    rhs = np.concatenate(
+        [
+            np.repeat(train.vehicle.F_gravity[:, None], cars, axis=1),
+            z_track.T,
+            np.zeros((nz, cars)),
+        ],
+        axis=0,
+    )
     sol = _solve(A, rhs)
     return sol[:n].T.copy(), sol[n : n + nw].T.copy()
 

@@ -23,7 +23,6 @@ from __future__ import annotations
 
 import numpy as np
 import scipy.linalg as sla
-
 from svbi.codegen.vehicle import GRAVITY
 from svbi.runtime.model import Contacts, Model, State
 from svbi.runtime.newmark import Newmark

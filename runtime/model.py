@@ -17,7 +17,6 @@ from dataclasses import dataclass, field
 from typing import Any, Protocol
 
 import numpy as np
-
 from svbi.runtime.bridge import Bridge, Location
 from svbi.runtime.train import Train
 
@@ -107,8 +106,9 @@ class GroundAtRest(Ground):
 class FunctionGround(Ground):
     """Ground motion from two functions ``f(t, x) -> (q, q', q'')`` (vertical, longitudinal)."""
 
-    def __init__(self, vertical: Any = None, longitudinal: Any = None,
-                 apparent_velocity: float | None = None) -> None:
+    def __init__(
+        self, vertical: Any = None, longitudinal: Any = None, apparent_velocity: float | None = None
+    ) -> None:
         self._v, self._h = vertical, longitudinal
         self.apparent_velocity = apparent_velocity
         self.uniform = apparent_velocity is None
@@ -116,10 +116,16 @@ class FunctionGround(Ground):
     def motion(self, t: float, x: np.ndarray) -> tuple[Triple, Triple]:
         x = np.asarray(x, dtype=float)
         zero = np.zeros_like(x)
-        vert = tuple(np.broadcast_to(a, x.shape).astype(float) for a in self._v(t, x)) if self._v else (
-            zero, zero, zero)
-        lon = tuple(np.broadcast_to(a, x.shape).astype(float) for a in self._h(t, x)) if self._h else (
-            zero, zero, zero)
+        vert = (
+            tuple(np.broadcast_to(a, x.shape).astype(float) for a in self._v(t, x))
+            if self._v
+            else (zero, zero, zero)
+        )
+        lon = (
+            tuple(np.broadcast_to(a, x.shape).astype(float) for a in self._h(t, x))
+            if self._h
+            else (zero, zero, zero)
+        )
         return vert, lon  # type: ignore[return-value]
 
 
@@ -166,9 +172,14 @@ class State:
     extra: dict[str, Any] = field(default_factory=dict)
 
     def copy(self) -> State:
-        return State(self.t, *(np.array(getattr(self, k)) for k in
-                               ("uV", "vV", "aV", "uB", "vB", "aB", "ug", "vg", "ag", "P", "PV")),
-                     extra=dict(self.extra))
+        return State(
+            self.t,
+            *(
+                np.array(getattr(self, k))
+                for k in ("uV", "vV", "aV", "uB", "vB", "aB", "ug", "vg", "ag", "P", "PV")
+            ),
+            extra=dict(self.extra),
+        )
 
 
 @dataclass

@@ -20,7 +20,6 @@ from functools import cache
 
 import numpy as np
 import sympy as sp
-
 from svbi.codegen import beam, constraints
 
 

@@ -18,7 +18,6 @@ from typing import Any
 import numpy as np
 import scipy.signal as sig
 import xarray as xr
-
 from svbi.runtime.bridge import SUPPORT_COMPONENTS
 from svbi.runtime.model import Contacts, Model, State
 from svbi.runtime.numeric import AxialShapeKernel, ShapeKernel
@@ -119,22 +118,48 @@ class Recorder:
         per_wheel = ("time", "car", "wheel")
         support_dims = ("time",) if self.uniform else ("time", "support")
         data_vars = {
-            "midspan_uz": (("time", "span"), d["midspan_uz"], _a("m", "absolute vertical displacement at midspan")),
-            "midspan_ux": (("time", "span"), d["midspan_ux"],
-                           _a("m", "absolute longitudinal displacement of the neutral axis at midspan")),
+            "midspan_uz": (
+                ("time", "span"),
+                d["midspan_uz"],
+                _a("m", "absolute vertical displacement at midspan"),
+            ),
+            "midspan_ux": (
+                ("time", "span"),
+                d["midspan_ux"],
+                _a("m", "absolute longitudinal displacement of the neutral axis at midspan"),
+            ),
             "ground_uz": (support_dims, d["ground_uz"], _a("m", "vertical ground displacement")),
             "ground_ux": (support_dims, d["ground_ux"], _a("m", "longitudinal ground displacement")),
-            "contact_force": (per_wheel, d["contact_force"],
-                              _a("N", "normal wheel-rail force, compression positive (raw)")),
-            "contact_force_filtered": (per_wheel, filtered, _a(
-                "N", f"contact_force low-pass filtered: Butterworth order {FILTER_ORDER}, zero phase, "
-                f"cutoff {m.settings.force_filter_hz:g} Hz, at the full time-step rate")),
+            "contact_force": (
+                per_wheel,
+                d["contact_force"],
+                _a("N", "normal wheel-rail force, compression positive (raw)"),
+            ),
+            "contact_force_filtered": (
+                per_wheel,
+                filtered,
+                _a(
+                    "N",
+                    f"contact_force low-pass filtered: Butterworth order {FILTER_ORDER}, zero phase, "
+                    f"cutoff {m.settings.force_filter_hz:g} Hz, at the full time-step rate",
+                ),
+            ),
             "creep_force": (per_wheel, d["creep_force"], _a("N", "longitudinal creep force")),
-            "carbody_uz": (("time", "car"), d["carbody_uz"],
-                           _a("m", "car-body bounce from static equilibrium on rigid track")),
-            "carbody_az": (("time", "car"), d["carbody_az"], _a("m/s^2", "car-body absolute vertical acceleration")),
-            "carbody_pitch": (("time", "car"), d["carbody_pitch"],
-                              _a("rad", "car-body pitch from static equilibrium, front end up positive")),
+            "carbody_uz": (
+                ("time", "car"),
+                d["carbody_uz"],
+                _a("m", "car-body bounce from static equilibrium on rigid track"),
+            ),
+            "carbody_az": (
+                ("time", "car"),
+                d["carbody_az"],
+                _a("m/s^2", "car-body absolute vertical acceleration"),
+            ),
+            "carbody_pitch": (
+                ("time", "car"),
+                d["carbody_pitch"],
+                _a("rad", "car-body pitch from static equilibrium, front end up positive"),
+            ),
             "gap_vehicle": (per_wheel, d["gap_vehicle"], _a("m", "wheel - auxiliary point gap (Eq. 18)")),
             "gap_bridge": (per_wheel, d["gap_bridge"], _a("m", "auxiliary point - rail gap (Eqs. 20-21)")),
             "gap_support": (("time", "support"), d["gap_support"], _a("m", "ground - support gap (Eq. 23)")),

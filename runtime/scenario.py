@@ -14,7 +14,7 @@ from __future__ import annotations
 
 import math
 import re
-import sys
+import tomllib
 import warnings
 from collections.abc import Iterable, Mapping, Sequence
 from dataclasses import dataclass
@@ -23,11 +23,6 @@ from typing import Annotated, Any, Literal
 
 import tomli_w
 from pydantic import BaseModel, ConfigDict, Field, PrivateAttr, ValidationError, model_validator
-
-if sys.version_info >= (3, 11):
-    import tomllib
-else:  # pragma: no cover - Python 3.10
-    import tomli as tomllib
 
 METHODS = ("localized-dynamic", "coupled-dynamic", "coupled-classic")
 BACKENDS = ("numpy", "casadi", "c")
@@ -203,8 +198,9 @@ def load_scenario(
         text = path.read_text(encoding="utf-8")
     except (OSError, UnicodeDecodeError) as exc:
         raise ScenarioError([Problem("<file>", f"cannot read: {exc}", str(path))], str(path)) from None
-    return loads_scenario(text, source=str(path), base_dir=path.resolve().parent, overrides=overrides,
-                          check=check)
+    return loads_scenario(
+        text, source=str(path), base_dir=path.resolve().parent, overrides=overrides, check=check
+    )
 
 
 def loads_scenario(
@@ -223,8 +219,9 @@ def loads_scenario(
         msg = getattr(exc, "msg", None) or re.sub(r"\s*\(at line \d+, column \d+\)", "", str(exc))
         raise ScenarioError([Problem("<toml>", f"malformed TOML: {msg}", where)], source) from None
     overridden = apply_overrides(data, overrides or [])
-    return validate_scenario(data, source=source, base_dir=base_dir, text=text, overridden=overridden,
-                             check=check)
+    return validate_scenario(
+        data, source=source, base_dir=base_dir, text=text, overridden=overridden, check=check
+    )
 
 
 def validate_scenario(
@@ -293,8 +290,9 @@ def apply_overrides(data: dict[str, Any], overrides: Sequence[str] | Mapping[str
             child = node.setdefault(part, {})
             if not isinstance(child, dict):
                 where = ".".join(parts[: i + 1])
-                raise ScenarioError([Problem(where, "is not a table; cannot set a key inside it",
-                                             f"--set {specs[key]}")])
+                raise ScenarioError(
+                    [Problem(where, "is not a table; cannot set a key inside it", f"--set {specs[key]}")]
+                )
             node = child
         node[parts[-1]] = value
     return specs
@@ -317,8 +315,9 @@ def _semantic_problems(s: Scenario) -> Iterable[tuple[str, str]]:
 
     t, sol, trk = s.train, s.solver, s.track
     if trk.wavelength_min >= trk.wavelength_max:
-        yield "track.wavelength_min", (
-            f"must be smaller than track.wavelength_max ({trk.wavelength_min:g} >= {trk.wavelength_max:g})"
+        yield (
+            "track.wavelength_min",
+            (f"must be smaller than track.wavelength_max ({trk.wavelength_min:g} >= {trk.wavelength_max:g})"),
         )
     if sol.duration is not None and sol.duration < sol.time_step:
         yield "solver.duration", f"shorter than one time step ({sol.duration:g} s < {sol.time_step:g} s)"
@@ -326,8 +325,9 @@ def _semantic_problems(s: Scenario) -> Iterable[tuple[str, str]]:
         for comp in ("vertical", "longitudinal"):
             value = getattr(s.earthquake, comp)
             if value not in ("none", "synthetic") and not s.resolve_path(value).is_file():
-                yield f"earthquake.{comp}", (
-                    f"not 'none', 'synthetic' or an existing record file: {s.resolve_path(value)}"
+                yield (
+                    f"earthquake.{comp}",
+                    (f"not 'none', 'synthetic' or an existing record file: {s.resolve_path(value)}"),
                 )
     try:
         topo = vehicle_topology(s)
@@ -352,8 +352,7 @@ def _semantic_problems(s: Scenario) -> Iterable[tuple[str, str]]:
         if any(not (float(p) > 0) for p in loads):
             yield "train.parameters.axle_loads", "axle loads must be positive (N, downward)"
         return
-    for key, message in _vehicle_problems(s, values):
-        yield key, message
+    yield from _vehicle_problems(s, values)
 
 
 def _parameter_key(topo: Any, key: str, overrides: Mapping[str, Any]) -> str:
@@ -449,7 +448,9 @@ def _dotted(loc: Sequence[Any]) -> str:
 def _problem(err: Mapping[str, Any], where: Any) -> Problem:
     loc = [p for p in err.get("loc", ()) if p not in ("float", "int", "list[float]", "function-after")]
     # drop pydantic's union-branch labels such as 'constrained-float' from the location
-    loc = [p for p in loc if not (isinstance(p, str) and ("[" in p or p.startswith(("constrained", "literal"))))]
+    loc = [
+        p for p in loc if not (isinstance(p, str) and ("[" in p or p.startswith(("constrained", "literal"))))
+    ]
     key = _dotted(loc) or "<root>"
     kind = err.get("type", "")
     value = err.get("input")
@@ -470,7 +471,9 @@ def _problem(err: Mapping[str, Any], where: Any) -> Problem:
 
 
 _HEADER = re.compile(r"^\s*\[\[?\s*([^\]\[]+?)\s*\]\]?\s*(?:#.*)?$")
-_KEY = re.compile(r"^\s*((?:[A-Za-z0-9_\-]+|\"[^\"]*\"|'[^']*')(?:\s*\.\s*(?:[A-Za-z0-9_\-]+|\"[^\"]*\"|'[^']*'))*)\s*=")
+_KEY = re.compile(
+    r"^\s*((?:[A-Za-z0-9_\-]+|\"[^\"]*\"|'[^']*')(?:\s*\.\s*(?:[A-Za-z0-9_\-]+|\"[^\"]*\"|'[^']*'))*)\s*="
+)
 
 
 def _clean_key(raw: str) -> str:

@@ -22,7 +22,6 @@ from typing import Any
 
 import numpy as np
 import xarray as xr
-
 from svbi.runtime.bridge import Bridge
 from svbi.runtime.initial import initial_state
 from svbi.runtime.model import Ground, GroundAtRest, Model, Settings, crossing_duration
@@ -98,8 +97,17 @@ def stepper_class(backend: str, method: str) -> tuple[str, Callable[..., Any]]:
 def build_model(scenario: Scenario, hold_train: bool = False) -> Model:
     """Numbers for everything: bridge, train, excitations and solver settings."""
     bs, ts, ss = scenario.bridge, scenario.train, scenario.solver
-    bridge = Bridge(bs.spans, bs.span_length, bs.mass_per_length, bs.youngs_modulus, bs.area,
-                    bs.second_moment, bs.damping_ratio, bs.elements_per_span, bs.rail_height)
+    bridge = Bridge(
+        bs.spans,
+        bs.span_length,
+        bs.mass_per_length,
+        bs.youngs_modulus,
+        bs.area,
+        bs.second_moment,
+        bs.damping_ratio,
+        bs.elements_per_span,
+        bs.rail_height,
+    )
     ref = _vehicle_ref(scenario)
     model_sym = vehicle_model(ref)
     values = model_sym.topology.values(ts.parameters, where="train.parameters")
@@ -263,14 +271,15 @@ def _progress(total: int):  # noqa: ANN202
 
 
 def _drop_bad_rows(recorder: Recorder) -> None:
-    k = recorder.count
-    while k > 0 and not all(np.isfinite(a[k - 1]).all() for a in recorder.data.values()):
-        k -= 1
-    recorder.count = k
+    """Safety net: the guard runs before anything is stored, but never keep a non-finite row."""
     f = recorder.forces[: recorder.steps_done + 1]
     bad = ~np.isfinite(f).all(axis=1)
     if bad.any():
-        recorder.steps_done = int(np.argmax(bad)) - 1
+        recorder.steps_done = max(int(np.argmax(bad)) - 1, 0)
+    k = min(recorder.count, 1 + recorder.steps_done // recorder.model.settings.output_every)
+    while k > 0 and not all(np.isfinite(a[k - 1]).all() for a in recorder.data.values()):
+        k -= 1
+    recorder.count = k
 
 
 class _Guard:
@@ -286,29 +295,42 @@ class _Guard:
     def _cause(self) -> str:
         s = self.model.settings
         if self.classic:
-            return ("coupled-classic imposes the constraints at acceleration level only, so the gaps drift "
-                    "(use localized-dynamic or coupled-dynamic)")
+            return (
+                "coupled-classic imposes the constraints at acceleration level only, so the gaps drift "
+                "(use localized-dynamic or coupled-dynamic)"
+            )
         if s.kappa > 2:
-            return (f"constraint_kappa = {s.kappa:g} > 2 makes the gap correction overshoot and oscillate; "
-                    "use 0.5 <= kappa <= 2")
+            return (
+                f"constraint_kappa = {s.kappa:g} > 2 makes the gap correction overshoot and oscillate; "
+                "use 0.5 <= kappa <= 2"
+            )
         return f"the time step ({s.time_step:g} s) may be too large for this model; try a smaller one"
 
     def check_finite(self, st: Any) -> None:
         total = st.P.sum() + st.uB.sum() + st.uV.sum()
         if not math.isfinite(total):
-            which = "contact_force" if not np.isfinite(st.P).all() else (
-                "bridge displacement" if not np.isfinite(st.uB).all() else "vehicle displacement")
-            raise Diverged(f"run diverged at t = {st.t:.6g} s: {which} is not finite (NaN or Inf); "
-                           f"likely cause: {self._cause()}")
+            which = (
+                "contact_force"
+                if not np.isfinite(st.P).all()
+                else ("bridge displacement" if not np.isfinite(st.uB).all() else "vehicle displacement")
+            )
+            raise Diverged(
+                f"run diverged at t = {st.t:.6g} s: {which} is not finite (NaN or Inf); "
+                f"likely cause: {self._cause()}"
+            )
         P = max(st.P.max(initial=0.0), -st.P.min(initial=0.0))
         if P > self.force_limit:
-            raise Diverged(f"run diverged at t = {st.t:.6g} s: contact_force = {P:.4g} N exceeds "
-                           f"{self.force_limit:.3g} N ({FORCE_LIMIT_FACTOR:g} x the static wheel load); "
-                           f"likely cause: {self._cause()}")
+            raise Diverged(
+                f"run diverged at t = {st.t:.6g} s: contact_force = {P:.4g} N exceeds "
+                f"{self.force_limit:.3g} N ({FORCE_LIMIT_FACTOR:g} x the static wheel load); "
+                f"likely cause: {self._cause()}"
+            )
 
     def check_gaps(self, st: Any, gaps: Mapping[str, np.ndarray]) -> None:
         for name, g in gaps.items():
             worst = float(np.abs(g).max(initial=0.0))
             if not worst <= GAP_LIMIT:
-                raise Diverged(f"run diverged at t = {st.t:.6g} s: |gap_{name}| = {worst:.4g} m exceeds "
-                               f"{GAP_LIMIT:g} m; likely cause: {self._cause()}")
+                raise Diverged(
+                    f"run diverged at t = {st.t:.6g} s: |gap_{name}| = {worst:.4g} m exceeds "
+                    f"{GAP_LIMIT:g} m; likely cause: {self._cause()}"
+                )

@@ -14,7 +14,6 @@ from functools import cache
 from typing import Any
 
 import numpy as np
-
 from svbi.codegen.topology import Topology, load_topology
 from svbi.codegen.vehicle import GRAVITY, NumericVehicle, VehicleModel, derive_vehicle
 

@@ -14,22 +14,42 @@ from functools import cache
 
 import numpy as np
 import pytest
+from svbi.runtime.scenario import validate_scenario
 
 import svbi
-from svbi.runtime.scenario import validate_scenario
 
 COMPARED = ("midspan_uz", "midspan_ux", "contact_force", "carbody_uz", "carbody_az", "carbody_pitch")
 
 
-def paper_like(method: str, split: float = 0.5, kappa: float = 1.0, cars: int = 2, spans: int = 3,
-               quake: bool = True, dt: float = 1e-3):
+def paper_like(
+    method: str,
+    split: float = 0.5,
+    kappa: float = 1.0,
+    cars: int = 2,
+    spans: int = 3,
+    quake: bool = True,
+    dt: float = 1e-3,
+):
     data = {
-        "bridge": dict(spans=spans, span_length=32.0, mass_per_length=22.4e3, youngs_modulus=35.5e9,
-                       area=8.63, second_moment=6.58, elements_per_span=8),
+        "bridge": dict(
+            spans=spans,
+            span_length=32.0,
+            mass_per_length=22.4e3,
+            youngs_modulus=35.5e9,
+            area=8.63,
+            second_moment=6.58,
+            elements_per_span=8,
+        ),
         "train": dict(vehicle="pioneer-2d", cars=cars, speed_kmh=300.0),
         "track": dict(irregularity="german-low", seed=3),
-        "solver": dict(method=method, backend="numpy", time_step=dt, output_every=1, contact_split=split,
-                       constraint_kappa=kappa),
+        "solver": dict(
+            method=method,
+            backend="numpy",
+            time_step=dt,
+            output_every=1,
+            contact_split=split,
+            constraint_kappa=kappa,
+        ),
     }
     if quake:
         data["earthquake"] = dict(vertical="synthetic", longitudinal="synthetic", arrival=0.2)
@@ -37,8 +57,9 @@ def paper_like(method: str, split: float = 0.5, kappa: float = 1.0, cars: int = 
 
 
 @cache
-def run(method: str, split: float = 0.5, kappa: float = 1.0, cars: int = 2, spans: int = 3,
-        quake: bool = True):
+def run(
+    method: str, split: float = 0.5, kappa: float = 1.0, cars: int = 2, spans: int = 3, quake: bool = True
+):
     return svbi.simulate(paper_like(method, split, kappa, cars, spans, quake))
 
 
@@ -94,18 +115,30 @@ def test_coupled_dynamic_with_kappa_zero_is_classic():
 
 def drift_scenario(method: str):
     """One sprung mass over 12 spans of 25 m (coarse mesh): 1e5 steps of 1e-4 s."""
-    return validate_scenario({
-        "bridge": dict(spans=12, span_length=25.0, mass_per_length=2303.0, youngs_modulus=2.87e9, area=1.0,
-                       second_moment=2.9, damping_ratio=0.02, elements_per_span=4),
-        "train": dict(vehicle="sprung-mass", speed_kmh=100.0),
-        "solver": dict(method=method, backend="numpy", time_step=1e-4, duration=10.0, output_every=100),
-    })
+    return validate_scenario(
+        {
+            "bridge": dict(
+                spans=12,
+                span_length=25.0,
+                mass_per_length=2303.0,
+                youngs_modulus=2.87e9,
+                area=1.0,
+                second_moment=2.9,
+                damping_ratio=0.02,
+                elements_per_span=4,
+            ),
+            "train": dict(vehicle="sprung-mass", speed_kmh=100.0),
+            "solver": dict(method=method, backend="numpy", time_step=1e-4, duration=10.0, output_every=100),
+        }
+    )
 
 
 @pytest.mark.slow
 def test_dynamic_multipliers_do_not_drift_classic_ones_do():
-    results = {m: svbi.simulate(drift_scenario(m))
-               for m in ("localized-dynamic", "coupled-dynamic", "coupled-classic")}
+    results = {
+        m: svbi.simulate(drift_scenario(m))
+        for m in ("localized-dynamic", "coupled-dynamic", "coupled-classic")
+    }
     for ds in results.values():
         assert ds.attrs["steps"] == 100_000
         assert float(ds.time[-1]) > 250.0 / (100 / 3.6)  # the wheel has crossed 10 joints
@@ -116,7 +149,7 @@ def test_dynamic_multipliers_do_not_drift_classic_ones_do():
         assert float(np.abs(results[m].gap_support).max()) <= 1e-9, m
     classic = results["coupled-classic"]
     drift = np.abs(classic.gap_bridge.values[:, 0, 0])
-    assert drift[-1] > 1e-5, "classic multipliers should drift at the span joints"
+    assert drift[-1] > 1e-3, "classic multipliers should drift (by millimetres) at the span joints"
     # the drift builds up joint after joint: it is larger in the second half of the run
     half = len(drift) // 2
     assert drift[half:].max() > 2 * drift[:half].max()

@@ -12,10 +12,10 @@ from pathlib import Path
 import numpy as np
 import pytest
 import xarray as xr
+from svbi.runtime.scenario import ScenarioError, ScenarioWarning, load_scenario, loads_scenario
 from typer.testing import CliRunner
 
 import svbi
-from svbi.runtime.scenario import ScenarioError, ScenarioWarning, load_scenario, loads_scenario
 
 GOOD = """\
 title = "one span"
@@ -74,7 +74,9 @@ def test_defaults_are_filled_in_and_echoed(tmp_path):
 
 
 def test_full_schema_is_accepted(tmp_path):
-    text = GOOD + """
+    text = (
+        GOOD
+        + """
 [track]
 irregularity = "german-low"
 seed = 4
@@ -91,6 +93,7 @@ apparent_velocity = 800.0
 [output]
 force_filter_hz = 30.0
 """
+    )
     sc = load_scenario(write(tmp_path, text))
     assert sc.earthquake.apparent_velocity == 800.0 and sc.track.seed == 4
     hslm = replace(GOOD, 'vehicle = "sprung-mass"', 'vehicle = "moving-load"\nhslm = "A3"')
@@ -104,17 +107,29 @@ force_filter_hz = 30.0
         ("span_length = 25.0", "span_length = -25.0", "bridge.span_length", "span_length"),
         ("time_step = 2.0e-3", "time_step = 0.0", "solver.time_step", "time_step"),
         ("speed_kmh = 100.0", "speed_kmh = 0.0", "train.speed_kmh", "speed_kmh"),
-        ("output_every = 5", "output_every = 5\nmethod = \"fastest\"", "solver.method", "fastest"),
-        ("output_every = 5", "output_every = 5\nbackend = \"fortran\"", "solver.backend", "fortran"),
-        ("spans = 1", "spans = 1\ncolour = \"red\"", "bridge.colour", "colour"),
+        ("output_every = 5", 'output_every = 5\nmethod = "fastest"', "solver.method", "fastest"),
+        ("output_every = 5", 'output_every = 5\nbackend = "fortran"', "solver.backend", "fortran"),
+        ("spans = 1", 'spans = 1\ncolour = "red"', "bridge.colour", "colour"),
         ("output_every = 5", "output_every = 5\nduration = 1.0e-3", "solver.duration", "duration"),
         ("elements_per_span = 4", "elements_per_span = 4.5", "bridge.elements_per_span", "elements_per"),
-        ("speed_kmh = 100.0", "speed_kmh = 100.0\n[train.parameters]\nsprung_mass = -5750.0",
-         "train.parameters.sprung_mass", "sprung_mass"),
-        ("speed_kmh = 100.0", "speed_kmh = 100.0\n[train.parameters]\nwheel_mass = 0.0",
-         "train.parameters.wheel_mass", "wheel_mass"),
-        ("speed_kmh = 100.0", "speed_kmh = 100.0\n[train.parameters]\nwings = 2.0",
-         "train.parameters.wings", "wings"),
+        (
+            "speed_kmh = 100.0",
+            "speed_kmh = 100.0\n[train.parameters]\nsprung_mass = -5750.0",
+            "train.parameters.sprung_mass",
+            "sprung_mass",
+        ),
+        (
+            "speed_kmh = 100.0",
+            "speed_kmh = 100.0\n[train.parameters]\nwheel_mass = 0.0",
+            "train.parameters.wheel_mass",
+            "wheel_mass",
+        ),
+        (
+            "speed_kmh = 100.0",
+            "speed_kmh = 100.0\n[train.parameters]\nwings = 2.0",
+            "train.parameters.wings",
+            "wings",
+        ),
     ],
 )
 def test_bad_value_names_key_file_and_line(tmp_path, old, new, key, needle):
@@ -125,7 +140,7 @@ def test_bad_value_names_key_file_and_line(tmp_path, old, new, key, needle):
 
 
 def test_unknown_table_and_top_level_key(tmp_path):
-    text = GOOD + "\n[solverr]\nmethod = \"coupled-dynamic\"\n"
+    text = GOOD + '\n[solverr]\nmethod = "coupled-dynamic"\n'
     found = problems(tmp_path, text)
     assert any(f":{line_of(text, '[solverr]')}: solverr: unknown key" in p for p in found), found
 
@@ -133,8 +148,9 @@ def test_unknown_table_and_top_level_key(tmp_path):
 def test_missing_required_key_points_at_its_table(tmp_path):
     text = replace(GOOD, "second_moment = 2.9\n", "")
     found = problems(tmp_path, text)
-    assert any(f":{line_of(text, '[bridge]')}: bridge.second_moment: required key is missing" in p
-               for p in found), found
+    assert any(
+        f":{line_of(text, '[bridge]')}: bridge.second_moment: required key is missing" in p for p in found
+    ), found
 
 
 def test_speed_given_twice_or_never(tmp_path):
@@ -180,9 +196,16 @@ def test_coarse_time_step_warns_with_the_numbers(tmp_path):
 
 
 def test_overrides_are_toml_literals_or_text(tmp_path):
-    sc = load_scenario(write(tmp_path, GOOD), overrides=[
-        "solver.method=coupled-dynamic", "solver.time_step=1e-3", "earthquake.vertical=synthetic",
-        "train.parameters.sprung_mass=6000.0", 'title="with spaces"'])
+    sc = load_scenario(
+        write(tmp_path, GOOD),
+        overrides=[
+            "solver.method=coupled-dynamic",
+            "solver.time_step=1e-3",
+            "earthquake.vertical=synthetic",
+            "train.parameters.sprung_mass=6000.0",
+            'title="with spaces"',
+        ],
+    )
     assert sc.solver.method == "coupled-dynamic" and sc.solver.time_step == 1e-3
     assert sc.earthquake.vertical == "synthetic" and sc.train.parameters == {"sprung_mass": 6000.0}
     assert sc.title == "with spaces"
@@ -213,17 +236,41 @@ def test_cli_run_writes_results_atomically(tmp_path):
     _register()
     scenario = write(tmp_path, GOOD)
     out = tmp_path / "results" / "run.nc"
-    result = CliRunner().invoke(app, ["run", str(scenario), "-o", str(out), "-q",
-                                      "--set", "solver.method=coupled-dynamic", "--set", "solver.duration=0.1"])
+    result = CliRunner().invoke(
+        app,
+        [
+            "run",
+            str(scenario),
+            "-o",
+            str(out),
+            "-q",
+            "--set",
+            "solver.method=coupled-dynamic",
+            "--set",
+            "solver.duration=0.1",
+        ],
+    )
     assert result.exit_code == 0, result.output
     assert sorted(p.name for p in out.parent.iterdir()) == ["run.nc"]  # no temporary file left
     with xr.open_dataset(out, engine="h5netcdf") as ds:
         assert ds.attrs["method"] == "coupled-dynamic" and ds.attrs["complete"] == 1
         assert 'method = "coupled-dynamic"' in ds.attrs["scenario"]
         assert ds.sizes["time"] == 11 and float(ds.time[-1]) == pytest.approx(0.1)
-        for name in ("midspan_uz", "midspan_ux", "ground_uz", "ground_ux", "contact_force",
-                     "contact_force_filtered", "creep_force", "carbody_uz", "carbody_az", "carbody_pitch",
-                     "gap_vehicle", "gap_bridge", "gap_support"):
+        for name in (
+            "midspan_uz",
+            "midspan_ux",
+            "ground_uz",
+            "ground_ux",
+            "contact_force",
+            "contact_force_filtered",
+            "creep_force",
+            "carbody_uz",
+            "carbody_az",
+            "carbody_pitch",
+            "gap_vehicle",
+            "gap_bridge",
+            "gap_support",
+        ):
             assert name in ds
         assert np.isfinite(ds.contact_force).all()
 
@@ -268,8 +315,20 @@ def test_cli_run_stops_a_diverging_run_and_keeps_what_it_had(tmp_path):
     try:
         scenario = write(tmp_path, GOOD)
         out = tmp_path / "run.nc"
-        result = CliRunner().invoke(app, ["run", str(scenario), "-o", str(out), "-q",
-                                          "--set", "solver.backend=casadi", "--set", "solver.output_every=1"])
+        result = CliRunner().invoke(
+            app,
+            [
+                "run",
+                str(scenario),
+                "-o",
+                str(out),
+                "-q",
+                "--set",
+                "solver.backend=casadi",
+                "--set",
+                "solver.output_every=1",
+            ],
+        )
     finally:
         sim._BACKENDS.pop("casadi", None)
     assert result.exit_code == 3

@@ -16,31 +16,46 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-
-import svbi
 from svbi.runtime.scenario import validate_scenario
 
-L, MU, E, I = 32.0, 22.40e3, 35.5e9, 6.58
+import svbi
+
+L, MU, E, Iy = 32.0, 22.40e3, 35.5e9, 6.58
 P = 170.0e3
 
 
 def fryba_midspan(t: np.ndarray, v: float, terms: int = 200) -> np.ndarray:
     n = np.arange(1, terms + 1)[:, None]
-    w1 = (np.pi / L) ** 2 * np.sqrt(E * I / MU)
+    w1 = (np.pi / L) ** 2 * np.sqrt(E * Iy / MU)
     omega = np.pi * v / L
     alpha = omega / w1
     series = (np.sin(n * omega * t) - (alpha / n) * np.sin(n**2 * w1 * t)) / (n**2 * (n**2 - alpha**2))
-    return -(2 * P * L**3 / (np.pi**4 * E * I)) * np.sum(series * np.sin(n * np.pi / 2), axis=0)
+    return -(2 * P * L**3 / (np.pi**4 * E * Iy)) * np.sum(series * np.sin(n * np.pi / 2), axis=0)
 
 
 def run(speed_kmh: float, method: str = "localized-dynamic", dt: float = 1e-4):
-    return svbi.simulate(validate_scenario({
-        "bridge": dict(spans=1, span_length=L, mass_per_length=MU, youngs_modulus=E, area=8.63,
-                       second_moment=I, damping_ratio=0.0, elements_per_span=16),
-        "train": dict(vehicle="moving-load", speed_kmh=speed_kmh,
-                      parameters=dict(axle_loads=[P], axle_offsets=[0.0])),
-        "solver": dict(method=method, backend="numpy", time_step=dt, output_every=1),
-    }))
+    return svbi.simulate(
+        validate_scenario(
+            {
+                "bridge": dict(
+                    spans=1,
+                    span_length=L,
+                    mass_per_length=MU,
+                    youngs_modulus=E,
+                    area=8.63,
+                    second_moment=Iy,
+                    damping_ratio=0.0,
+                    elements_per_span=16,
+                ),
+                "train": dict(
+                    vehicle="moving-load",
+                    speed_kmh=speed_kmh,
+                    parameters=dict(axle_loads=[P], axle_offsets=[0.0]),
+                ),
+                "solver": dict(method=method, backend="numpy", time_step=dt, output_every=1),
+            }
+        )
+    )
 
 
 @pytest.mark.parametrize("speed_kmh", [150.0, 360.0])

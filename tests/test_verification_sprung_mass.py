@@ -18,11 +18,11 @@ from __future__ import annotations
 import numpy as np
 import pytest
 from scipy.integrate import solve_ivp
-
-import svbi
 from svbi.runtime.scenario import validate_scenario
 
-L, E, I, MU = 25.0, 2.87e9, 2.9, 2303.0
+import svbi
+
+L, E, Iy, MU = 25.0, 2.87e9, 2.9, 2303.0
 M_S, K_S, M_W = 5750.0, 1.595e6, 500.0
 V = 100.0 / 3.6
 G = 9.81
@@ -39,7 +39,7 @@ def modal_reference(n_modes: int = MODES):
     """
     n = np.arange(1, n_modes + 1)
     k_n = n * np.pi / L
-    w2 = k_n**4 * E * I / MU
+    w2 = k_n**4 * E * Iy / MU
     m0 = MU * L / 2  # modal mass of sin(n pi x / L)
     mid = np.sin(n * np.pi / 2)
 
@@ -63,8 +63,15 @@ def modal_reference(n_modes: int = MODES):
         spring = K_S * (np.sin(k_n * V * t) @ y[:n_modes] - y[-2])
         return np.concatenate([y[n_modes : 2 * n_modes], qdd, [y[-1], spring / M_S]])
 
-    sol = solve_ivp(rhs, (0.0, L / V), np.zeros(2 * n_modes + 2), method="DOP853", rtol=1e-10,
-                    atol=1e-13, dense_output=True)
+    sol = solve_ivp(
+        rhs,
+        (0.0, L / V),
+        np.zeros(2 * n_modes + 2),
+        method="DOP853",
+        rtol=1e-10,
+        atol=1e-13,
+        dense_output=True,
+    )
     assert sol.success
 
     def midspan(t: np.ndarray) -> np.ndarray:
@@ -74,7 +81,7 @@ def modal_reference(n_modes: int = MODES):
         for i, ti in enumerate(t):
             x = V * ti
             a = min(x, L - x)
-            green = -a * (3 * L * L - 4 * a * a) / (48 * E * I)  # midspan deflection, unit load at x
+            green = -a * (3 * L * L - 4 * a * a) / (48 * E * Iy)  # midspan deflection, unit load at x
             truncated = green + np.sum(np.sin(k_n * x) * mid / (m0 * w2))
             w[i] += motion(ti, y[:, i])[1] * truncated
         return w
@@ -88,13 +95,26 @@ def reference():
 
 
 def scenario(dt: float, elements: int = 16, method: str = "localized-dynamic"):
-    return validate_scenario({
-        "bridge": dict(spans=1, span_length=L, mass_per_length=MU, youngs_modulus=E, area=1.0,
-                       second_moment=I, damping_ratio=0.0, elements_per_span=elements),
-        "train": dict(vehicle="sprung-mass", speed=V,
-                      parameters=dict(sprung_mass=M_S, stiffness=K_S, wheel_mass=M_W, damping=0.0)),
-        "solver": dict(method=method, backend="numpy", time_step=dt, output_every=1),
-    })
+    return validate_scenario(
+        {
+            "bridge": dict(
+                spans=1,
+                span_length=L,
+                mass_per_length=MU,
+                youngs_modulus=E,
+                area=1.0,
+                second_moment=Iy,
+                damping_ratio=0.0,
+                elements_per_span=elements,
+            ),
+            "train": dict(
+                vehicle="sprung-mass",
+                speed=V,
+                parameters=dict(sprung_mass=M_S, stiffness=K_S, wheel_mass=M_W, damping=0.0),
+            ),
+            "solver": dict(method=method, backend="numpy", time_step=dt, output_every=1),
+        }
+    )
 
 
 def error(ds, reference) -> tuple[float, float]:

@@ -10,12 +10,12 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-
-import svbi
 from svbi.codegen.topology import load_topology
 from svbi.runtime.scenario import validate_scenario
 
-L, MU, E, I = 32.0, 22.40e3, 35.5e9, 6.58
+import svbi
+
+L, MU, E, Iy = 32.0, 22.40e3, 35.5e9, 6.58
 G = 9.81
 
 
@@ -24,25 +24,41 @@ def deflection(x: float, a: float, P: float) -> float:
     if x > a:
         x, a = L - x, L - a
     b = L - a
-    return -P * b * x * (L * L - b * b - x * x) / (6 * L * E * I)
+    return -P * b * x * (L * L - b * b - x * x) / (6 * L * E * Iy)
 
 
 @pytest.mark.parametrize("method", ["localized-dynamic", "coupled-dynamic", "coupled-classic"])
 def test_train_standing_on_a_span(method):
     lead = 25.0
-    scenario = validate_scenario({
-        "bridge": dict(spans=2, span_length=L, mass_per_length=MU, youngs_modulus=E, area=8.63,
-                       second_moment=I, damping_ratio=0.02, elements_per_span=16),
-        "train": dict(vehicle="pioneer-2d", cars=1, speed_kmh=300.0, start_position=lead),
-        "solver": dict(method=method, backend="numpy", time_step=1e-3, duration=0.02, output_every=1),
-    })
+    scenario = validate_scenario(
+        {
+            "bridge": dict(
+                spans=2,
+                span_length=L,
+                mass_per_length=MU,
+                youngs_modulus=E,
+                area=8.63,
+                second_moment=Iy,
+                damping_ratio=0.02,
+                elements_per_span=16,
+            ),
+            "train": dict(vehicle="pioneer-2d", cars=1, speed_kmh=300.0, start_position=lead),
+            "solver": dict(method=method, backend="numpy", time_step=1e-3, duration=0.02, output_every=1),
+        }
+    )
     ds = svbi.simulate(scenario, hold_train=True, start="static")
 
     p = load_topology("pioneer-2d").defaults()
     # statics of the symmetric car: each axle carries a quarter of the body, half a bogie, one wheelset
     axle = (p["carbody_mass"] / 4 + p["bogie_mass"] / 2 + p["wheelset_mass"]) * G
-    offsets = np.array([0.0, 2 * p["axle_half_spacing"], 2 * p["bogie_half_spacing"],
-                        2 * (p["bogie_half_spacing"] + p["axle_half_spacing"])])
+    offsets = np.array(
+        [
+            0.0,
+            2 * p["axle_half_spacing"],
+            2 * p["bogie_half_spacing"],
+            2 * (p["bogie_half_spacing"] + p["axle_half_spacing"]),
+        ]
+    )
     force = ds.contact_force.values[:, 0, :]
     np.testing.assert_allclose(force, axle, rtol=1e-9)
 

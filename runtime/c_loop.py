@@ -1,0 +1,473 @@
+"""The compiled Newmark loop: C sources rendered from ``templates/solver/``, built and loaded.
+
+One loop library per vehicle topology. Sizes that are fixed by the topology are baked into the C
+source as constants (vehicle DOFs ``NV``, wheels per car ``NW``, element DOFs, the degree and
+non-zero pattern of the contact-row polynomials); everything that depends on the run (cars, spans,
+elements, the numbers of every matrix) travels in a setup struct. The structs are written once,
+here, as lists of :class:`Field`; the C header and the ctypes mirrors are both rendered from those
+lists, so they cannot disagree.
+
+Every formula the C loop evaluates comes from the symbolic pipeline: the contact rows (``W_N^B``
+and the discrete aux-bridge row of ``svbi.codegen.constraints``) are passed as the coefficients of
+their polynomials in the local coordinate ``xi`` (as ``svbi.runtime.numeric`` evaluates them), the
+point rows (supports, off-bridge contacts) as their coefficients, the constraint mass of Eq. (31) as
+the two polynomials of its ratio. The loop itself is Newmark's average-acceleration scheme and
+linear algebra.
+
+The library is compiled through :mod:`svbi.runtime.compiled` (per-user cache keyed by the content
+hash, ``-O3``), with the strict warning set of the kernels (``-std=c99 -Wall -Wextra -Werror``).
+"""
+
+from __future__ import annotations
+
+import ctypes
+from dataclasses import dataclass
+from functools import cache
+from typing import Any
+
+import jinja2
+import numpy as np
+import sympy as sp
+
+from svbi.codegen import beam
+from svbi.codegen.c_emit import STRICT_FLAGS
+from svbi.codegen.kernels import c_identifier
+
+GENERATOR = "svbi.runtime.c_loop"
+ROW_BLOCKS = ("N0", "W_hat", "c_P_ue", "c_Q_ue")
+"""Six-column blocks of the contact-row table, in column order; then ``ROW_SCALARS``."""
+ROW_SCALARS = ("c_P_ug", "c_Q_ug", "c_r", "c_r_x", "c_r_xx")
+ROW_COLUMNS = 6 * len(ROW_BLOCKS) + len(ROW_SCALARS)
+
+METHOD_CODES = {"localized-dynamic": 0, "coupled-dynamic": 1, "coupled-classic": 2}
+
+STATUS_OK = 0
+STATUS_NOT_FINITE = 1
+STATUS_FORCE_LIMIT = 2
+STATUS_GAP_LIMIT = 3
+STATUS_SINGULAR = 4
+STATUS_BANDWIDTH = 5
+STATUS_NOT_SPD = 6
+STATUS_INTERRUPTED = 7
+STATUS_NAMES = {
+    STATUS_OK: "ok",
+    STATUS_NOT_FINITE: "not finite",
+    STATUS_FORCE_LIMIT: "contact force limit",
+    STATUS_GAP_LIMIT: "gap limit",
+    STATUS_SINGULAR: "singular matrix",
+    STATUS_BANDWIDTH: "interface bandwidth exceeds the workspace",
+    STATUS_NOT_SPD: "matrix not positive definite",
+    STATUS_INTERRUPTED: "interrupted",
+}
+
+
+@dataclass(frozen=True)
+class Field:
+    """One member of a C struct: ``kind`` is int, long, double, int*, double*, ppoly or ppoly*."""
+
+    name: str
+    kind: str
+    doc: str
+
+
+_C_TYPES = {
+    "int": "int",
+    "long": "long",
+    "double": "double",
+    "int*": "const int*",
+    "double*": "const double*",
+    "mdouble*": "double*",
+    "ppoly": "svbi_ppoly",
+}
+_CTYPES: dict[str, Any] = {
+    "int": ctypes.c_int,
+    "long": ctypes.c_long,
+    "double": ctypes.c_double,
+    "int*": ctypes.c_void_p,
+    "double*": ctypes.c_void_p,
+    "mdouble*": ctypes.c_void_p,
+}
+
+
+def F(name: str, kind: str, doc: str) -> Field:  # noqa: N802 - reads like a table row
+    return Field(name, kind, doc)
+
+
+PPOLY_FIELDS = [
+    F("n", "int", "number of intervals (0: a step at x[0] from `left` to `right`)"),
+    F("k", "int", "degree of every piece"),
+    F("uniform", "int", "1 when the breaks are equally spaced (O(1) interval lookup)"),
+    F("h", "double", "break spacing when uniform"),
+    F("x", "double*", "n + 1 increasing breaks"),
+    F("c", "double*", "(k + 1) x n coefficients, scipy.interpolate.PPoly layout: c[m][i] multiplies "
+                      "(x - x[i])^(k - m)"),
+    F("left0", "double", "value for x <= x[0]"),
+    F("left1", "double", "first derivative for x <= x[0]"),
+    F("left2", "double", "second derivative for x <= x[0]"),
+    F("right0", "double", "value for x >= x[n]"),
+    F("right1", "double", "first derivative for x >= x[n]"),
+    F("right2", "double", "second derivative for x >= x[n]"),
+]
+
+SETUP_FIELDS = [
+    # sizes and switches
+    F("method", "int", "0 localized-dynamic, 1 coupled-dynamic, 2 coupled-classic"),
+    F("moving_load", "int", "1: prescribed axle forces, no vehicle DOFs"),
+    F("cars", "int", "number of cars"),
+    F("nw", "int", "wheels (axles) per car"),
+    F("nc", "int", "contacts = cars * nw"),
+    F("spans", "int", "number of spans"),
+    F("elements", "int", "elements per span"),
+    F("nd", "int", "DOFs per span, 3 (elements + 1)"),
+    F("ns", "int", "support constraints per span"),
+    F("nfree", "int", "DOFs per span that are not support DOFs"),
+    F("band_p", "int", "half bandwidth of the span matrices"),
+    F("band_pf", "int", "half bandwidth of K^ restricted to the free DOFs"),
+    F("bw_max", "int", "largest interface half bandwidth the workspace holds"),
+    F("bw_car", "int", "largest index distance between two wheels of one car in the track order"),
+    F("output_every", "int", "record every Nth step"),
+    F("mid_first", "int", "first span DOF of the midspan element"),
+    F("carbody_z", "int", "vehicle DOF of the car-body bounce (-1: none)"),
+    F("carbody_theta", "int", "vehicle DOF of the car-body pitch (-1: none)"),
+    F("mb_num_n", "int", "coefficients of the numerator of Eq. (31) in xi"),
+    F("mb_den_n", "int", "coefficients of the denominator of Eq. (31) in xi"),
+    F("steps", "long", "steps of the whole run"),
+    # scalars
+    F("dt", "double", "time step (s)"),
+    F("a0", "double", "Newmark 4/dt^2"),
+    F("a1", "double", "Newmark 2/dt"),
+    F("a2", "double", "Newmark 4/dt"),
+    F("gravity", "double", "g (m/s^2)"),
+    F("speed", "double", "train speed (m/s)"),
+    F("start", "double", "leading axle at t = 0 (m)"),
+    F("span_length", "double", "L (m)"),
+    F("inv_span_length", "double", "1 / L"),
+    F("inv_element_length", "double", "1 / le"),
+    F("p_P", "double", "point row: coefficient of P[y]"),
+    F("p_Q", "double", "point row: coefficient of Q[y]"),
+    F("p_q2", "double", "point row: coefficient of q''"),
+    F("p_q1", "double", "point row: coefficient of q'"),
+    F("p_q", "double", "point row: coefficient of q"),
+    F("d", "double", "a0 + 2 zeta omega a1 + omega^2"),
+    F("c2", "double", "2 zeta omega"),
+    F("force_limit", "double", "|contact force| that stops the run (N)"),
+    F("gap_limit", "double", "|gap| that stops the run (m)"),
+    F("sC", "double", "coupled-classic: scale of the contact rows and columns"),
+    # contacts
+    F("order", "int*", "nc: contact indices in track order (front to back)"),
+    F("offsets", "double*", "nc: distance of every contact behind the leading axle (m)"),
+    F("axle_loads", "double*", "nc: moving-load axle forces (N)"),
+    F("rows", "double*", "(ROW_DEG + 1) x ROW_COLS: contact-row polynomial coefficients in xi"),
+    F("mb_num", "double*", "mb_num_n coefficients (ascending powers of xi) of Eq. (31)'s numerator"),
+    F("mb_den", "double*", "mb_den_n coefficients of Eq. (31)'s denominator"),
+    # one span
+    F("sup", "int*", "ns: span DOF of every support constraint"),
+    F("sup_vertical", "int*", "ns: 1 for a vertical support, 0 for the longitudinal one"),
+    F("free", "int*", "nfree: span DOFs that are not support DOFs"),
+    F("M_ptr", "int*", "nd + 1: CSR row pointers of the span mass matrix"),
+    F("M_idx", "int*", "CSR column indices"),
+    F("M_val", "double*", "CSR values"),
+    F("C_ptr", "int*", "nd + 1: CSR row pointers of the span damping matrix"),
+    F("C_idx", "int*", "CSR column indices"),
+    F("C_val", "double*", "CSR values"),
+    F("CT", "double*", "nd x ns: C T, damping of the quasi-static support motion"),
+    F("Khat_band", "double*", "nd x (band_p + 1): lower band of K^ = K + a1 C + a0 M"),
+    F("Khat_ff_band", "double*", "nfree x (band_pf + 1): lower band of K^ on the free DOFs"),
+    F("Khat_fs", "double*", "nfree x ns: K^ coupling free DOFs to support DOFs"),
+    F("S", "double*", "nd x nd: bridge compliance with the supports held"),
+    F("mid_w", "double*", "6: vertical shape row at midspan"),
+    F("mid_u", "double*", "6: axial shape row at midspan"),
+    F("mG", "double*", "ns: support constraint masses, Eq. (34)"),
+    F("sG", "double*", "ns: coupled-classic scale of the support rows"),
+    # one car
+    F("V_kinv", "double*", "NV x NV: inverse of the vehicle effective matrix"),
+    F("V_khat", "double*", "NV x NV: vehicle effective matrix K + a1 C + a0 M"),
+    F("V_M", "double*", "NV x NV: vehicle mass in the equations of motion (active or full)"),
+    F("V_C", "double*", "NV x NV: vehicle damping"),
+    F("V_F", "double*", "NV: constant vehicle load (gravity less the static spring forces)"),
+    F("V_W", "double*", "NV x NW: contact directions W_N^V"),
+    F("V_A", "double*", "NV x NW: K^-1 W"),
+    F("V_B", "double*", "NW x NW: (F_V + diag c_g)^-1"),
+    F("V_Fstar", "double*", "NW x NW: full-vehicle wheel flexibility"),
+    F("c_g", "double*", "NW: aux-point compliance 1 / (a0 m_g)"),
+    F("m_g", "double*", "NW: aux-point masses"),
+    F("mV", "double*", "NW: wheel-aux constraint masses, Eq. (27)"),
+]
+
+STATE_FIELDS = [
+    F("t", "double", "time of the state (s)"),
+    F("uV", "mdouble*", "cars x NV"),
+    F("vV", "mdouble*", "cars x NV"),
+    F("aV", "mdouble*", "cars x NV"),
+    F("uB", "mdouble*", "spans x nd"),
+    F("vB", "mdouble*", "spans x nd"),
+    F("aB", "mdouble*", "spans x nd"),
+    F("ug", "mdouble*", "nc: aux points"),
+    F("vg", "mdouble*", "nc"),
+    F("ag", "mdouble*", "nc"),
+    F("P", "mdouble*", "nc: wheel-rail force, compression positive"),
+    F("PV", "mdouble*", "nc: wheel-aux force"),
+    F("lamV", "mdouble*", "3 x nc: coupled-dynamic multipliers of the wheel-aux constraints and rates"),
+    F("lamB", "mdouble*", "3 x nc: aux-bridge multipliers"),
+    F("lamG", "mdouble*", "3 x spans * ns: support multipliers"),
+]
+
+EXCITATION_FIELDS = [
+    F("irr_mode", "int", "rail irregularity: 0 none, 1 table, 2 stream"),
+    F("irr_ramp", "int", "1: the table is multiplied by the onset ramp table"),
+    F("irr_start", "double", "r = 0 for x <= irr_start"),
+    F("irr_base", "ppoly", "profile"),
+    F("irr_onset", "ppoly", "onset ramp"),
+    F("gv_mode", "int", "vertical ground: 0 at rest, 1 synchronous table, 2 travelling table, 3 stream"),
+    F("gh_mode", "int", "longitudinal ground: same codes"),
+    F("gv", "ppoly", "vertical q(t)"),
+    F("gh", "ppoly", "longitudinal q(t)"),
+    F("apparent_velocity", "double", "wave-passage apparent velocity (m/s)"),
+    F("x_ref", "double", "where the wave passes at the arrival time (m)"),
+    F("ground_per_support", "int", "1: ground_uz, ground_ux are recorded per support"),
+    F("s_n0", "long", "streams: step index n of the first stream entry (t = (n + 1) dt)"),
+    F("s_count", "long", "streams: entries held"),
+    F("s_rail", "double*", "s_count x 3 x nc: r, r', r'' under every contact"),
+    F("s_under", "double*", "s_count x 3 x nc: q, q', q'' of the ground under every contact"),
+    F("s_sup", "double*", "s_count x 3 x (spans * ns): support targets q, q', q''"),
+    F("s_rec", "double*", "s_count x 2 x nrec: recorded ground_uz, ground_ux"),
+]
+
+OUTPUT_FIELDS = [
+    F("row", "long", "next output row (in/out)"),
+    F("nout", "long", "rows available"),
+    F("time", "mdouble*", "nout"),
+    F("midspan_uz", "mdouble*", "nout x spans"),
+    F("midspan_ux", "mdouble*", "nout x spans"),
+    F("ground_uz", "mdouble*", "nout (x spans * ns when per support)"),
+    F("ground_ux", "mdouble*", "nout (x spans * ns when per support)"),
+    F("contact_force", "mdouble*", "nout x nc"),
+    F("carbody_uz", "mdouble*", "nout x cars"),
+    F("carbody_az", "mdouble*", "nout x cars"),
+    F("carbody_pitch", "mdouble*", "nout x cars"),
+    F("gap_vehicle", "mdouble*", "nout x nc"),
+    F("gap_bridge", "mdouble*", "nout x nc"),
+    F("gap_support", "mdouble*", "nout x spans * ns"),
+    F("forces", "mdouble*", "(steps + 1) x nc: contact force at every step"),
+]
+
+INFO_FIELDS = [
+    F("status", "int", "0 ok, else an error code (see the header)"),
+    F("quantity", "int", "what failed: 1 contact force, 2 bridge, 3 vehicle; gaps: 1 support, "
+                         "2 vehicle, 3 bridge"),
+    F("step", "long", "n of the step that failed (t = (n + 1) dt)"),
+    F("steps_done", "long", "last step index whose state is complete (n + 1)"),
+    F("value", "double", "the offending value"),
+]
+
+STRUCTS = {
+    "ppoly": PPOLY_FIELDS,
+    "setup": SETUP_FIELDS,
+    "state": STATE_FIELDS,
+    "excitation": EXCITATION_FIELDS,
+    "outputs": OUTPUT_FIELDS,
+    "info": INFO_FIELDS,
+}
+
+
+class PPoly(ctypes.Structure):
+    _fields_ = [(f.name, _CTYPES[f.kind]) for f in PPOLY_FIELDS]
+
+
+_CTYPES["ppoly"] = PPoly
+
+
+def _structure(name: str, fields: list[Field]) -> type[ctypes.Structure]:
+    return type(name, (ctypes.Structure,), {"_fields_": [(f.name, _CTYPES[f.kind]) for f in fields]})
+
+
+Setup = _structure("Setup", SETUP_FIELDS)
+State = _structure("State", STATE_FIELDS)
+Excitation = _structure("Excitation", EXCITATION_FIELDS)
+Outputs = _structure("Outputs", OUTPUT_FIELDS)
+Info = _structure("Info", INFO_FIELDS)
+
+
+# --------------------------------------------------------------------------------------------------
+# the contact-row table (symbolic -> polynomial coefficients in xi)
+
+
+@cache
+def row_expressions() -> tuple[sp.Expr, ...]:
+    """The contact-row columns of the C table, in ``ROW_BLOCKS`` then ``ROW_SCALARS`` order.
+
+    The same symbolic rows as ``svbi.runtime.numeric.ContactRowKernel``: ``W_N^B`` and the discrete
+    aux-bridge row of ``svbi.codegen.constraints`` split into ``W_hat`` and the coefficients of
+    ``h_B`` in the histories and the irregularity.
+    """
+    from svbi.runtime.numeric import BRIDGE_HISTORY, _bridge_row_symbolic
+
+    _, w_hat, coefs = _bridge_row_symbolic()
+    exprs: list[sp.Expr] = list(beam.normal_row(0)) + list(w_hat) + coefs["P_ue"] + coefs["Q_ue"]
+    exprs += [coefs[k][0] for k in BRIDGE_HISTORY]
+    return tuple(exprs)
+
+
+@cache
+def row_structure() -> tuple[int, tuple[bool, ...]]:
+    """Polynomial degree in xi and the structurally non-zero columns of the row table."""
+    degree = 0
+    nonzero = []
+    for e in row_expressions():
+        value = sp.expand(e)
+        nonzero.append(value != 0)
+        if value != 0:
+            degree = max(degree, sp.Poly(value, beam.xi).degree())
+    return degree, tuple(nonzero)
+
+
+def row_coefficients(le: float, speed: float, dt: float, kappa: float, zeta: float) -> np.ndarray:
+    """``(degree + 1, ROW_COLUMNS)`` coefficients of every column in ascending powers of xi."""
+    from svbi.codegen import constraints
+    from svbi.runtime.numeric import XiPolynomials
+
+    subs = {beam.le: le, constraints.v: speed, constraints.dt: dt, constraints.kappa: kappa,
+            constraints.zeta: zeta}
+    poly = XiPolynomials(list(row_expressions()), subs)
+    degree, _ = row_structure()
+    out = np.zeros((degree + 1, ROW_COLUMNS))
+    out[: poly.coefficients.shape[0]] = poly.coefficients
+    return out
+
+
+# --------------------------------------------------------------------------------------------------
+# rendering
+
+
+def _environment() -> jinja2.Environment:
+    return jinja2.Environment(
+        loader=jinja2.PackageLoader("svbi.templates", "."),
+        undefined=jinja2.StrictUndefined,
+        keep_trailing_newline=True,
+        trim_blocks=True,
+        lstrip_blocks=True,
+        autoescape=False,
+    )
+
+
+def _c_field(f: Field) -> dict[str, str]:
+    return {"name": f.name, "ctype": _C_TYPES[f.kind], "doc": f.doc}
+
+
+@dataclass(frozen=True)
+class LoopSpec:
+    """What one loop library is specialised for."""
+
+    model: str
+    """Vehicle topology name (built-in) or path; "moving-load" for prescribed axle forces."""
+    nv: int
+    """Vehicle DOFs per car (0 for moving loads)."""
+    nw: int
+    """Wheels per car (0: runtime, moving loads)."""
+
+    @property
+    def c_name(self) -> str:
+        return c_identifier(self.model.rsplit("/", 1)[-1].removesuffix(".toml"))
+
+    @property
+    def moving_load(self) -> bool:
+        return self.nv == 0
+
+
+def loop_spec(train: Any) -> LoopSpec:
+    """The :class:`LoopSpec` of a :class:`svbi.runtime.train.Train`."""
+    name = train.topology_name or ("moving-load" if train.moving_load else "vehicle")
+    if train.moving_load:
+        return LoopSpec(name, 0, 0)
+    return LoopSpec(name, int(train.ndof), int(train.wheels))
+
+
+def render_sources(spec: LoopSpec) -> dict[str, bytes]:
+    """``{file name: bytes}`` of the loop library of one vehicle topology."""
+    degree, nonzero = row_structure()
+    base = f"svbi_{spec.c_name}_solver"
+    context = {
+        "generator": GENERATOR,
+        "model": spec.model,
+        "c": spec.c_name,
+        "M": spec.c_name.upper(),
+        "prefix": f"svbi_{spec.c_name}",
+        "header": f"{base}.h",
+        "nv": spec.nv,
+        "nw": spec.nw,
+        "moving_load": spec.moving_load,
+        "ne": beam.NDOF,
+        "row_degree": degree,
+        "row_cols": ROW_COLUMNS,
+        "row_blocks": [
+            {"name": n, "first": 6 * i, "nonzero": [j for j in range(6) if nonzero[6 * i + j]]}
+            for i, n in enumerate(ROW_BLOCKS)
+        ],
+        "row_scalars": [{"name": n, "col": 6 * len(ROW_BLOCKS) + i} for i, n in enumerate(ROW_SCALARS)],
+        "structs": {k: [_c_field(f) for f in v] for k, v in STRUCTS.items()},
+        "status": {
+            "OK": STATUS_OK,
+            "NOT_FINITE": STATUS_NOT_FINITE,
+            "FORCE_LIMIT": STATUS_FORCE_LIMIT,
+            "GAP_LIMIT": STATUS_GAP_LIMIT,
+            "SINGULAR": STATUS_SINGULAR,
+            "BANDWIDTH": STATUS_BANDWIDTH,
+            "NOT_SPD": STATUS_NOT_SPD,
+            "INTERRUPTED": STATUS_INTERRUPTED,
+        },
+    }
+    env = _environment()
+    files = {}
+    for template, name in (("solver/solver.h.j2", f"{base}.h"), ("solver/solver.c.j2", f"{base}.c")):
+        files[name] = env.get_template(template).render({**context, "template": template}).encode()
+    return files
+
+
+class LoopLibrary:
+    """The compiled loop of one topology, with typed entry points."""
+
+    def __init__(self, spec: LoopSpec, library: ctypes.CDLL) -> None:
+        self.spec = spec
+        self._library = library
+        p = f"svbi_{spec.c_name}"
+        self.workspace = library[f"{p}_workspace"]
+        self.workspace.argtypes = [ctypes.POINTER(Setup), ctypes.POINTER(ctypes.c_long),
+                                   ctypes.POINTER(ctypes.c_long)]
+        self.workspace.restype = ctypes.c_int
+        self.init = library[f"{p}_init"]
+        self.init.argtypes = [ctypes.POINTER(Setup), ctypes.c_void_p, ctypes.c_void_p]
+        self.init.restype = ctypes.c_int
+        self.run = library[f"{p}_run"]
+        self.run.argtypes = [
+            ctypes.POINTER(Setup), ctypes.POINTER(State), ctypes.POINTER(Excitation),
+            ctypes.POINTER(Outputs), ctypes.c_void_p, ctypes.c_void_p, ctypes.c_long, ctypes.c_long,
+            ctypes.POINTER(Info),
+        ]
+        self.run.restype = ctypes.c_int
+
+
+_LIBRARIES: dict[LoopSpec, LoopLibrary] = {}
+
+
+def load_loop(spec: LoopSpec) -> LoopLibrary:
+    """Render, compile (cached) and load the loop library of a topology.
+
+    Raises :class:`svbi.runtime.compiled.CompilerError` when no C compiler works.
+    """
+    if spec not in _LIBRARIES:
+        from svbi.runtime import compiled
+
+        sources = render_sources(spec)
+        flags = (*STRICT_FLAGS, "-O3", "-fPIC", "-shared")
+        library = compiled.load_library(sources, f"svbi_{spec.c_name}_solver", flags=flags)
+        _LIBRARIES[spec] = LoopLibrary(spec, library)
+    return _LIBRARIES[spec]
+
+
+def pointer(array: np.ndarray | None) -> int | None:
+    """Address of a C-contiguous array's data (None for an absent array)."""
+    if array is None:
+        return None
+    if not array.flags.c_contiguous:
+        raise ValueError("the C loop needs C-contiguous arrays")
+    return array.ctypes.data
