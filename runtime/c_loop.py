@@ -163,6 +163,7 @@ SETUP_FIELDS = [
     # one span
     F("sup", "int*", "ns: span DOF of every support constraint"),
     F("sup_vertical", "int*", "ns: 1 for a vertical support, 0 for the longitudinal one"),
+    F("sup_x", "double*", "ns: position of every support in its span (0 or L)"),
     F("free", "int*", "nfree: span DOFs that are not support DOFs"),
     F("M_ptr", "int*", "nd + 1: CSR row pointers of the span mass matrix"),
     F("M_idx", "int*", "CSR column indices"),

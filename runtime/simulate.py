@@ -77,6 +77,10 @@ def stepper_class(backend: str, method: str) -> tuple[str, Callable[..., Any]]:
     """The stepper for ``method`` on ``backend``, or the NumPy one (warning once)."""
     if "numpy" not in _BACKENDS:
         register_backend("numpy", _numpy_steppers())
+    if backend == "c" and "c" not in _BACKENDS:
+        from svbi.runtime.c_backend import register  # the whole loop in C (docs/c-backend.md)
+
+        register()
     if backend not in _BACKENDS or method not in _BACKENDS[backend]:
         if backend not in _WARNED:
             _WARNED.add(backend)
@@ -197,6 +201,7 @@ def simulate(
     t0 = time.perf_counter()
     state = initial_state(model, start)
     stepper = cls(model, state)
+    backend = getattr(stepper, "backend", backend)  # a compiled backend that fell back says so
     recorder = Recorder(model)
     aux_is_wheel = s.method == "coupled-classic"
     recorder.force(0, state.P)
@@ -205,7 +210,10 @@ def simulate(
     message = ""
     bar = _progress(s.steps) if progress else None
     try:
-        for n in range(s.steps):
+        run_loop = getattr(stepper, "run_loop", None)
+        if run_loop is not None:  # a compiled loop: whole chunks of steps per call
+            run_loop(recorder, guard, bar)
+        for n in range(s.steps if run_loop is None else 0):
             st = stepper.step(n)
             guard.check_finite(st)
             recorder.force(n + 1, st.P)

@@ -1,0 +1,578 @@
+"""The ``"c"`` backend: the whole Newmark loop in C (``svbi.runtime.c_loop``), in chunks of steps.
+
+The numeric model is built exactly as for the NumPy backend: the NumPy stepper of the method is
+constructed first (it factors the constant matrices, sets the initial multipliers of the coupled
+method, and ties the wheel to its aux point for coupled-classic), and its matrices are handed to C.
+The C loop then runs whole chunks of steps per call, writing straight into the
+:class:`~svbi.runtime.results.Recorder`'s arrays; Python only shows progress between chunks, so
+Ctrl-C stops a run between two chunks and the chunk size never changes the results.
+
+Excitations reach the loop in one of two ways:
+
+* **tables**, evaluated in C: a rail profile given as a piecewise polynomial
+  (:class:`~svbi.runtime.excitation.irregularity.SampledIrregularity`, e.g. a tabulated spectral
+  sample or a measured profile) times its onset ramp, and ground motions given as processed records
+  (:class:`~svbi.runtime.excitation.processing.MotionHistory`: a piecewise cubic in t), synchronous
+  or travelling with an apparent velocity;
+* **streams**, for anything else (an analytic spectral irregularity, a user-defined ground): Python
+  evaluates the very objects the NumPy backend uses, vectorised over each chunk, and the loop reads
+  the values. Slower, but it agrees with NumPy to round-off whatever the excitation is.
+
+A run that diverges in C stops with the step and the quantity; the message and the partial results
+are those of the NumPy backend (``simulate._Guard``). With no C compiler the backend falls back to
+NumPy with one warning (:func:`c_stepper`).
+"""
+
+from __future__ import annotations
+
+import ctypes
+import math
+import time
+import warnings
+from collections.abc import Callable
+from typing import Any
+
+import numpy as np
+import scipy.linalg as sla
+from scipy.interpolate import PPoly
+
+from svbi.codegen.vehicle import GRAVITY
+from svbi.runtime import c_loop
+from svbi.runtime.model import FlatTrack, GroundAtRest, Model, State
+from svbi.runtime.newmark import Newmark
+from svbi.runtime.numeric import AxialShapeKernel, ShapeKernel
+
+CHUNK_SECONDS = 0.1
+"""Target wall time of one call into C: progress and Ctrl-C are handled between calls."""
+STREAM_CHUNK = 2048
+"""Most steps per call when Python streams an excitation into the loop."""
+
+
+class CLoopError(RuntimeError):
+    """The C loop stopped for an internal reason (not a divergence of the run)."""
+
+
+# --------------------------------------------------------------------------------------------------
+# small helpers
+
+
+def _csr(matrix: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """CSR arrays of a dense matrix (exact zeros dropped)."""
+    rows, cols = np.nonzero(matrix)
+    ptr = np.zeros(matrix.shape[0] + 1, dtype=np.int32)
+    np.cumsum(np.bincount(rows, minlength=matrix.shape[0]), out=ptr[1:])
+    return ptr, cols.astype(np.int32), np.ascontiguousarray(matrix[rows, cols])
+
+
+def _lower_band(matrix: np.ndarray) -> tuple[np.ndarray, int]:
+    """Lower band of a symmetric matrix, element (i, j) at ``[j, i - j]``, and its half bandwidth."""
+    rows, cols = np.nonzero(matrix)
+    p = int(np.abs(rows - cols).max(initial=0))
+    n = matrix.shape[0]
+    band = np.zeros((n, p + 1))
+    for k in range(p + 1):
+        band[: n - k, k] = np.diagonal(matrix, -k)
+    return band, p
+
+
+def _window_count(offsets: np.ndarray, width: float) -> int:
+    """Largest number of contacts within any closed window of length ``width``."""
+    o = np.sort(offsets)
+    if o.size == 0:
+        return 0
+    hi = np.searchsorted(o, o + width, side="right")
+    return int((hi - np.arange(o.size)).max())
+
+
+# --------------------------------------------------------------------------------------------------
+# excitation tables
+
+
+def _ppoly_struct(keep: list[Any], x: np.ndarray, c: np.ndarray, left: tuple[float, float, float],
+                  right: tuple[float, float, float]) -> c_loop.PPoly:
+    x = np.ascontiguousarray(x, dtype=float)
+    c = np.ascontiguousarray(c, dtype=float)
+    keep += [x, c]
+    n = c.shape[1] if c.ndim == 2 else 0
+    steps = np.diff(x)
+    uniform = bool(n > 0 and np.allclose(steps, steps[0], rtol=1e-12, atol=0.0))
+    return c_loop.PPoly(n=n, k=(c.shape[0] - 1) if n else 0, uniform=int(uniform),
+                        h=float(steps[0]) if n else 0.0, x=x.ctypes.data, c=c.ctypes.data,
+                        left0=left[0], left1=left[1], left2=left[2],
+                        right0=right[0], right1=right[1], right2=right[2])
+
+
+def _empty_ppoly() -> c_loop.PPoly:
+    return c_loop.PPoly()
+
+
+def _as_ppoly(spline: Any) -> PPoly:
+    if isinstance(spline, PPoly):
+        return spline
+    return PPoly.from_spline(spline)
+
+
+def _ramp_table(ramp: Any) -> tuple[np.ndarray, np.ndarray] | None:
+    """The onset ramp h(x) as one polynomial piece on [start, start + length], found by fitting its
+    own ``weights`` (an exact polynomial: the fit is checked), or None if it is not a polynomial."""
+    if ramp.length == 0.0:
+        return np.array([ramp.start]), np.zeros((1, 0))
+    x = ramp.start + ramp.length * 0.5 * (1.0 - np.cos(np.linspace(0.0, np.pi, 24)))
+    h, dh, ddh = ramp.weights(x)
+    s = x - ramp.start
+    for degree in range(1, 12):
+        coef = np.polynomial.polynomial.polyfit(s, h, degree)
+        p = np.polynomial.Polynomial(coef)
+        ok = (np.abs(p(s) - h).max() <= 1e-14
+              and np.abs(p.deriv(1)(s) - dh).max() <= 1e-12 * max(np.abs(dh).max(), 1e-300)
+              and np.abs(p.deriv(2)(s) - ddh).max() <= 1e-10 * max(np.abs(ddh).max(), 1e-300))
+        if ok:
+            return np.array([ramp.start, ramp.start + ramp.length]), coef[::-1].reshape(-1, 1)
+    return None
+
+
+class ExcitationInput:
+    """How the irregularity and the ground motion of a model reach the C loop (tables or streams)."""
+
+    def __init__(self, model: Model) -> None:
+        self.model = model
+        self.keep: list[Any] = []
+        self.struct = c_loop.Excitation()
+        self.irr_stream = False
+        self.ground_stream = False
+        self._irregularity()
+        self._ground()
+        b = model.bridge
+        self.struct.ground_per_support = int(not model.ground.uniform)
+        self.nrec = b.spans * b.nsupport
+        self.describe = (f"irregularity: {'stream' if self.irr_stream else 'table'}, "
+                         f"ground: {'stream' if self.ground_stream else 'table'}")
+
+    # ----------------------------------------------------------------------------------------------
+    def _irregularity(self) -> None:
+        from svbi.runtime.excitation.irregularity import NoIrregularity, SampledIrregularity
+
+        irr, e = self.model.irregularity, self.struct
+        if isinstance(irr, FlatTrack | NoIrregularity):
+            e.irr_mode = 0
+            return
+        if isinstance(irr, SampledIrregularity):
+            ramp = _ramp_table(irr.ramp)
+            if ramp is not None:
+                pp = _as_ppoly(irr.spline)
+                x, c = np.asarray(pp.x), np.asarray(pp.c)
+                keep = np.flatnonzero(np.diff(x) > 0)
+                x = np.concatenate([x[keep], [x[keep[-1] + 1]]])
+                c = c[:, keep]
+                lo = (float(irr.spline(irr.x_min)), float(irr.spline(irr.x_min, 1)),
+                      float(irr.spline(irr.x_min, 2)))
+                hi = (float(irr.spline(irr.x_max)), float(irr.spline(irr.x_max, 1)),
+                      float(irr.spline(irr.x_max, 2)))
+                e.irr_base = _ppoly_struct(self.keep, x, c, lo, hi)
+                e.irr_onset = _ppoly_struct(self.keep, ramp[0], ramp[1], (0.0, 0.0, 0.0), (1.0, 0.0, 0.0))
+                e.irr_ramp = 1
+                e.irr_start = float(irr.ramp.start)
+                e.irr_mode = 1
+                return
+        e.irr_mode = 2
+        self.irr_stream = True
+
+    def _ground(self) -> None:
+        g, e = self.model.ground, self.struct
+        if type(g) is GroundAtRest:
+            e.gv_mode = e.gh_mode = 0
+            return
+        motion = _ground_motion(g)
+        if motion is not None:
+            modes = []
+            for name in ("vertical", "longitudinal"):
+                comp = motion.component(name)
+                if comp is None:
+                    modes.append((0, _empty_ppoly()))
+                elif comp.positions is None and len(comp.histories) == 1:
+                    travelling = motion.apparent_velocity is not None
+                    modes.append((2 if travelling else 1, self._history(comp.histories[0])))
+                else:
+                    modes = []
+                    break
+            if modes:
+                (e.gv_mode, e.gv), (e.gh_mode, e.gh) = modes
+                e.apparent_velocity = float(motion.apparent_velocity or 0.0)
+                e.x_ref = float(motion.reference_position)
+                return
+        e.gv_mode = e.gh_mode = 3
+        self.ground_stream = True
+
+    def _history(self, h: Any) -> c_loop.PPoly:
+        """A processed record (``MotionHistory``) as the piecewise cubic of its integration."""
+        dt = h.dt
+        a0, a1 = h.accel[:-1], h.accel[1:]
+        jerk = (a1 - a0) / dt
+        c = np.stack([jerk / 6.0, a0 / 2.0, h.vel[:-1], h.disp[:-1]])
+        x = h.arrival + dt * np.arange(h.accel.size)
+        return _ppoly_struct(self.keep, x, c, (0.0, 0.0, 0.0), (float(h.disp[-1]), 0.0, 0.0))
+
+    # ----------------------------------------------------------------------------------------------
+    @property
+    def streamed(self) -> bool:
+        return self.irr_stream or self.ground_stream
+
+    def fill(self, n0: int, count: int) -> None:
+        """Evaluate the streamed excitations for steps n0 .. n0 + count - 1 (t = (n + 1) dt)."""
+        if not self.streamed:
+            return
+        m = self.model
+        b, tr, e = m.bridge, m.train, self.struct
+        nc, nsup = tr.contacts, b.spans * b.nsupport
+        t = (np.arange(n0, n0 + count) + 1) * m.dt
+        e.s_n0, e.s_count = n0, count
+        if self.irr_stream:
+            x = tr.start_position + tr.speed * t[:, None] - tr.offsets[None, :]
+            r = np.stack(m.irregularity.evaluate(x), axis=1)  # count x 3 x nc
+            self._rail = np.ascontiguousarray(r, dtype=float)
+            e.s_rail = self._rail.ctypes.data
+        if self.ground_stream:
+            under = np.empty((count, 3, nc))
+            sup = np.empty((count, 3, nsup))
+            rec = np.empty((count, 2, self.nrec))
+            per_support = bool(e.ground_per_support)
+            for j, tj in enumerate(t):
+                x = tr.positions(float(tj))
+                under[j] = np.stack(m.ground.under(float(tj), x, tr.speed))
+                sup[j] = np.stack([a.reshape(-1) for a in m.ground.supports(float(tj), b)])
+                if per_support:
+                    (qz, _, _), (qx, _, _) = m.ground.motion(float(tj), b.support_x.reshape(-1))
+                    rec[j, 0], rec[j, 1] = qz, qx
+                else:
+                    (qz, _, _), (qx, _, _) = m.ground.motion(float(tj), np.zeros(1))
+                    rec[j, 0, 0], rec[j, 1, 0] = qz[0], qx[0]
+            self._under, self._sup, self._rec = under, sup, rec
+            e.s_under, e.s_sup, e.s_rec = under.ctypes.data, sup.ctypes.data, rec.ctypes.data
+
+
+def _ground_motion(ground: Any) -> Any:
+    """The ``GroundMotion`` behind a ``FunctionGround`` built by ``ground_from_scenario``, or None."""
+    from svbi.runtime.excitation.ground import GroundMotion
+
+    direct = getattr(ground, "source", None) or getattr(ground, "motion_source", None)
+    if isinstance(direct, GroundMotion):
+        return direct
+    found = None
+    for fn in (getattr(ground, "_v", None), getattr(ground, "_h", None)):
+        for cell in getattr(fn, "__closure__", None) or ():
+            try:
+                value = cell.cell_contents
+            except ValueError:
+                continue
+            if isinstance(value, GroundMotion):
+                if found is not None and value is not found:
+                    return None
+                found = value
+    if found is not None and getattr(ground, "apparent_velocity", None) != found.apparent_velocity:
+        return None
+    return found
+
+
+# --------------------------------------------------------------------------------------------------
+# the stepper
+
+
+class CStepper:
+    """Runs one method's whole loop in C; see the module docstring."""
+
+    backend = "c"
+
+    def __init__(self, model: Model, state: State, method: str) -> None:
+        from svbi.runtime.simulate import _numpy_steppers
+
+        self.model = model
+        self.name = method
+        self.method = method
+        self.library = c_loop.load_loop(c_loop.loop_spec(model.train))
+        # The NumPy stepper builds the constant matrices and the initial multipliers; coupled-classic
+        # also ties each wheel to its aux point in the state.
+        self.reference = _numpy_steppers()[method](model, state)
+        self.state = state
+        self.contacts = None
+        self.keep: list[Any] = []
+        self._state_arrays(state)
+        self.setup = self._setup()
+        self.excitation = ExcitationInput(model)
+        n_double, n_int = ctypes.c_long(), ctypes.c_long()
+        self.library.workspace(ctypes.byref(self.setup), ctypes.byref(n_double), ctypes.byref(n_int))
+        self.work = np.zeros(n_double.value)
+        self.iwork = np.zeros(n_int.value, dtype=np.int32)
+        status = self.library.init(ctypes.byref(self.setup), self.work.ctypes.data, self.iwork.ctypes.data)
+        if status:
+            raise CLoopError(f"C loop set-up failed: {c_loop.STATUS_NAMES.get(status, status)}")
+        self.info = c_loop.Info()
+        self._scratch: dict[str, np.ndarray] = {}
+
+    # ----------------------------------------------------------------------------------------------
+    def _arr(self, value: Any, dtype: Any = float) -> int | None:
+        if value is None:
+            return None
+        a = np.ascontiguousarray(value, dtype=dtype)
+        self.keep.append(a)
+        return a.ctypes.data
+
+    def _state_arrays(self, st: State) -> None:
+        tr, b = self.model.train, self.model.bridge
+        nc = tr.contacts
+        for name in ("uV", "vV", "aV", "uB", "vB", "aB", "ug", "vg", "ag", "P", "PV"):
+            setattr(st, name, np.array(getattr(st, name), dtype=float, order="C"))
+        if tr.moving_load:
+            st.ug, st.vg, st.ag = (np.zeros(nc) for _ in range(3))
+        self.lam = {
+            "lamV": np.zeros((3, nc)),
+            "lamB": np.zeros((3, nc)),
+            "lamG": np.zeros((3, b.spans * b.nsupport)),
+        }
+        ref = self.reference
+        for key in ("lamV", "lamB", "lamG"):
+            triple = getattr(ref, key, None)
+            if triple is not None:
+                self.lam[key][:] = np.stack([np.asarray(v, dtype=float).reshape(-1) for v in triple])
+        self.cstate = c_loop.State(
+            t=st.t,
+            **{k: getattr(st, k).ctypes.data for k in ("uV", "vV", "aV", "uB", "vB", "aB", "ug", "vg", "ag",
+                                                       "P", "PV")},
+            **{k: v.ctypes.data for k, v in self.lam.items()},
+        )
+
+    def _setup(self) -> Any:
+        m, ref = self.model, self.reference
+        b, tr, s = m.bridge, m.train, m.settings
+        nm = Newmark(s.time_step)
+        code = c_loop.METHOD_CODES[self.method]
+        classic = self.method == "coupled-classic"
+        kappa, zeta = (0.0, 0.0) if classic else (s.kappa, s.zeta)
+        point = ref.point
+        nc, nw = tr.contacts, tr.wheels
+        S = c_loop.Setup()
+        S.method, S.moving_load = code, int(tr.moving_load)
+        S.cars, S.nw, S.nc = tr.cars, nw, nc
+        S.spans, S.elements, S.nd, S.ns = b.spans, b.elements, b.ndof, b.nsupport
+        S.output_every, S.steps = s.output_every, s.steps
+        S.dt, S.a0, S.a1, S.a2 = s.time_step, nm.a0, nm.a1, nm.a2
+        S.gravity, S.speed, S.start = GRAVITY, tr.speed, tr.start_position
+        S.span_length, S.inv_span_length = b.span_length, 1.0 / b.span_length
+        S.inv_element_length = 1.0 / b.element_length
+        S.p_P, S.p_Q, S.p_q2, S.p_q1, S.p_q = point.c_P, point.c_Q, point.c_q2, point.c_q1, point.c_q
+        S.d = point.d
+        omega = kappa / s.time_step
+        S.c2 = 2 * zeta * omega
+        from svbi.runtime.simulate import GAP_LIMIT
+
+        S.gap_limit = GAP_LIMIT
+        S.force_limit = math.inf
+
+        # contacts, in track order (front to back)
+        order = np.argsort(tr.offsets, kind="stable").astype(np.int32)
+        pos = np.empty(nc, dtype=np.int64)
+        pos[order] = np.arange(nc)
+        per_car = pos.reshape(tr.cars, nw) if nc else np.zeros((0, 1))
+        S.bw_car = int((per_car.max(axis=1) - per_car.min(axis=1)).max(initial=0))
+        S.order, S.offsets = self._arr(order, np.int32), self._arr(tr.offsets)
+        S.axle_loads = self._arr(tr.axle_loads if tr.moving_load else np.zeros(nc))
+        S.rows = self._arr(c_loop.row_coefficients(b.element_length, tr.speed, s.time_step, kappa, zeta))
+
+        # one span
+        k_hat = b.K + nm.a1 * b.C + nm.a0 * b.M
+        sup = np.asarray(b.support_dofs)
+        free = np.setdiff1d(np.arange(b.ndof), sup)
+        S.nfree = free.size
+        S.sup, S.free = self._arr(sup, np.int32), self._arr(free, np.int32)
+        S.sup_vertical = self._arr(b.support_vertical.astype(np.int32), np.int32)
+        S.sup_x = self._arr(b.support_x[0] - 0.0)
+        for name, mat in (("M", b.M), ("C", b.C)):
+            ptr, idx, val = _csr(mat)
+            setattr(S, f"{name}_ptr", self._arr(ptr, np.int32))
+            setattr(S, f"{name}_idx", self._arr(idx, np.int32))
+            setattr(S, f"{name}_val", self._arr(val))
+        S.CT = self._arr(b.CT)
+        band, p = _lower_band(k_hat)
+        S.Khat_band, S.band_p = self._arr(band), p
+        band_f, pf = _lower_band(k_hat[np.ix_(free, free)])
+        S.Khat_ff_band, S.band_pf = self._arr(band_f), pf
+        S.Khat_fs = self._arr(k_hat[np.ix_(free, sup)])
+        if code == 0:
+            S.S = self._arr(ref.bridge.S)
+        em, xim = b.midspan_location()
+        S.mid_first = 3 * em
+        S.mid_w = self._arr(ShapeKernel(b.element_length)(np.array([xim]))[0][0])
+        S.mid_u = self._arr(AxialShapeKernel()(np.array([xim]))[0])
+        if code == 1:
+            S.mG = self._arr(ref.mG[: b.nsupport])
+        if classic:
+            S.sG = self._arr(ref.sG[: b.nsupport])
+            S.sC = float(ref.sC)
+
+        # one car
+        S.carbody_z = S.carbody_theta = -1
+        if not tr.moving_load:
+            v = tr.vehicle
+            mass = v.M if classic else tr.M_active
+            S.V_M, S.V_C = self._arr(mass), self._arr(v.C)
+            S.V_F = self._arr(tr.F_full if classic else tr.F_active)
+            S.V_W = self._arr(tr.W)
+            S.V_khat = self._arr(v.K + nm.a1 * v.C + nm.a0 * mass)
+            S.m_g = self._arr(tr.aux_masses)
+            if code == 0:
+                S.V_kinv, S.V_A, S.V_B = self._arr(ref.k_inv), self._arr(ref.A), self._arr(ref.B)
+                S.V_Fstar = self._arr(ref.F_star[:nw, :nw])
+                S.c_g = self._arr(ref.c_g[:nw])
+            if code == 1:
+                S.mV = self._arr(ref.mV[:nw])
+                S.mb_num = self._arr(ref.mB_kernel._num.coefficients[:, 0])
+                S.mb_den = self._arr(ref.mB_kernel._den.coefficients[:, 0])
+                S.mb_num_n = ref.mB_kernel._num.coefficients.shape[0]
+                S.mb_den_n = ref.mB_kernel._den.coefficients.shape[0]
+            if tr.carbody_z is not None:
+                S.carbody_z = int(tr.carbody_z)
+            if tr.carbody_theta is not None:
+                S.carbody_theta = int(tr.carbody_theta)
+        S.bw_max = self._bandwidth_bound(code)
+        return S
+
+    def _bandwidth_bound(self, code: int) -> int:
+        """An upper bound of the interface half bandwidth over the whole run (from the geometry)."""
+        b, tr = self.model.bridge, self.model.train
+        nc = tr.contacts
+        extent = float(np.ptp(tr.vehicle.wheel_offsets)) if not tr.moving_load and nc else 0.0
+        width = max(b.span_length, extent)
+        m = _window_count(tr.offsets, width)
+        if code == 0:
+            return max(1, min(max(m, tr.wheels), max(nc - 1, 1)))
+        per = 0 if tr.moving_load else (2 if code == 1 else 1)
+        supports = b.nsupport * (int(width // b.span_length) + 3)
+        nmult = per * nc + b.spans * b.nsupport
+        return max(1, min(per * (m + tr.wheels) + supports + 2, nmult - 1))
+
+    # ----------------------------------------------------------------------------------------------
+    def _outputs(self, recorder: Any) -> Any:
+        d = recorder.data
+        out = c_loop.Outputs(row=recorder.count, nout=recorder.nout)
+        for name in ("time", "midspan_uz", "midspan_ux", "ground_uz", "ground_ux", "contact_force",
+                     "carbody_uz", "carbody_az", "carbody_pitch", "gap_vehicle", "gap_bridge", "gap_support"):
+            setattr(out, name, c_loop.pointer(d[name]))
+        out.forces = c_loop.pointer(recorder.forces)
+        return out
+
+    def _call(self, out: Any, n0: int, count: int) -> int:
+        self.excitation.fill(n0, count)
+        return self.library.run(ctypes.byref(self.setup), ctypes.byref(self.cstate),
+                                ctypes.byref(self.excitation.struct), ctypes.byref(out),
+                                self.work.ctypes.data, self.iwork.ctypes.data, n0, count,
+                                ctypes.byref(self.info))
+
+    def run_loop(self, recorder: Any, guard: Any, bar: Any = None, chunk: int | None = None) -> None:
+        """Run every step, writing into ``recorder``; raises ``simulate.Diverged`` like the NumPy loop."""
+        steps = self.model.settings.steps
+        self.setup.force_limit = float(guard.force_limit)
+        out = self._outputs(recorder)
+        n = 0
+        size = chunk or 64
+        while n < steps:
+            count = min(size, steps - n)
+            if self.excitation.streamed:
+                count = min(count, STREAM_CHUNK)
+            t0 = time.perf_counter()
+            status = self._call(out, n, count)
+            elapsed = time.perf_counter() - t0
+            recorder.count = int(out.row)
+            recorder.steps_done = int(self.info.steps_done)
+            self.state.t = self.cstate.t
+            if status:
+                self._stop(status, recorder, guard)
+            if bar is not None:
+                bar.update(count)
+            n += count
+            if chunk is None:  # aim at CHUNK_SECONDS per call
+                size = int(min(max(size * CHUNK_SECONDS / max(elapsed, 1e-6), 16), 1 << 20))
+
+    def _stop(self, status: int, recorder: Any, guard: Any) -> None:
+        from svbi.runtime.simulate import Diverged
+
+        info, st = self.info, self.state
+        st.t = self.cstate.t
+        if status in (c_loop.STATUS_NOT_FINITE, c_loop.STATUS_FORCE_LIMIT):
+            guard.check_finite(st)  # raises Diverged with the NumPy backend's message
+        elif status == c_loop.STATUS_GAP_LIMIT:
+            k = recorder.count - 1
+            gaps = {"support": recorder.data["gap_support"][k],
+                    "vehicle": recorder.data["gap_vehicle"][k].reshape(-1),
+                    "bridge": recorder.data["gap_bridge"][k].reshape(-1)}
+            guard.check_gaps(st, gaps)
+        elif status == c_loop.STATUS_SINGULAR:
+            raise np.linalg.LinAlgError(f"singular interface matrix at t = {st.t:.6g} s (C loop, step "
+                                        f"{info.step})")
+        name = c_loop.STATUS_NAMES.get(status, str(status))
+        if status in (c_loop.STATUS_NOT_FINITE, c_loop.STATUS_FORCE_LIMIT, c_loop.STATUS_GAP_LIMIT):
+            raise Diverged(f"run diverged at t = {st.t:.6g} s: {name} ({info.value:.4g})")
+        raise CLoopError(f"C loop stopped at t = {st.t:.6g} s (step {info.step}): {name}")
+
+    # ----------------------------------------------------------------------------------------------
+    def step(self, n: int) -> State:
+        """One step through the C loop (for callers that drive the loop themselves)."""
+        s = self.model.settings
+        if "forces" not in self._scratch:
+            nc = self.model.train.contacts
+            self._scratch["forces"] = np.zeros((s.steps + 2, nc))
+        out = c_loop.Outputs(row=0, nout=0, forces=self._scratch["forces"].ctypes.data)
+        every = self.setup.output_every
+        self.setup.output_every = 1 << 30
+        try:
+            status = self._call(out, n, 1)
+        finally:
+            self.setup.output_every = every
+        self.state.t = self.cstate.t
+        if status:
+            name = c_loop.STATUS_NAMES.get(status, str(status))
+            if status not in (c_loop.STATUS_NOT_FINITE, c_loop.STATUS_FORCE_LIMIT):
+                raise CLoopError(f"C loop stopped at t = {self.state.t:.6g} s: {name}")
+        self.contacts = self.model.contacts(self.state.t)
+        return self.state
+
+
+# --------------------------------------------------------------------------------------------------
+# registration
+
+
+_FALLBACK_WARNED = False
+
+
+def c_stepper(method: str) -> Callable[[Model, State], Any]:
+    """Stepper factory of the ``"c"`` backend; falls back to NumPy (one warning) without a compiler."""
+
+    def make(model: Model, state: State) -> Any:
+        global _FALLBACK_WARNED
+        from svbi.runtime.compiled import CompilerError
+        from svbi.runtime.simulate import BackendFallback, _numpy_steppers
+
+        try:
+            c_loop.load_loop(c_loop.loop_spec(model.train))
+        except CompilerError as exc:
+            if not _FALLBACK_WARNED:
+                _FALLBACK_WARNED = True
+                warnings.warn(f"solver.backend = 'c': no working C compiler ({str(exc).splitlines()[0]}); "
+                              "running the NumPy backend instead (same results, slower). Install a C "
+                              "compiler or set CC.", BackendFallback, stacklevel=3)
+            stepper = _numpy_steppers()[method](model, state)
+            stepper.backend = "numpy"
+            return stepper
+        return CStepper(model, state, method)
+
+    make.__name__ = f"c_{method.replace('-', '_')}"
+    return make
+
+
+def register() -> None:
+    """Register the ``"c"`` backend with :func:`svbi.runtime.simulate.register_backend`."""
+    from svbi.runtime.simulate import register_backend
+
+    register_backend("c", {m: c_stepper(m) for m in c_loop.METHOD_CODES})
+
+
+def _unused() -> None:  # keep linters quiet about helpers used only in type positions
+    _ = sla
