@@ -48,6 +48,7 @@ from __future__ import annotations
 
 import math
 import re
+import tomllib
 from collections.abc import Mapping
 from dataclasses import dataclass, field
 from importlib import resources
@@ -55,7 +56,6 @@ from pathlib import Path
 from typing import Any
 
 import sympy as sp
-import tomllib
 
 DOF_KINDS = ("z", "theta")
 KINDS = ("rigid-body", "moving-load")

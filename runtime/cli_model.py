@@ -3,11 +3,11 @@
 from __future__ import annotations
 
 import json
-from enum import Enum
+import tomllib
+from enum import StrEnum
 from typing import Any
 
 import sympy as sp
-import tomllib
 import typer
 from svbi.codegen import beam, constraints
 from svbi.codegen.topology import TopologyError, load_topology
@@ -23,7 +23,7 @@ BRIDGE_KEYS = {
 }
 
 
-class Format(str, Enum):
+class Format(StrEnum):
     text = "text"
     latex = "latex"
     json = "json"
