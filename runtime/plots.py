@@ -383,9 +383,33 @@ def panel_contact_force(ax: Axes, runs: Sequence[Run]) -> None:
             run.style,
             f"{run.label}, {name}",
         )
+    _clip_impulses(ax, runs, select, missing)
     car = _where(runs, "car", -1)
     title = f"(c) Contact force, wheel {_where(runs, 'wheel', 0)} of car {car} (last car)"
     _finish(ax, title, "contact force (kN, compression +)", _run_notes(runs, missing))
+
+
+def _clip_impulses(ax: Axes, runs: Sequence[Run], select: dict[str, int], notes: list[str]) -> None:
+    """Keep the filtered force readable: the raw impulses at slope kinks are clipped, and said so.
+
+    The joint impulses are physical (DESIGN §5) but their peaks scale as 1/dt and would squash the
+    filtered force, which is what the engineer reads, into a flat line.
+    """
+    filtered = [_series(r.data, "contact_force_filtered", select) for r in runs]
+    raw = [_series(r.data, "contact_force", select) for r in runs]
+    filtered_vals = [np.asarray(f.values, dtype=float) * 1e-3 for f in filtered if f is not None]
+    raw_vals = [np.asarray(f.values, dtype=float) * 1e-3 for f in raw if f is not None]
+    if not filtered_vals or not raw_vals:
+        return
+    lo = min(float(np.nanmin(v)) for v in filtered_vals)
+    hi = max(float(np.nanmax(v)) for v in filtered_vals)
+    pad = max(0.75 * (hi - lo), 0.25 * max(abs(hi), abs(lo)), 1.0)
+    bottom, top = lo - pad, hi + pad
+    raw_lo = min(float(np.nanmin(v)) for v in raw_vals)
+    raw_hi = max(float(np.nanmax(v)) for v in raw_vals)
+    if raw_lo < bottom or raw_hi > top:
+        ax.set_ylim(bottom, top)
+        notes.append(f"raw impulses at span joints span {raw_lo:.0f} to {raw_hi:.0f} kN (clipped)")
 
 
 def panel_carbody_az(ax: Axes, runs: Sequence[Run]) -> None:
