@@ -75,6 +75,19 @@ def _lower_band(matrix: np.ndarray) -> tuple[np.ndarray, int]:
     return band, p
 
 
+def _band_order(matrix: np.ndarray, dofs: np.ndarray) -> np.ndarray:
+    """``dofs`` reordered to narrow the band of ``matrix[dofs][:, dofs]`` (reverse Cuthill-McKee;
+    the axial and bending DOFs of a frame decouple), unless the natural order is as narrow."""
+    from scipy.sparse import csr_matrix
+    from scipy.sparse.csgraph import reverse_cuthill_mckee
+
+    sub = matrix[np.ix_(dofs, dofs)]
+    perm = reverse_cuthill_mckee(csr_matrix(sub != 0), symmetric_mode=True)
+    if _lower_band(sub[np.ix_(perm, perm)])[1] < _lower_band(sub)[1]:
+        return dofs[perm]
+    return dofs
+
+
 def _window_count(offsets: np.ndarray, width: float) -> int:
     """Largest number of contacts within any closed window of length ``width``."""
     o = np.sort(offsets)
@@ -184,19 +197,30 @@ class ExcitationInput:
             return
         motion = _ground_motion(g)
         if motion is not None:
-            modes = []
+            spans = self.model.bridge.spans
+            lines = np.arange(spans + 1) * self.model.bridge.span_length
+            modes: list[tuple[int, Any, Any]] = []
             for name in ("vertical", "longitudinal"):
                 comp = motion.component(name)
                 if comp is None:
-                    modes.append((0, _empty_ppoly()))
+                    modes.append((0, _empty_ppoly(), None))
                 elif comp.positions is None and len(comp.histories) == 1:
                     travelling = motion.apparent_velocity is not None
-                    modes.append((2 if travelling else 1, self._history(comp.histories[0])))
+                    modes.append((2 if travelling else 1, self._history(comp.histories[0]), None))
+                elif comp.positions is not None and np.array_equal(comp.positions, lines):
+                    tables = (c_loop.PPoly * len(comp.histories))(*[self._history(h) for h in comp.histories])
+                    self.keep.append(tables)
+                    modes.append((4, _empty_ppoly(), tables))
                 else:
                     modes = []
                     break
             if modes:
-                (e.gv_mode, e.gv), (e.gh_mode, e.gh) = modes
+                (e.gv_mode, e.gv, v_lines), (e.gh_mode, e.gh, h_lines) = modes
+                e.gv_lines = ctypes.addressof(v_lines) if v_lines is not None else None
+                e.gh_lines = ctypes.addressof(h_lines) if h_lines is not None else None
+                mids = np.ascontiguousarray(0.5 * (lines[1:] + lines[:-1]))
+                self.keep.append(mids)
+                e.mids = mids.ctypes.data
                 e.apparent_velocity = float(motion.apparent_velocity or 0.0)
                 e.x_ref = float(motion.reference_position)
                 return
@@ -232,20 +256,22 @@ class ExcitationInput:
             self._rail = np.ascontiguousarray(r, dtype=float)
             e.s_rail = self._rail.ctypes.data
         if self.ground_stream:
-            under = np.empty((count, 3, nc))
+            under = np.zeros((count, 4, nc))
             sup = np.empty((count, 3, nsup))
-            rec = np.empty((count, 2, self.nrec))
+            rec = np.zeros((count, 2, self.nrec))
             per_support = bool(e.ground_per_support)
+            creep = m.creep is not None and m.creep.longitudinal_ground
             for j, tj in enumerate(t):
                 x = tr.positions(float(tj))
-                under[j] = np.stack(m.ground.under(float(tj), x, tr.speed))
+                under[j, :3] = np.stack(m.ground.under(float(tj), x, tr.speed))
+                if creep:
+                    under[j, 3] = m.ground.under_longitudinal(float(tj), x, tr.speed)[1]
                 sup[j] = np.stack([a.reshape(-1) for a in m.ground.supports(float(tj), b)])
+                qz, qx = m.ground.recorded(float(tj), b)
                 if per_support:
-                    (qz, _, _), (qx, _, _) = m.ground.motion(float(tj), b.support_x.reshape(-1))
                     rec[j, 0], rec[j, 1] = qz, qx
                 else:
-                    (qz, _, _), (qx, _, _) = m.ground.motion(float(tj), np.zeros(1))
-                    rec[j, 0, 0], rec[j, 1, 0] = qz[0], qx[0]
+                    rec[j, 0, 0], rec[j, 1, 0] = qz, qx
             self._under, self._sup, self._rec = under, sup, rec
             e.s_under, e.s_sup, e.s_rec = under.ctypes.data, sup.ctypes.data, rec.ctypes.data
 
@@ -333,10 +359,13 @@ class CStepper:
             triple = getattr(ref, key, None)
             if triple is not None:
                 self.lam[key][:] = np.stack([np.asarray(v, dtype=float).reshape(-1) for v in triple])
+        for name in ("creepage", "creep_force"):
+            value = getattr(st, name, None)
+            setattr(st, name, np.zeros(nc) if value is None else np.array(value, dtype=float, order="C"))
         self.cstate = c_loop.State(
             t=st.t,
             **{k: getattr(st, k).ctypes.data for k in ("uV", "vV", "aV", "uB", "vB", "aB", "ug", "vg", "ag",
-                                                       "P", "PV")},
+                                                       "P", "PV", "creepage", "creep_force")},
             **{k: v.ctypes.data for k, v in self.lam.items()},
         )
 
@@ -375,12 +404,13 @@ class CStepper:
         S.bw_car = int((per_car.max(axis=1) - per_car.min(axis=1)).max(initial=0))
         S.order, S.offsets = self._arr(order, np.int32), self._arr(tr.offsets)
         S.axle_loads = self._arr(tr.axle_loads if tr.moving_load else np.zeros(nc))
-        S.rows = self._arr(c_loop.row_coefficients(b.element_length, tr.speed, s.time_step, kappa, zeta))
+        S.rows = self._arr(c_loop.row_coefficients(b.element_length, tr.speed, s.time_step, kappa, zeta,
+                                                   b.rail_height))
 
         # one span
         k_hat = b.K + nm.a1 * b.C + nm.a0 * b.M
         sup = np.asarray(b.support_dofs)
-        free = np.setdiff1d(np.arange(b.ndof), sup)
+        free = _band_order(k_hat, np.setdiff1d(np.arange(b.ndof), sup))
         S.nfree = free.size
         S.sup, S.free = self._arr(sup, np.int32), self._arr(free, np.int32)
         S.sup_vertical = self._arr(b.support_vertical.astype(np.int32), np.int32)
@@ -390,6 +420,11 @@ class CStepper:
             setattr(S, f"{name}_ptr", self._arr(ptr, np.int32))
             setattr(S, f"{name}_idx", self._arr(idx, np.int32))
             setattr(S, f"{name}_val", self._arr(val))
+        union = (b.M != 0) | (b.C != 0)
+        ptr, idx, _ = _csr(union.astype(float))
+        rows = np.repeat(np.arange(b.ndof), np.diff(ptr))
+        S.MC_ptr, S.MC_idx = self._arr(ptr, np.int32), self._arr(idx, np.int32)
+        S.MC_m, S.MC_c = self._arr(b.M[rows, idx]), self._arr(b.C[rows, idx])
         S.CT = self._arr(b.CT)
         band, p = _lower_band(k_hat)
         S.Khat_band, S.band_p = self._arr(band), p
@@ -417,6 +452,11 @@ class CStepper:
             S.V_F = self._arr(tr.F_full if classic else tr.F_active)
             S.V_W = self._arr(tr.W)
             S.V_khat = self._arr(v.K + nm.a1 * v.C + nm.a0 * mass)
+            for key, mat in {"VW": tr.W.T}.items():
+                ptr, idx, val = _csr(np.asarray(mat, dtype=float))
+                setattr(S, f"{key}_ptr", self._arr(ptr, np.int32))
+                setattr(S, f"{key}_idx", self._arr(idx, np.int32))
+                setattr(S, f"{key}_val", self._arr(val))
             S.m_g = self._arr(tr.aux_masses)
             if code == 0:
                 S.V_kinv, S.V_A, S.V_B = self._arr(ref.k_inv), self._arr(ref.A), self._arr(ref.B)
@@ -428,6 +468,17 @@ class CStepper:
                 S.mb_den = self._arr(ref.mB_kernel._den.coefficients[:, 0])
                 S.mb_num_n = ref.mB_kernel._num.coefficients.shape[0]
                 S.mb_den_n = ref.mB_kernel._den.coefficients.shape[0]
+            creep = m.creep
+            if creep is not None:
+                S.creep = 1
+                S.creep_ground = int(creep.longitudinal_ground)
+                ptr, idx, val = _csr(np.asarray(creep.W_T, dtype=float).T)
+                S.VT_ptr, S.VT_idx, S.VT_val = self._arr(ptr, np.int32), self._arr(idx, np.int32), self._arr(val)
+                S.creep_rolling = self._arr(creep.rolling[:nw].astype(np.int32), np.int32)
+                params = np.zeros((nw, 8))
+                for law, mask in creep.laws:
+                    params[mask[:nw]] = law.params.vector()
+                S.creep_params = self._arr(params)
             if tr.carbody_z is not None:
                 S.carbody_z = int(tr.carbody_z)
             if tr.carbody_theta is not None:
@@ -454,7 +505,8 @@ class CStepper:
         d = recorder.data
         out = c_loop.Outputs(row=recorder.count, nout=recorder.nout)
         for name in ("time", "midspan_uz", "midspan_ux", "ground_uz", "ground_ux", "contact_force",
-                     "carbody_uz", "carbody_az", "carbody_pitch", "gap_vehicle", "gap_bridge", "gap_support"):
+                     "creep_force", "creepage", "irregularity", "carbody_uz", "carbody_az", "carbody_pitch",
+                     "gap_vehicle", "gap_bridge", "gap_support"):
             setattr(out, name, c_loop.pointer(d[name]))
         out.forces = c_loop.pointer(recorder.forces)
         return out

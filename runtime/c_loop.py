@@ -15,12 +15,15 @@ the two polynomials of its ratio. The loop itself is Newmark's average-accelerat
 linear algebra.
 
 The library is compiled through :mod:`svbi.runtime.compiled` (per-user cache keyed by the content
-hash, ``-O3``), with the strict warning set of the kernels (``-std=c99 -Wall -Wextra -Werror``).
+hash and the flags, ``-O3``), with the strict warning set of the kernels (``-std=c99 -Wall -Wextra
+-Werror``). ``$SVBI_CFLAGS`` appends flags, e.g. ``-march=native`` for a machine-specific build.
 """
 
 from __future__ import annotations
 
 import ctypes
+import os
+import shlex
 from dataclasses import dataclass
 from functools import cache
 from typing import Any
@@ -30,12 +33,14 @@ import numpy as np
 import sympy as sp
 
 from svbi.codegen import beam
-from svbi.codegen.c_emit import STRICT_FLAGS
+from svbi.codegen.c_emit import CASADI_WARNING_EXCEPTION, STRICT_FLAGS
 from svbi.codegen.kernels import c_identifier
 
 GENERATOR = "svbi.runtime.c_loop"
-ROW_BLOCKS = ("N0", "W_hat", "c_P_ue", "c_Q_ue")
-"""Six-column blocks of the contact-row table, in column order; then ``ROW_SCALARS``."""
+ROW_BLOCKS = ("N0", "W_hat", "c_P_ue", "c_Q_ue", "T0", "T1")
+"""Six-column blocks of the contact-row table, in column order; then ``ROW_SCALARS``. ``N0`` is
+``W_N^B``, ``W_hat`` and the ``c_*`` columns the discrete aux-bridge row, ``T0`` and ``T1`` the
+tangential row ``W_T^B`` and its x-derivative (creep)."""
 ROW_SCALARS = ("c_P_ug", "c_Q_ug", "c_r", "c_r_x", "c_r_xx")
 ROW_COLUMNS = 6 * len(ROW_BLOCKS) + len(ROW_SCALARS)
 
@@ -78,6 +83,7 @@ _C_TYPES = {
     "double*": "const double*",
     "mdouble*": "double*",
     "ppoly": "svbi_ppoly",
+    "ppoly*": "const svbi_ppoly*",
 }
 _CTYPES: dict[str, Any] = {
     "int": ctypes.c_int,
@@ -86,6 +92,7 @@ _CTYPES: dict[str, Any] = {
     "int*": ctypes.c_void_p,
     "double*": ctypes.c_void_p,
     "mdouble*": ctypes.c_void_p,
+    "ppoly*": ctypes.c_void_p,
 }
 
 
@@ -129,6 +136,8 @@ SETUP_FIELDS = [
     F("mid_first", "int", "first span DOF of the midspan element"),
     F("carbody_z", "int", "vehicle DOF of the car-body bounce (-1: none)"),
     F("carbody_theta", "int", "vehicle DOF of the car-body pitch (-1: none)"),
+    F("creep", "int", "1: explicit creep forces (svbi.runtime.creep_forces)"),
+    F("creep_ground", "int", "1: off the bridge the wheels creep against the moving ground"),
     F("mb_num_n", "int", "coefficients of the numerator of Eq. (31) in xi"),
     F("mb_den_n", "int", "coefficients of the denominator of Eq. (31) in xi"),
     F("steps", "long", "steps of the whole run"),
@@ -171,6 +180,10 @@ SETUP_FIELDS = [
     F("C_ptr", "int*", "nd + 1: CSR row pointers of the span damping matrix"),
     F("C_idx", "int*", "CSR column indices"),
     F("C_val", "double*", "CSR values"),
+    F("MC_ptr", "int*", "nd + 1: CSR row pointers of the union pattern of M and C"),
+    F("MC_idx", "int*", "its column indices"),
+    F("MC_m", "double*", "M on that pattern"),
+    F("MC_c", "double*", "C on that pattern"),
     F("CT", "double*", "nd x ns: C T, damping of the quasi-static support motion"),
     F("Khat_band", "double*", "nd x (band_p + 1): lower band of K^ = K + a1 C + a0 M"),
     F("Khat_ff_band", "double*", "nfree x (band_pf + 1): lower band of K^ on the free DOFs"),
@@ -181,6 +194,9 @@ SETUP_FIELDS = [
     F("mG", "double*", "ns: support constraint masses, Eq. (34)"),
     F("sG", "double*", "ns: coupled-classic scale of the support rows"),
     # one car
+    F("VW_ptr", "int*", "NW + 1: W by columns"),
+    F("VW_idx", "int*", "row indices"),
+    F("VW_val", "double*", "values"),
     F("V_kinv", "double*", "NV x NV: inverse of the vehicle effective matrix"),
     F("V_khat", "double*", "NV x NV: vehicle effective matrix K + a1 C + a0 M"),
     F("V_M", "double*", "NV x NV: vehicle mass in the equations of motion (active or full)"),
@@ -193,6 +209,11 @@ SETUP_FIELDS = [
     F("c_g", "double*", "NW: aux-point compliance 1 / (a0 m_g)"),
     F("m_g", "double*", "NW: aux-point masses"),
     F("mV", "double*", "NW: wheel-aux constraint masses, Eq. (27)"),
+    F("VT_ptr", "int*", "NW + 1: W_T^V by columns (wheel spin), exact zeros dropped"),
+    F("VT_idx", "int*", "row indices"),
+    F("VT_val", "double*", "values"),
+    F("creep_rolling", "int*", "NW: 1 for a wheel that rolls (a spin DOF) and creeps"),
+    F("creep_params", "double*", "NW x 8: creep-law parameters of every wheel (creep_force kernel)"),
 ]
 
 STATE_FIELDS = [
@@ -211,6 +232,8 @@ STATE_FIELDS = [
     F("lamV", "mdouble*", "3 x nc: coupled-dynamic multipliers of the wheel-aux constraints and rates"),
     F("lamB", "mdouble*", "3 x nc: aux-bridge multipliers"),
     F("lamG", "mdouble*", "3 x spans * ns: support multipliers"),
+    F("creepage", "mdouble*", "nc: creepage at t"),
+    F("creep_force", "mdouble*", "nc: creep force on the wheel at t (it loads the next step)"),
 ]
 
 EXCITATION_FIELDS = [
@@ -219,17 +242,22 @@ EXCITATION_FIELDS = [
     F("irr_start", "double", "r = 0 for x <= irr_start"),
     F("irr_base", "ppoly", "profile"),
     F("irr_onset", "ppoly", "onset ramp"),
-    F("gv_mode", "int", "vertical ground: 0 at rest, 1 synchronous table, 2 travelling table, 3 stream"),
+    F("gv_mode", "int", "vertical ground: 0 at rest, 1 synchronous table, 2 travelling table, 3 stream, "
+                        "4 one table per support line"),
     F("gh_mode", "int", "longitudinal ground: same codes"),
     F("gv", "ppoly", "vertical q(t)"),
     F("gh", "ppoly", "longitudinal q(t)"),
+    F("gv_lines", "ppoly*", "spans + 1 vertical tables, one per support line (mode 4)"),
+    F("gh_lines", "ppoly*", "spans + 1 longitudinal tables (mode 4)"),
+    F("mids", "double*", "spans: midpoints between support lines; a point takes the nearest line"),
     F("apparent_velocity", "double", "wave-passage apparent velocity (m/s)"),
     F("x_ref", "double", "where the wave passes at the arrival time (m)"),
     F("ground_per_support", "int", "1: ground_uz, ground_ux are recorded per support"),
     F("s_n0", "long", "streams: step index n of the first stream entry (t = (n + 1) dt)"),
     F("s_count", "long", "streams: entries held"),
     F("s_rail", "double*", "s_count x 3 x nc: r, r', r'' under every contact"),
-    F("s_under", "double*", "s_count x 3 x nc: q, q', q'' of the ground under every contact"),
+    F("s_under", "double*", "s_count x 4 x nc: q, q', q'' of the ground under every contact, and the "
+                            "longitudinal q'"),
     F("s_sup", "double*", "s_count x 3 x (spans * ns): support targets q, q', q''"),
     F("s_rec", "double*", "s_count x 2 x nrec: recorded ground_uz, ground_ux"),
 ]
@@ -243,6 +271,9 @@ OUTPUT_FIELDS = [
     F("ground_uz", "mdouble*", "nout (x spans * ns when per support)"),
     F("ground_ux", "mdouble*", "nout (x spans * ns when per support)"),
     F("contact_force", "mdouble*", "nout x nc"),
+    F("creep_force", "mdouble*", "nout x nc"),
+    F("creepage", "mdouble*", "nout x nc"),
+    F("irregularity", "mdouble*", "nout x nc"),
     F("carbody_uz", "mdouble*", "nout x cars"),
     F("carbody_az", "mdouble*", "nout x cars"),
     F("carbody_pitch", "mdouble*", "nout x cars"),
@@ -305,6 +336,7 @@ def row_expressions() -> tuple[sp.Expr, ...]:
 
     _, w_hat, coefs = _bridge_row_symbolic()
     exprs: list[sp.Expr] = list(beam.normal_row(0)) + list(w_hat) + coefs["P_ue"] + coefs["Q_ue"]
+    exprs += list(beam.tangential_row(0)) + list(beam.tangential_row(1))
     exprs += [coefs[k][0] for k in BRIDGE_HISTORY]
     return tuple(exprs)
 
@@ -322,13 +354,31 @@ def row_structure() -> tuple[int, tuple[bool, ...]]:
     return degree, tuple(nonzero)
 
 
-def row_coefficients(le: float, speed: float, dt: float, kappa: float, zeta: float) -> np.ndarray:
+def creep_kernel_sources(embedded: bool = False) -> dict[str, bytes]:
+    """The generated ``frame2d`` kernels (the creep law, ``creep_force``) linked into the loop: the
+    committed ones, or rendered with the embedded options (32-bit ``casadi_int``, no stack)."""
+    from svbi.codegen.kernels import FRAME2D
+    from svbi.runtime.compiled import generated_root
+
+    names = ("frame2d_kernels.c", "frame2d_kernels.h", "frame2d.h")
+    if embedded:
+        from svbi.codegen import c_emit
+        from svbi.codegen.kernels import frame2d_model_spec
+
+        files = c_emit.render_model(frame2d_model_spec(), c_emit.EmitOptions.embedded())
+        return {n: files[n] for n in names}
+    folder = generated_root() / FRAME2D
+    return {n: (folder / n).read_bytes() for n in names}
+
+
+def row_coefficients(le: float, speed: float, dt: float, kappa: float, zeta: float,
+                     rail_height: float = 0.0) -> np.ndarray:
     """``(degree + 1, ROW_COLUMNS)`` coefficients of every column in ascending powers of xi."""
     from svbi.codegen import constraints
     from svbi.runtime.numeric import XiPolynomials
 
     subs = {beam.le: le, constraints.v: speed, constraints.dt: dt, constraints.kappa: kappa,
-            constraints.zeta: zeta}
+            constraints.zeta: zeta, beam.h: rail_height}
     poly = XiPolynomials(list(row_expressions()), subs)
     degree, _ = row_structure()
     out = np.zeros((degree + 1, ROW_COLUMNS))
@@ -383,8 +433,9 @@ def loop_spec(train: Any) -> LoopSpec:
     return LoopSpec(name, int(train.ndof), int(train.wheels))
 
 
-def render_sources(spec: LoopSpec) -> dict[str, bytes]:
-    """``{file name: bytes}`` of the loop library of one vehicle topology."""
+def render_sources(spec: LoopSpec, embedded: bool = False) -> dict[str, bytes]:
+    """``{file name: bytes}`` of the loop library of one vehicle topology (with the generated creep
+    law for rigid-body vehicles; ``embedded``: its embedded-target variant)."""
     degree, nonzero = row_structure()
     base = f"svbi_{spec.c_name}_solver"
     context = {
@@ -421,6 +472,8 @@ def render_sources(spec: LoopSpec) -> dict[str, bytes]:
     files = {}
     for template, name in (("solver/solver.h.j2", f"{base}.h"), ("solver/solver.c.j2", f"{base}.c")):
         files[name] = env.get_template(template).render({**context, "template": template}).encode()
+    if not spec.moving_load:
+        files.update(creep_kernel_sources(embedded))
     return files
 
 
@@ -459,7 +512,9 @@ def load_loop(spec: LoopSpec) -> LoopLibrary:
         from svbi.runtime import compiled
 
         sources = render_sources(spec)
-        flags = (*STRICT_FLAGS, "-O3", "-fPIC", "-shared")
+        # the CasADi kernels linked in (creep law) need their one exception (svbi.codegen.c_emit)
+        flags = (*STRICT_FLAGS, CASADI_WARNING_EXCEPTION, "-O3", "-fPIC", "-shared",
+                 *shlex.split(os.environ.get("SVBI_CFLAGS", "")))
         library = compiled.load_library(sources, f"svbi_{spec.c_name}_solver", flags=flags)
         _LIBRARIES[spec] = LoopLibrary(spec, library)
     return _LIBRARIES[spec]

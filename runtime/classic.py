@@ -119,6 +119,10 @@ class CoupledClassic:
 
         PV_, QV_ = nm.history(st.uV, st.vV, st.aV)
         fV = tr.F_full + PV_ @ tr.vehicle.M + QV_ @ tr.vehicle.C
+        creep = m.creep
+        if creep is not None:  # explicit: the creep force of t_n loads this step (docs/method.md)
+            fV += creep.vehicle_load(st.creep_force)
+            creep.add_bridge_load(fB, st.creep_force, c)
         rhs[: self.NV] = fV.reshape(-1)
         rhs[self.oB : self.oB + self.NB] = fB.reshape(-1)
         # bridge rows: + N P
@@ -153,6 +157,8 @@ class CoupledClassic:
         st.vg = (st.vV @ tr.W).reshape(-1)
         st.ag = (st.aV @ tr.W).reshape(-1)
         st.t = t
+        if creep is not None:
+            st.creepage, st.creep_force = creep.evaluate(st, c)
         return st
 
     def _finish_bridge(self, x: np.ndarray, PB: np.ndarray, QB: np.ndarray) -> None:

@@ -144,28 +144,53 @@ EXPORTED_SUFFIXES = (".c", ".h", "Makefile", "CMakeLists.txt")
 def export(
     model: str = typer.Argument(..., help="Built-in model name or topology file."),
     folder: Path = typer.Argument(..., help="Folder to write the self-contained C sources into."),
-    solver: bool = typer.Option(False, "--solver", help="Also export the C time-loop solver."),
+    solver: bool = typer.Option(
+        False, "--solver", help="Also export the C time loop, with a scenario baked into scenario_data.c and "
+        "an example main.c that runs it and writes a CSV."
+    ),
+    scenario: Path | None = typer.Option(
+        None, "--scenario", help="With --solver: the scenario to bake in (default: a small built-in one, "
+        "2 cars over 2 spans with a synthetic quake and a German-low track)."
+    ),
     embedded: bool = typer.Option(
         False, "--embedded", help="32-bit casadi_int and no stack temporaries (small embedded targets)."
     ),
 ) -> None:
     """Write a model's C kernels, header, Makefile, CMakeLists.txt and example main.c to FOLDER.
 
-    The folder builds with `make` (or CMake) and needs no Python, CasADi or SymPy.
+    With --solver, the folder also holds the whole Newmark time loop (docs/c-backend.md) and the
+    example program runs a scenario with it. The folder builds with `make` (or CMake, kernels only)
+    and needs no Python, CasADi or SymPy.
     """
     from svbi.codegen import c_emit
     from svbi.codegen.kernels import skip_reason
 
-    if solver:
-        typer.echo("The C time-loop solver is not yet available; exporting the kernels only.", err=True)
     reason = skip_reason(model)
-    if reason:
+    if reason and not solver:
         typer.echo(f"nothing to export: {reason}", err=True)
         raise typer.Exit(1)
-    name, files = _render(model, embedded=embedded)
-    exported = {n: d for n, d in files.items() if n.endswith(EXPORTED_SUFFIXES)}
-    c_emit.write_files(exported, folder, prune=False)
-    typer.echo(f"exported {name} to {folder} ({len(exported)} files): build with `make -C {folder}`")
+    exported: dict[str, bytes] = {}
+    name = model
+    if not reason:
+        name, files = _render(model, embedded=embedded)
+        exported = {n: d for n, d in files.items() if n.endswith(EXPORTED_SUFFIXES)}
+    if not solver:
+        c_emit.write_files(exported, folder, prune=False)
+        typer.echo(f"exported {name} to {folder} ({len(exported)} files): build with `make -C {folder}`")
+        return
+    from svbi.runtime.c_export import PROGRAM, write_solver
+    from svbi.runtime.scenario import ScenarioError, load_scenario
+
+    # the solver's example replaces the kernels' example program and build files
+    kernels = {n: d for n, d in exported.items() if n not in ("main.c", "Makefile", "CMakeLists.txt")}
+    try:
+        sc = load_scenario(scenario) if scenario is not None else None
+        _, files = write_solver(model, folder, sc, extra=kernels, embedded=embedded)
+    except (ScenarioError, ValueError) as exc:
+        typer.echo(f"error: {exc}", err=True)
+        raise typer.Exit(2) from None
+    typer.echo(f"exported {name} with the C time loop to {folder} ({len(files)} files): build with "
+               f"`make -C {folder}`, run `{folder}/{PROGRAM} results.csv`")
 
 
 def register(app: typer.Typer) -> None:

@@ -243,9 +243,13 @@ class CoupledDynamic:
         HV, _ = self._force(self.lamV, self.DV, self.mV)
         HB, _ = self._force(self.lamB, DB, mB)
 
-        # vehicle rows
+        # vehicle rows (the creep force of t_n is an explicit load, docs/method.md)
+        creep = m.creep
         fV = tr.F_active + PV_ @ tr.M_active + QV_ @ tr.vehicle.C
         fV -= HV.reshape(tr.cars, tr.wheels) @ tr.W.T
+        if creep is not None:
+            fV += creep.vehicle_load(st.creep_force)
+            creep.add_bridge_load(fB, st.creep_force, c)
         rhs[: self.NV] = fV.reshape(-1)
         # bridge rows: + N D_B lambda_B on the left, + N H_B on the right
         np.add.at(fB, (span[sel, None], idx[sel]), rows.N0[sel] * HB[sel, None])
@@ -296,6 +300,8 @@ class CoupledDynamic:
         self._update_lambda(self.lamB, lamB)
         self._update_lambda(self.lamG, x[self.oLG :])
         st.t = t
+        if creep is not None:
+            st.creepage, st.creep_force = creep.evaluate(st, c)
         return st
 
     def _finish_bridge(self, x: np.ndarray, PB: np.ndarray, QB: np.ndarray) -> None:

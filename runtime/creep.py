@@ -204,3 +204,34 @@ def kalker_coefficient(normal_load: ArrayLike, params: CreepParameters | None = 
     """Kalker's f33 = G a b C11 (N) under each wheel's normal load (0 out of contact)."""
     n = np.asarray(normal_load, dtype=float)
     return _evaluate("f33", np.zeros_like(n), n, params or CreepParameters())
+
+
+class CreepLaw:
+    """The creep law with one parameter set substituted, for the time loop (one call per step).
+
+    The same SymPy expression as :func:`creep_force` (``svbi.codegen.creep.creep_force``), with the
+    parameter values substituted before ``lambdify`` (common subexpressions eliminated), so a step
+    evaluates only ``F_x(ξ, N)``; the Hertz and Kalker coefficients are computed once.
+    """
+
+    def __init__(self, params: CreepParameters | None = None) -> None:
+        self.params = params or CreepParameters()
+        values = {k: sp.Float(v, 17) for k, v in self.params.values().items()}
+        self._force = sp.lambdify(
+            (law.xi, law.normal_load), law.creep_force().xreplace(values), modules="numpy", cse=True
+        )
+        self._f33 = sp.lambdify((law.normal_load,), law.kalker_f33().xreplace(values), modules="numpy")
+
+    def force(self, creepage: NDArray[np.float64], normal_load: NDArray[np.float64]) -> NDArray[np.float64]:
+        """F_x (N), the force on the wheel (opposite to the slip): 0 where N <= 0."""
+        loaded = normal_load > 0.0
+        safe_n = np.where(loaded, normal_load, 1.0)  # every branch is evaluated: keep N^(1/3) real
+        with np.errstate(divide="ignore", invalid="ignore"):
+            out = self._force(creepage, safe_n)
+        return np.where(loaded, out, 0.0)
+
+    def f33(self, normal_load: ArrayLike) -> NDArray[np.float64]:
+        """Kalker's f33 (N) under each load (0 where N <= 0)."""
+        n = np.asarray(normal_load, dtype=float)
+        loaded = n > 0.0
+        return np.where(loaded, self._f33(np.where(loaded, n, 1.0)), 0.0)

@@ -119,7 +119,11 @@ def initial_state(model: Model, start: str = "rigid-track") -> State:
         ag = (aV @ tr.W).reshape(-1)
         m_g = np.tile(tr.aux_masses, tr.cars)
         PV = P - m_g * (ag + GRAVITY)
-    return State(0.0, uV, vV, aV, uB, vB, aB, ug, vg, ag, P, PV)
+    state = State(0.0, uV, vV, aV, uB, vB, aB, ug, vg, ag, P, PV)
+    creep = model.creep
+    if creep is not None:  # the explicit creep force that loads the first step
+        state.creepage, state.creep_force = creep.evaluate(state, model.contacts(0.0))
+    return state
 
 
 def _static_on_bridge(model: Model, N0: np.ndarray, idx: np.ndarray, q: np.ndarray):  # noqa: ANN202

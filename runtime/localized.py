@@ -104,6 +104,9 @@ class LocalizedDynamic:
         sup = b.support_dofs
         q_hat = self.point.target(PB[:, sup], QB[:, sup], q, q1, q2)
         fB = PB @ b.M + QB @ b.C + q1 @ b.CT.T
+        creep = m.creep
+        if creep is not None:  # explicit: the creep force of t_n loads this step (docs/method.md)
+            creep.add_bridge_load(fB, st.creep_force, c)
         uB_t = fB @ self.bridge.S + q_hat @ self.bridge.R.T
 
         on = c.on
@@ -122,6 +125,8 @@ class LocalizedDynamic:
         PV_, QV_ = nm.history(st.uV, st.vV, st.aV)
         Pg, Qg = nm.history(st.ug, st.vg, st.ag)
         fV = tr.F_active + PV_ @ tr.M_active + QV_ @ tr.vehicle.C
+        if creep is not None:
+            fV = fV + creep.vehicle_load(st.creep_force)
         uV_t = fV @ self.k_inv
         wheel_t = (uV_t @ tr.W).reshape(-1)
         p_t = (Pg - GRAVITY) / nm.a0
@@ -171,6 +176,8 @@ class LocalizedDynamic:
         st.ug = ug
         self._finish_bridge(uB, PB, QB)
         st.P, st.PV, st.t = P, PV, t
+        if creep is not None:
+            st.creepage, st.creep_force = creep.evaluate(st, c)
         return st
 
     # ----------------------------------------------------------------------------------------------

@@ -18,6 +18,7 @@ from typing import Any, Protocol
 
 import numpy as np
 from svbi.runtime.bridge import Bridge, Location
+from svbi.runtime.creep import CreepParameters
 from svbi.runtime.train import Train
 
 Triple = tuple[np.ndarray, np.ndarray, np.ndarray]
@@ -78,6 +79,24 @@ class Ground:
             return q, f * q1, f * f * q2
         return q, q1, q2
 
+    def under_longitudinal(self, t: float, x: np.ndarray, speed: float) -> Triple:
+        """Longitudinal ground motion under points moving at ``speed`` (total time derivatives):
+        the rigid approach track the off-bridge wheels creep against."""
+        _, (q, q1, q2) = self.motion(t, x)
+        if self.apparent_velocity:
+            f = 1.0 - speed / self.apparent_velocity
+            return q, f * q1, f * f * q2
+        return q, q1, q2
+
+    def recorded(self, t: float, bridge: Bridge) -> tuple[np.ndarray, np.ndarray]:
+        """``ground_uz`` and ``ground_ux`` of the results: at x = 0 when uniform, else at every
+        support constraint (``bridge.support_x``, span by span)."""
+        if self.uniform:
+            (qz, _, _), (qx, _, _) = self.motion(t, np.zeros(1))
+            return qz[0], qx[0]
+        (qz, _, _), (qx, _, _) = self.motion(t, bridge.support_x.reshape(-1))
+        return qz, qx
+
 
 class GroundAtRest(Ground):
     """No earthquake: every target is zero (cached, the loop asks at every step)."""
@@ -100,6 +119,9 @@ class GroundAtRest(Ground):
         return self._z(bridge.support_x.shape)
 
     def under(self, t: float, x: np.ndarray, speed: float) -> Triple:
+        return self._z(np.shape(x))
+
+    def under_longitudinal(self, t: float, x: np.ndarray, speed: float) -> Triple:
         return self._z(np.shape(x))
 
 
@@ -170,6 +192,10 @@ class State:
     PV: np.ndarray
     """Wheel-aux force, N, compression positive (equals ``P`` less the aux point's inertia)."""
     extra: dict[str, Any] = field(default_factory=dict)
+    creepage: np.ndarray | None = None
+    """Longitudinal creepage of every contact at ``t`` (None: no creep in this run)."""
+    creep_force: np.ndarray | None = None
+    """Creep force on every wheel at ``t``, N (explicit: it loads the *next* step)."""
 
     def copy(self) -> State:
         return State(
@@ -179,6 +205,8 @@ class State:
                 for k in ("uV", "vV", "aV", "uB", "vB", "aB", "ug", "vg", "ag", "P", "PV")
             ),
             extra=dict(self.extra),
+            creepage=None if self.creepage is None else np.array(self.creepage),
+            creep_force=None if self.creep_force is None else np.array(self.creep_force),
         )
 
 
@@ -207,12 +235,26 @@ class Model:
         settings: Settings,
         irregularity: IrregularityLike | None = None,
         ground: Ground | None = None,
+        creep: CreepParameters | None = None,
     ) -> None:
         self.bridge = bridge
         self.train = train
         self.settings = settings
         self.irregularity = irregularity or FlatTrack()
         self.ground = ground or GroundAtRest()
+        self.creep_parameters = creep
+        """Wheel-rail creep (``[contact]``); None: no creep forces."""
+        self._creep: Any = None
+
+    @property
+    def creep(self) -> Any:
+        """The :class:`~svbi.runtime.creep_forces.CreepForces` of this run, or None (no creep: not
+        asked for, a moving load, a held train, or no wheel spin DOF in the vehicle)."""
+        if self._creep is None and self.creep_parameters is not None:
+            from svbi.runtime.creep_forces import CreepForces
+
+            self._creep = CreepForces(self, self.creep_parameters) if CreepForces.applies(self) else False
+        return self._creep or None
 
     @property
     def dt(self) -> float:

@@ -50,6 +50,8 @@ class Recorder:
             "ground_ux": np.zeros(n) if self.uniform else np.zeros((n, nsup)),
             "contact_force": np.zeros((n, tr.cars, tr.wheels)),
             "creep_force": np.zeros((n, tr.cars, tr.wheels)),
+            "creepage": np.zeros((n, tr.cars, tr.wheels)),
+            "irregularity": np.zeros((n, tr.cars, tr.wheels)),
             "carbody_uz": np.zeros((n, tr.cars)),
             "carbody_az": np.zeros((n, tr.cars)),
             "carbody_pitch": np.zeros((n, tr.cars)),
@@ -74,14 +76,13 @@ class Recorder:
         mid = state.uB[:, self.mid_dofs]
         d["midspan_uz"][k] = mid @ self.mid_w
         d["midspan_ux"][k] = mid @ self.mid_u
-        if self.uniform:
-            (qz, _, _), (qx, _, _) = m.ground.motion(state.t, np.zeros(1))
-            d["ground_uz"][k], d["ground_ux"][k] = qz[0], qx[0]
-        else:
-            (qz, _, _), (qx, _, _) = m.ground.motion(state.t, b.support_x.reshape(-1))
-            d["ground_uz"][k], d["ground_ux"][k] = qz, qx
+        d["ground_uz"][k], d["ground_ux"][k] = m.ground.recorded(state.t, b)
         shape = (tr.cars, tr.wheels)
         d["contact_force"][k] = state.P.reshape(shape)
+        d["irregularity"][k] = contacts.r.reshape(shape)
+        if state.creep_force is not None:
+            d["creep_force"][k] = state.creep_force.reshape(shape)
+            d["creepage"][k] = state.creepage.reshape(shape)
         q, _, _ = m.supports(state.t)
         gaps: dict[str, np.ndarray] = {"support": (q - state.uB[:, b.support_dofs]).reshape(-1)}
         d["gap_support"][k] = gaps["support"]
@@ -144,7 +145,21 @@ class Recorder:
                     f"cutoff {m.settings.force_filter_hz:g} Hz, at the full time-step rate",
                 ),
             ),
-            "creep_force": (per_wheel, d["creep_force"], _a("N", "longitudinal creep force")),
+            "creep_force": (
+                per_wheel,
+                d["creep_force"],
+                _a("N", "longitudinal creep force on the wheel, +x forward (Eqs. 15-16)"),
+            ),
+            "creepage": (
+                per_wheel,
+                d["creepage"],
+                _a("1", "longitudinal creepage: wheel minus rail velocity at the contact over v (Eq. 16)"),
+            ),
+            "irregularity": (
+                per_wheel,
+                d["irregularity"],
+                _a("m", "vertical rail irregularity under the wheel, up positive (with its onset ramp)"),
+            ),
             "carbody_uz": (
                 ("time", "car"),
                 d["carbody_uz"],

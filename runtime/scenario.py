@@ -120,14 +120,41 @@ class TrackSpec(_Table):
     wavelength_max: Positive = 80.0
 
 
-class EarthquakeSpec(_Table):
-    """``[earthquake]``: ground motion at the supports and under the approach track."""
+RecordName = Annotated[str, Field(min_length=1)]
 
-    vertical: Annotated[str, Field(min_length=1)] = "none"
-    longitudinal: Annotated[str, Field(min_length=1)] = "none"
+
+class EarthquakeSpec(_Table):
+    """``[earthquake]``: ground motion at the supports and under the approach track.
+
+    A component is ``"none"``, ``"synthetic"``, a record path, or a list of those with one entry per
+    support line (abutments and piers, ``bridge.spans + 1`` entries in the direction of travel).
+    """
+
+    vertical: RecordName | list[RecordName] = "none"
+    longitudinal: RecordName | list[RecordName] = "none"
     scale: NonNegative = 1.0
+    vertical_scale: NonNegative = 1.0
+    longitudinal_scale: NonNegative = 1.0
+    target_pga: Positive | None = None
     arrival: float = 0.0
     apparent_velocity: Positive | None = None
+    seed: int = 1
+    record_dt: Positive | None = None
+
+    def sources(self, component: str) -> list[str]:
+        """The record names of a component as a list (one entry when synchronous)."""
+        value = getattr(self, component)
+        return list(value) if isinstance(value, list) else [value]
+
+
+class ContactSpec(_Table):
+    """``[contact]``: the tangential (creep) wheel-rail contact, paper Section 2.4."""
+
+    creep: bool = True
+    friction: Positive = 0.3
+    rail_head_radius: Positive = 0.3
+    youngs_modulus: Positive = 2.1e11
+    poisson_ratio: Annotated[float, Field(ge=0, le=0.5)] = 0.3
 
 
 class SolverSpec(_Table):
@@ -157,6 +184,7 @@ class Scenario(_Table):
     train: TrainSpec
     track: TrackSpec = Field(default_factory=TrackSpec)
     earthquake: EarthquakeSpec | None = None
+    contact: ContactSpec = Field(default_factory=ContactSpec)
     solver: SolverSpec = Field(default_factory=SolverSpec)
     output: OutputSpec = Field(default_factory=OutputSpec)
 
@@ -322,13 +350,7 @@ def _semantic_problems(s: Scenario) -> Iterable[tuple[str, str]]:
     if sol.duration is not None and sol.duration < sol.time_step:
         yield "solver.duration", f"shorter than one time step ({sol.duration:g} s < {sol.time_step:g} s)"
     if s.earthquake is not None:
-        for comp in ("vertical", "longitudinal"):
-            value = getattr(s.earthquake, comp)
-            if value not in ("none", "synthetic") and not s.resolve_path(value).is_file():
-                yield (
-                    f"earthquake.{comp}",
-                    (f"not 'none', 'synthetic' or an existing record file: {s.resolve_path(value)}"),
-                )
+        yield from _earthquake_problems(s)
     try:
         topo = vehicle_topology(s)
     except TopologyError as exc:
@@ -353,6 +375,48 @@ def _semantic_problems(s: Scenario) -> Iterable[tuple[str, str]]:
             yield "train.parameters.axle_loads", "axle loads must be positive (N, downward)"
         return
     yield from _vehicle_problems(s, values)
+
+
+def _earthquake_problems(s: Scenario) -> Iterable[tuple[str, str]]:
+    eq = s.earthquake
+    assert eq is not None
+    lines = s.bridge.spans + 1
+    for comp in ("vertical", "longitudinal"):
+        value = getattr(eq, comp)
+        per_support = isinstance(value, list)
+        if per_support and len(value) != lines:
+            yield (
+                f"earthquake.{comp}",
+                f"one record per support needs bridge.spans + 1 = {lines} entries (abutments and "
+                f"piers, in the direction of travel); got {len(value)}",
+            )
+        if per_support and eq.apparent_velocity is not None and comp == _first_list(eq):
+            yield (
+                "earthquake.apparent_velocity",
+                f"cannot be combined with one record per support (earthquake.{comp} is a list); "
+                "give one or the other",
+            )
+        for k, name in enumerate(eq.sources(comp)):
+            if name not in ("none", "synthetic") and not s.resolve_path(name).is_file():
+                key = f"earthquake.{comp}[{k}]" if per_support else f"earthquake.{comp}"
+                yield key, f"not 'none', 'synthetic' or an existing record file: {s.resolve_path(name)}"
+    if eq.arrival < 0:
+        yield (
+            "earthquake.arrival",
+            f"must be >= 0 (got {eq.arrival:g} s): a negative arrival would start the run in the "
+            "middle of the record, and the train starts in static equilibrium at t = 0",
+        )
+    elif s.solver.duration is not None and eq.arrival >= s.solver.duration:
+        names = ", ".join(n for c in ("vertical", "longitudinal") for n in eq.sources(c) if n != "none")
+        yield (
+            "earthquake.arrival",
+            f"the record ({names}) would start at {eq.arrival:g} s, not before the end of the run "
+            f"(solver.duration = {s.solver.duration:g} s): the earthquake would never act",
+        )
+
+
+def _first_list(eq: EarthquakeSpec) -> str:
+    return next(c for c in ("vertical", "longitudinal") if isinstance(getattr(eq, c), list))
 
 
 def _parameter_key(topo: Any, key: str, overrides: Mapping[str, Any]) -> str:
@@ -430,6 +494,7 @@ _ALLOWED_BY_TABLE: dict[str, type[BaseModel]] = {
     "train": TrainSpec,
     "track": TrackSpec,
     "earthquake": EarthquakeSpec,
+    "contact": ContactSpec,
     "solver": SolverSpec,
     "output": OutputSpec,
 }

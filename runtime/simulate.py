@@ -23,6 +23,7 @@ from typing import Any
 import numpy as np
 import xarray as xr
 from svbi.runtime.bridge import Bridge
+from svbi.runtime.creep import CreepParameters
 from svbi.runtime.initial import initial_state
 from svbi.runtime.model import Ground, GroundAtRest, Model, Settings, crossing_duration
 from svbi.runtime.results import Recorder
@@ -35,6 +36,12 @@ constraint violation but a failed integration."""
 FORCE_LIMIT_FACTOR = 1.0e3
 """A contact force beyond this multiple of the largest static wheel load stops the run. Joint
 impulses give peaks of tens of static loads at dt = 1e-4 s (method-notes section 4)."""
+
+
+IRREGULARITY_TABLE_DIVISIONS = 50
+"""Table spacing of the rail profile: ``track.wavelength_min / 50``. The quintic table then differs
+from the exact spectral sum by about 1e-12 (r), 1e-9 (r') and 4e-7 (r'') of their RMS
+(docs/excitations.md)."""
 
 
 class SimulationIncomplete(RuntimeWarning):
@@ -135,9 +142,27 @@ def build_model(scenario: Scenario, hold_train: bool = False) -> Model:
         split=ss.contact_split,
         force_filter_hz=scenario.output.force_filter_hz,
     )
-    irregularity = _irregularity(scenario, train, duration)
+    irregularity = _irregularity(scenario, train, duration, steps * ss.time_step)
     ground = _ground(scenario, duration)
-    return Model(bridge, train, settings, irregularity, ground)
+    if not train.moving_load:  # the wheels on the approach track stand still at t = 0
+        check_start = getattr(ground, "check_start", None)
+        if check_start is not None:
+            check_start(train.positions(0.0))
+    return Model(bridge, train, settings, irregularity, ground, creep=_creep(scenario))
+
+
+def _creep(scenario: Scenario) -> CreepParameters | None:
+    """Creep-law parameters of ``[contact]`` (None when creep is off); the wheel radius comes from
+    the vehicle topology (``runtime.creep_forces``)."""
+    c = scenario.contact
+    if not c.creep:
+        return None
+    return CreepParameters(
+        youngs_modulus=c.youngs_modulus,
+        poisson_ratio=c.poisson_ratio,
+        rail_head_radius=c.rail_head_radius,
+        friction=c.friction,
+    )
 
 
 def hslm_parameters(name: str) -> dict[str, Any]:
@@ -148,13 +173,16 @@ def hslm_parameters(name: str) -> dict[str, Any]:
     return {"axle_loads": tuple(loads), "axle_offsets": tuple(offsets), "car_length": length}
 
 
-def _irregularity(scenario: Scenario, train: Train, duration: float):  # noqa: ANN202
+def _irregularity(scenario: Scenario, train: Train, duration: float, end_time: float):  # noqa: ANN202
+    """The rail profile as the loop evaluates it: the spectral sample tabulated as a quintic
+    piecewise polynomial from the ramp start (``train.start_position``) to where the leading axle is
+    at the last step (docs/excitations.md: table spacing and error)."""
     spec = scenario.track
     if spec.irregularity == "none":
         return None
-    from svbi.runtime.excitation.irregularity import make_irregularity
+    from svbi.runtime.excitation.irregularity import SpectralIrregularity, make_irregularity
 
-    return make_irregularity(
+    exact = make_irregularity(
         spec.irregularity,
         seed=spec.seed,
         length=max(train.speed * duration, 1.0),
@@ -162,6 +190,12 @@ def _irregularity(scenario: Scenario, train: Train, duration: float):  # noqa: A
         wavelength_max=spec.wavelength_max,
         start=train.start_position,
     )
+    if not isinstance(exact, SpectralIrregularity):
+        return exact
+    dx = spec.wavelength_min / IRREGULARITY_TABLE_DIVISIONS
+    x0 = train.start_position
+    x1 = x0 + max(train.speed * end_time, 1.0) + 4 * dx
+    return exact.tabulate(x0, x1, dx)
 
 
 def _ground(scenario: Scenario, duration: float) -> Ground:

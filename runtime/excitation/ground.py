@@ -19,7 +19,7 @@ from __future__ import annotations
 
 import math
 import warnings
-from collections.abc import Callable, Sequence
+from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -28,7 +28,8 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 from svbi.runtime.excitation.processing import MotionHistory, Processing, process_record
 from svbi.runtime.excitation.records import Record, read_record
-from svbi.runtime.excitation.synthetic import DEFAULT_SEED, synthetic_motion
+from svbi.runtime.excitation.synthetic import DEFAULT_SEED, synthetic_motion, synthetic_record
+from svbi.runtime.model import Ground
 
 COMPONENTS = ("vertical", "longitudinal")
 Triple = tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]]
@@ -156,18 +157,40 @@ def _history(
     seed: int,
     dt: float | None,
     options: Processing | None,
+    target_pga: float | None = None,
 ) -> MotionHistory:
     if isinstance(source, Record):
-        return process_record(source, scale=scale, arrival=arrival, options=options)
+        return process_record(source, scale=scale, target_pga=target_pga, arrival=arrival, options=options)
     if str(source) == "synthetic":
-        return synthetic_motion(component, seed, scale=scale, arrival=arrival, options=options)
+        if target_pga is None:
+            return synthetic_motion(component, seed, scale=scale, arrival=arrival, options=options)
+        return process_record(
+            synthetic_record(component, seed),
+            scale=scale,
+            target_pga=target_pga,
+            arrival=arrival,
+            options=options,
+        )
     path = Path(source)
     if not path.is_file():
         raise ValueError(
             f"earthquake.{component} = {str(source)!r}: expected 'none', 'synthetic' or the path of "
             "an existing record file"
         )
-    return process_record(read_record(path, dt=dt), scale=scale, arrival=arrival, options=options)
+    return process_record(
+        read_record(path, dt=dt), scale=scale, target_pga=target_pga, arrival=arrival, options=options
+    )
+
+
+def _source_names(spec: Source | Sequence[Source]) -> list[str]:
+    specs = [spec] if isinstance(spec, str | Path | Record) else list(spec)
+    out = []
+    for s in specs:
+        if isinstance(s, Record):
+            out.append(s.name)
+        elif str(s) != "none":
+            out.append(str(s))
+    return out
 
 
 def ground_motion(
@@ -182,13 +205,18 @@ def ground_motion(
     seed: int = DEFAULT_SEED,
     dt: float | None = None,
     options: Processing | None = None,
+    target_pga: float | None = None,
+    vertical_scale: float = 1.0,
+    longitudinal_scale: float = 1.0,
 ) -> GroundMotion:
     """Build the :class:`GroundMotion` of a scenario's ``[earthquake]`` table.
 
     Each component is ``"none"``, ``"synthetic"``, a record path (AT2 or text; ``dt`` for
     one-column files), a :class:`Record`, or a list of those, one per entry of
-    ``support_positions``. ``scale`` multiplies every record (the synthetic one is first brought to
-    its documented PGA). ``arrival`` (s, >= 0) is the simulation time of record time 0.
+    ``support_positions``. Each record is first brought to ``target_pga`` (m/s², if given; the
+    synthetic one otherwise to its documented PGA), then multiplied by ``scale`` and by the
+    component's ``vertical_scale`` or ``longitudinal_scale``. ``arrival`` (s, >= 0) is the
+    simulation time of record time 0.
 
     ``duration`` (s), the length of the run, enables two checks: an arrival at or after the end of
     the run is an error (the earthquake would never act), and a record that ends before the run
@@ -200,15 +228,25 @@ def ground_motion(
             "in the middle of the record, and the train starts in static equilibrium at t = 0"
         )
     if duration is not None and arrival >= duration:
+        names = ", ".join(_source_names(vertical) + _source_names(longitudinal)) or "none"
         raise ValueError(
-            f"earthquake.arrival = {arrival} s is not before the end of the run ({duration} s): "
-            "the earthquake would never act; lower the arrival or lengthen solver.duration"
+            f"earthquake.arrival = {arrival} s: the record ({names}) would start at or after the end "
+            f"of the run ({duration} s), so the earthquake would never act; lower the arrival or "
+            "lengthen solver.duration"
         )
     if apparent_velocity is not None and math.isinf(apparent_velocity):
         apparent_velocity = None
     comps: dict[str, ComponentMotion | None] = {}
+    factors = {"vertical": vertical_scale, "longitudinal": longitudinal_scale}
     for name, spec in (("vertical", vertical), ("longitudinal", longitudinal)):
-        kwargs = dict(scale=scale, arrival=arrival, seed=seed, dt=dt, options=options)
+        kwargs = dict(
+            scale=scale * factors[name],
+            arrival=arrival,
+            seed=seed,
+            dt=dt,
+            options=options,
+            target_pga=target_pga,
+        )
         if isinstance(spec, (str, Path, Record)):
             if str(spec) == "none" and not isinstance(spec, Record):
                 comps[name] = None
@@ -233,7 +271,7 @@ def ground_motion(
         for name in COMPONENTS:
             comp = motion.component(name)
             if comp is not None and comp.end_time < duration:
-                names = ", ".join(sorted({h.name for h in comp.histories}))
+                names = ", ".join(sorted({h.source if h.source else h.name for h in comp.histories}))
                 warnings.warn(
                     f"earthquake.{name} ({names}) ends at t = {comp.end_time:.2f} s, before the run "
                     f"ends at {duration:.2f} s; the ground then stays at rest at its final displacement",
@@ -244,34 +282,164 @@ def ground_motion(
 
 
 def ground_from_scenario(scenario: Any, duration: float | None = None) -> Any:
-    """The runtime's ``Ground`` (``svbi.runtime.model.FunctionGround``) for a scenario's ``[earthquake]``.
+    """The runtime's ``Ground`` (:class:`RecordGround`) for a scenario's ``[earthquake]``.
 
-    Record paths are resolved against the scenario's folder (``scenario.resolve_path``).
-    ``duration`` (default ``solver.duration``) enables the checks of :func:`ground_motion`.
+    Record paths are resolved against the scenario's folder (``scenario.resolve_path``). A component
+    given as a list has one record per support line: the abutments and piers at ``x = j L``,
+    ``j = 0 .. spans``. ``duration`` (default ``solver.duration``) enables the checks of
+    :func:`ground_motion`.
     """
-    from svbi.runtime.model import FunctionGround
-
     eq = scenario.earthquake
+    spans, length = scenario.bridge.spans, scenario.bridge.span_length
+    piers = np.arange(spans + 1) * length
 
     def source(value: str) -> Source:
         return value if value in ("none", "synthetic") else scenario.resolve_path(value)
 
+    def spec(component: str) -> Source | list[Source]:
+        value = getattr(eq, component)
+        if isinstance(value, list):
+            return [source(v) for v in value]
+        return source(value)
+
+    per_support = any(isinstance(getattr(eq, c), list) for c in COMPONENTS)
     motion = ground_motion(
-        vertical=source(eq.vertical),
-        longitudinal=source(eq.longitudinal),
+        vertical=spec("vertical"),
+        longitudinal=spec("longitudinal"),
         scale=eq.scale,
+        vertical_scale=eq.vertical_scale,
+        longitudinal_scale=eq.longitudinal_scale,
+        target_pga=eq.target_pga,
         arrival=eq.arrival,
         apparent_velocity=eq.apparent_velocity,
+        support_positions=list(piers) if per_support else None,
         duration=duration if duration is not None else scenario.solver.duration,
+        seed=eq.seed,
+        dt=eq.record_dt,
     )
+    return RecordGround(motion)
 
-    def component(name: str) -> Callable[[float, NDArray], Triple] | None:
-        if not motion.is_active(name):
-            return None
-        return lambda t, x: motion.motion(name, t, x)
 
-    return FunctionGround(
-        vertical=component("vertical"),
-        longitudinal=component("longitudinal"),
-        apparent_velocity=motion.apparent_velocity,
-    )
+class RecordGround(Ground):
+    """A :class:`GroundMotion` as the solver sees it (``svbi.runtime.model.Ground``).
+
+    Every component is a processed record, i.e. a C2 piecewise cubic in t
+    (:meth:`MotionHistory.table`), evaluated at ``t`` (synchronous), at ``t - (x - x_ref)/c``
+    (wave passage), or per support line (one record per abutment or pier). With one record per
+    support, a point takes the motion of the *nearest* support line: the approach track before the
+    bridge follows the first abutment, the track after it the last one (on the bridge the value is
+    never used for the wheels; the supports sit exactly on their lines).
+
+    ``source`` is the :class:`GroundMotion` (the C backend reads its tables from it).
+    """
+
+    def __init__(self, motion: GroundMotion) -> None:
+        self.source = motion
+        self.apparent_velocity = motion.apparent_velocity
+        self.reference_position = motion.reference_position
+        self.components = {name: motion.component(name) for name in COMPONENTS}
+        self.per_support = any(c is not None and c.positions is not None for c in self.components.values())
+        self.uniform = self.apparent_velocity is None and not self.per_support
+        self._cache: dict[str, tuple[float, tuple[float, float, float]]] = {}
+        self._supports: tuple[float, Any, Triple] | None = None
+
+    # ----------------------------------------------------------------------------------------------
+    def component(self, name: str, t: float, x: NDArray) -> Triple:
+        """q, q', q'' (partial time derivatives at fixed x) of one component, shaped like x."""
+        comp = self.components[name]
+        x = np.asarray(x, dtype=float)
+        if comp is None:
+            z = np.zeros(x.shape)
+            return z, z, z
+        if comp.positions is None:
+            history = comp.histories[0]
+            if self.apparent_velocity is None:
+                return tuple(np.full(x.shape, v) for v in self._uniform(name, t))  # type: ignore[return-value]
+            return history.evaluate(t - (x - self.reference_position) / self.apparent_velocity)
+        index = self.nearest_support(comp, x)
+        out = (np.zeros(x.shape), np.zeros(x.shape), np.zeros(x.shape))
+        for k in np.unique(index):
+            sel = index == k
+            q = comp.histories[int(k)].evaluate(np.full(int(sel.sum()), t))
+            for o, v in zip(out, q, strict=True):
+                o[sel] = v
+        return out
+
+    def _uniform(self, name: str, t: float) -> tuple[float, float, float]:
+        """q, q', q'' of a synchronous component at t (0 when "none"); the loop asks several times
+        per step, so the last time is cached."""
+        hit = self._cache.get(name)
+        if hit is None or hit[0] != t:
+            comp = self.components[name]
+            if comp is None:
+                values = (0.0, 0.0, 0.0)
+            else:
+                q = comp.histories[0].evaluate(np.asarray(t, dtype=float))
+                values = (float(q[0]), float(q[1]), float(q[2]))
+            hit = (t, values)
+            self._cache[name] = hit
+        return hit[1]
+
+    def supports(self, t: float, bridge: Any) -> Triple:
+        if not self.uniform:
+            return super().supports(t, bridge)
+        hit = self._supports
+        if hit is None or hit[0] != t or hit[1] is not bridge:
+            vert, lon = self._uniform("vertical", t), self._uniform("longitudinal", t)
+            mask = bridge.support_vertical
+            shape = bridge.support_x.shape
+            values = tuple(
+                np.broadcast_to(np.where(mask, v, h), shape) for v, h in zip(vert, lon, strict=True)
+            )
+            hit = self._supports = (t, bridge, values)
+        return hit[2]  # type: ignore[return-value]
+
+    def recorded(self, t: float, bridge: Any) -> tuple[Any, Any]:
+        if self.uniform:
+            return self._uniform("vertical", t)[0], self._uniform("longitudinal", t)[0]
+        return super().recorded(t, bridge)
+
+    @staticmethod
+    def nearest_support(comp: ComponentMotion, x: NDArray) -> NDArray[np.intp]:
+        """Index of the support line nearest to each x (ties go to the one ahead)."""
+        assert comp.positions is not None
+        mids = 0.5 * (comp.positions[1:] + comp.positions[:-1])
+        return np.searchsorted(mids, x, side="right")
+
+    def motion(self, t: float, x: NDArray) -> tuple[Triple, Triple]:
+        return self.component("vertical", t, x), self.component("longitudinal", t, x)
+
+    def _moving(self, name: str, t: float, x: NDArray, speed: float) -> Triple:
+        q, q1, q2 = self.component(name, t, x)
+        if self.apparent_velocity:
+            f = 1.0 - speed / self.apparent_velocity
+            return q, f * q1, f * f * q2
+        return q, q1, q2
+
+    def under(self, t: float, x: NDArray, speed: float) -> Triple:
+        """Vertical ground motion under points moving at ``speed`` (total time derivatives)."""
+        return self._moving("vertical", t, x, speed)
+
+    def under_longitudinal(self, t: float, x: NDArray, speed: float) -> Triple:
+        """Longitudinal ground motion under points moving at ``speed`` (total time derivatives)."""
+        return self._moving("longitudinal", t, x, speed)
+
+    def check_start(self, x: NDArray) -> None:
+        """A travelling wave must not have reached any of the points ``x`` (m) at t = 0."""
+        c = self.apparent_velocity
+        if c is None:
+            return
+        x = np.asarray(x, dtype=float)
+        for name, comp in self.components.items():
+            if comp is None:
+                continue
+            arrival = comp.histories[0].arrival
+            early = arrival + (x - self.reference_position) / c < 0.0
+            if np.any(early):
+                needed = -(x.min() - self.reference_position) / c
+                raise ValueError(
+                    f"earthquake.{name}: with apparent velocity {c} m/s the wave reaches "
+                    f"x = {x[early].min():.2f} m before t = 0 (earthquake.arrival = {arrival} s), so "
+                    "that point would already move when the train starts in static equilibrium; "
+                    f"increase earthquake.arrival to at least {needed:.4g} s"
+                )

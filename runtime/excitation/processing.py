@@ -46,9 +46,11 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from functools import cached_property
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
+from scipy.interpolate import PPoly
 from svbi.runtime.excitation.records import Record
 
 Triple = tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]]
@@ -160,20 +162,45 @@ class MotionHistory:
         """max |q''| over the samples (m/s²)."""
         return float(np.max(np.abs(self.accel)))
 
-    def evaluate(self, t: ArrayLike) -> Triple:
-        """q, q', q'' (m, m/s, m/s²) at simulation times t (any shape)."""
-        ta = np.asarray(t, dtype=float)
-        tau = ta - self.arrival
-        n_int = self.accel.size - 1
-        k = np.clip(np.floor(tau / self.dt), 0, n_int - 1).astype(np.intp)
-        s = np.clip(tau - k * self.dt, 0.0, self.dt)
-        a0, a1 = self.accel[k], self.accel[k + 1]
+    @cached_property
+    def _pieces(self) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+        """Breaks and PPoly coefficients ``[jerk/6, accel/2, vel, disp]`` (4 x pieces)."""
+        a0, a1 = self.accel[:-1], self.accel[1:]
         jerk = (a1 - a0) / self.dt
-        q = self.disp[k] + s * (self.vel[k] + s * (a0 / 2.0 + s * jerk / 6.0))
-        qd = self.vel[k] + s * (a0 + s * jerk / 2.0)
-        qdd = a0 + s * jerk
-        before = tau <= 0.0
-        after = tau >= self.duration
+        c = np.stack([jerk / 6.0, a0 / 2.0, self.vel[:-1], self.disp[:-1]])
+        return self.arrival + self.dt * np.arange(self.accel.size), c
+
+    def table(self) -> tuple[PPoly, Triple]:
+        """The displacement as a piecewise cubic in simulation time (what the C loop evaluates).
+
+        Breaks ``arrival + i dt``; on piece i, ``q = disp_i + vel_i s + accel_i s²/2 + jerk_i s³/6``
+        with ``s = t - (arrival + i dt)``, i.e. ``scipy.interpolate.PPoly`` coefficients
+        ``[jerk/6, accel/2, vel, disp]``. Returns the PPoly and the constant ``(q, q', q'')`` after
+        the record (before it, all are 0).
+        """
+        x, c = self._pieces
+        return PPoly(c, x, extrapolate=False), (float(self.disp[-1]), 0.0, 0.0)
+
+    def evaluate(self, t: ArrayLike) -> Triple:
+        """q, q', q'' (m, m/s, m/s²) at simulation times t (any shape).
+
+        Evaluates :meth:`table` exactly as the C loop does: the piece with ``x_i <= t < x_{i+1}``,
+        Horner in ``s = t - x_i`` for the value and the two derivatives; 0 for ``t <= arrival``, the
+        final displacement at rest from the end of the record on.
+        """
+        ta = np.asarray(t, dtype=float)
+        x, c = self._pieces
+        n = c.shape[1]
+        i = np.clip(np.floor((ta - x[0]) / self.dt), 0, n - 1).astype(np.intp)
+        i = np.where((i > 0) & (ta < x[i]), i - 1, i)
+        i = np.where((i < n - 1) & (ta >= x[np.minimum(i + 1, n)]), i + 1, i)
+        s = ta - x[i]
+        c0, c1, c2, c3 = c[0, i], c[1, i], c[2, i], c[3, i]
+        q = ((c0 * s + c1) * s + c2) * s + c3
+        qd = (3.0 * c0 * s + 2.0 * c1) * s + c2
+        qdd = 6.0 * c0 * s + 2.0 * c1
+        before = ta <= x[0]
+        after = ta >= x[n]
         q = np.where(before, 0.0, np.where(after, self.disp[-1], q))
         qd = np.where(before | after, 0.0, qd)
         qdd = np.where(before | after, 0.0, qdd)

@@ -1,0 +1,298 @@
+"""The C backend (the whole Newmark loop in C, ``svbi.runtime.c_backend``) against the NumPy reference.
+
+The NumPy backend is the truth: the C loop must reproduce every output variable of DESIGN.md section
+4 (and the creep and irregularity outputs) to round-off, for every method, on multi-car, multi-span
+runs with rail irregularity, an earthquake (synchronous, travelling, one record per support line)
+and creep forces; for the sprung mass and the moving loads; when a run diverges (same step, same
+message, same partial results); and whatever the chunks Python runs it in.
+
+What "round-off" means per variable (measured, not assumed):
+
+* positions and forces (midspan, contact and creep forces, car-body bounce and pitch): 1e-10 of the
+  variable's peak;
+* accelerations (``carbody_az``) are Newmark's ``a = a0 u - P``, a difference of numbers
+  ``a0 = 4/dt^2`` times larger than the displacement: a one-ulp difference of ``u`` moves them by
+  ``eps a0 |u|``. The NumPy reference itself moves by ~3 such ulps (1.6e-10 of the peak at dt = 1e-3)
+  when only its BLAS kernel changes (``OPENBLAS_CORETYPE=Sandybridge``); we allow 16;
+* gaps are differences of positions (constraint violations at round-off level): they are compared
+  with 1e-10 of the displacement scale they are differences of;
+* coupled-classic drifts by construction (index-1 multipliers), and its velocity-level outputs (the
+  creepage and the creep force) amplify round-off at the exit kink: the reference moves by 1e-10
+  when only SuperLU's column ordering changes, and the C elimination order (blocks first) is further
+  from SuperLU's: we allow 1e-8 there, 1e-10 on everything else.
+"""
+
+from __future__ import annotations
+
+import math
+import shutil
+import subprocess
+import warnings
+from functools import cache
+from pathlib import Path
+
+import numpy as np
+import pytest
+from svbi.runtime import c_backend, c_loop, compiled
+from svbi.runtime.excitation.ground import RecordGround, ground_motion
+from svbi.runtime.excitation.synthetic import synthetic_record
+from svbi.runtime.initial import initial_state
+from svbi.runtime.results import Recorder
+from svbi.runtime.scenario import validate_scenario
+from svbi.runtime.simulate import BackendFallback, _Guard, build_model
+
+import svbi
+
+METHODS = ("localized-dynamic", "coupled-dynamic", "coupled-classic")
+RTOL = 1e-10
+EPS = np.finfo(float).eps
+POSITION_LIKE = ("midspan_uz", "midspan_ux", "contact_force", "contact_force_filtered", "carbody_uz",
+                 "carbody_pitch", "irregularity", "ground_uz", "ground_ux", "creep_force", "creepage")
+GAPS = ("gap_vehicle", "gap_bridge", "gap_support")
+
+
+def _compiler_works() -> bool:
+    try:
+        c_loop.load_loop(c_loop.LoopSpec("moving-load", 0, 0))
+    except compiled.CompilerError:
+        return False
+    return True
+
+
+pytestmark = pytest.mark.skipif(not _compiler_works(), reason="no working C compiler: the C backend falls "
+                                "back to NumPy (tested in test_no_compiler_falls_back_to_numpy)")
+
+
+def scenario(method: str, backend: str, vehicle: str = "pioneer-2d", cars: int = 2, spans: int = 2,
+             quake: bool = True, irregularity: str = "german-low", dt: float = 1e-3, every: int = 2,
+             **solver: float):
+    data = {
+        "bridge": dict(spans=spans, span_length=32.0, mass_per_length=22.4e3, youngs_modulus=35.5e9, area=8.63,
+                       second_moment=6.58, elements_per_span=8),
+        "train": dict(vehicle=vehicle, cars=cars, speed_kmh=300.0),
+        "track": dict(irregularity=irregularity, seed=3),
+        "solver": dict(method=method, backend=backend, time_step=dt, output_every=every, **solver),
+    }
+    if quake:
+        data["earthquake"] = dict(vertical="synthetic", longitudinal="synthetic", arrival=0.2)
+    return validate_scenario(data)
+
+
+def simulate(sc, model=None):
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", UserWarning)  # records shorter than the run, coarse time step
+        return svbi.simulate(sc, model=model)
+
+
+@cache
+def pair(method: str, **kw):
+    """NumPy and C results of the same scenario."""
+    return simulate(scenario(method, "numpy", **kw)), simulate(scenario(method, "c", **kw))
+
+
+def assert_agree(ref, out, method: str, dt: float, velocity_rtol: float = RTOL) -> None:
+    assert out.attrs["backend"] == "c" and ref.attrs["backend"] == "numpy"
+    assert out.attrs["steps"] == ref.attrs["steps"] and out.attrs["complete"] == ref.attrs["complete"]
+    np.testing.assert_array_equal(out.time.values, ref.time.values)
+    problems = {}
+    displacement = max(float(np.abs(ref[v]).max()) for v in ("midspan_uz", "midspan_ux", "carbody_uz"))
+    for name in (*POSITION_LIKE, "carbody_az", *GAPS):
+        x, y = ref[name].values, out[name].values
+        assert x.shape == y.shape, name
+        peak = float(np.abs(x).max())
+        rtol = velocity_rtol if name in ("creep_force", "creepage") else RTOL
+        tol = rtol * peak
+        if name == "carbody_az":
+            tol += 16 * EPS * (4.0 / dt**2) * float(np.abs(ref["carbody_uz"]).max())
+        if name in GAPS:
+            tol = RTOL * max(peak, displacement)
+        diff = float(np.abs(x - y).max())
+        if not diff <= tol:
+            problems[name] = (diff, tol)
+    assert not problems, problems
+
+
+# --------------------------------------------------------------------------------------------------
+# agreement with the reference
+
+
+@pytest.mark.parametrize("method", METHODS)
+def test_pioneer_train_with_quake_irregularity_and_creep(method):
+    """Two 14-DOF cars over two spans: entry, joint and exit, a synchronous earthquake in both
+    components, a German-low rail profile and creep forces."""
+    ref, out = pair(method)
+    assert ref.attrs["steps"] > 1200 and float(np.abs(ref.ground_uz).max()) > 1e-3
+    assert float(np.abs(ref.creep_force).max()) > 10.0 and float(np.abs(ref.irregularity).max()) > 1e-4
+    assert float(np.abs(ref.midspan_ux).max()) > 1e-4
+    assert_agree(ref, out, method, 1e-3, velocity_rtol=1e-8 if method == "coupled-classic" else RTOL)
+
+
+def _record_ground(kind: str, spans: int) -> RecordGround:
+    if kind == "travelling":
+        return RecordGround(ground_motion(vertical="synthetic", longitudinal="synthetic", arrival=0.3,
+                                          apparent_velocity=400.0))
+    lines = list(np.arange(spans + 1) * 32.0)
+    return RecordGround(ground_motion(
+        vertical=[synthetic_record("vertical", seed=k) for k in range(1, spans + 2)],
+        longitudinal=[synthetic_record("longitudinal", seed=k) for k in range(11, spans + 12)],
+        arrival=0.2, support_positions=lines))
+
+
+@pytest.mark.parametrize(("vehicle", "ground", "method"), [
+    ("sprung-mass", "travelling", "localized-dynamic"),
+    ("pioneer-2d", "lines", "localized-dynamic"),
+    ("moving-load", "lines", "localized-dynamic"),
+    ("moving-load", "travelling", "coupled-dynamic"),
+    ("moving-load", "lines", "coupled-classic"),
+])
+def test_other_vehicles_and_ground_models(vehicle, ground, method):
+    """The sprung mass and moving loads; a travelling wave (apparent velocity) and one record per
+    support line (the nearest line moves each point), distinct records on every line."""
+    out = {}
+    for backend in ("numpy", "c"):
+        sc = scenario(method, backend, vehicle=vehicle, cars=1 if vehicle == "sprung-mass" else 2)
+        model = build_model(sc)
+        model.ground = _record_ground(ground, sc.bridge.spans)
+        out[backend] = simulate(sc, model)
+    ref = out["numpy"]
+    if ground == "lines":
+        assert ref.attrs["backend"] == "numpy" and ref.ground_uz.dims == ("time", "support")
+        assert float(np.ptp(ref.ground_uz.values[-1])) > 1e-5  # the lines move differently
+    assert_agree(ref, out["c"], method, 1e-3)
+
+
+def test_divergence_stops_with_the_same_message_and_partial_results():
+    """A huge kappa makes the gap correction overshoot until the contact force exceeds its limit."""
+    res = {}
+    for backend in ("numpy", "c"):
+        sc = scenario("localized-dynamic", backend, cars=1, quake=False, irregularity="none", every=3,
+                      constraint_kappa=1e4)
+        with pytest.warns(svbi.runtime.simulate.SimulationIncomplete, match="diverged"):
+            res[backend] = svbi.simulate(sc)
+    ref, out = res["numpy"], res["c"]
+    assert ref.attrs["complete"] == 0 and out.attrs["complete"] == 0
+    assert out.attrs["incomplete"] == ref.attrs["incomplete"]
+    assert "contact_force" in out.attrs["incomplete"] and "kappa" in out.attrs["incomplete"]
+    assert 0 < out.attrs["steps"] < 1000
+    assert np.isfinite(out.contact_force_filtered).all()
+    assert_agree(ref, out, "localized-dynamic", 1e-3)
+
+
+def test_chunk_size_does_not_change_the_results():
+    """Python calls the loop in chunks (progress bar, Ctrl-C): any chunking gives identical bits."""
+    rows = []
+    for chunk in (None, 1, 37):
+        sc = scenario("localized-dynamic", "c", cars=1, spans=2)
+        model = build_model(sc)
+        state = initial_state(model)
+        stepper = c_backend.CStepper(model, state, "localized-dynamic")
+        recorder = Recorder(model)
+        recorder.force(0, state.P)
+        recorder.record(state, model.contacts(0.0))
+        stepper.run_loop(recorder, _Guard(model), None, chunk=chunk)
+        assert recorder.steps_done == model.settings.steps
+        rows.append({k: v[: recorder.count].copy() for k, v in recorder.data.items()} | {"f": recorder.forces})
+    for other in rows[1:]:
+        for key, value in rows[0].items():
+            np.testing.assert_array_equal(other[key], value, err_msg=key)
+
+
+def test_no_compiler_falls_back_to_numpy(monkeypatch, tmp_path):
+    monkeypatch.setenv("CC", str(tmp_path / "no-such-compiler"))
+    monkeypatch.setenv("SVBI_CACHE_DIR", str(tmp_path / "cache"))
+    monkeypatch.setattr(c_loop, "_LIBRARIES", {})
+    monkeypatch.setattr(c_backend, "_FALLBACK_WARNED", False)
+    sc = scenario("localized-dynamic", "c", vehicle="moving-load", cars=1, spans=1, quake=False,
+                  irregularity="none", duration=0.05)
+    with pytest.warns(BackendFallback, match="no working C compiler") as caught:
+        ds = svbi.simulate(sc)
+    assert ds.attrs["backend"] == "numpy" and ds.attrs["backend_requested"] == "c"
+    assert len([w for w in caught if issubclass(w.category, BackendFallback)]) == 1
+    ref = simulate(scenario("localized-dynamic", "numpy", vehicle="moving-load", cars=1, spans=1, quake=False,
+                            irregularity="none", duration=0.05))
+    np.testing.assert_array_equal(ds.midspan_uz.values, ref.midspan_uz.values)
+
+
+# --------------------------------------------------------------------------------------------------
+# the generated source itself
+
+
+@pytest.mark.parametrize("spec", [c_loop.LoopSpec("pioneer-2d", 14, 4), c_loop.LoopSpec("moving-load", 0, 0)])
+def test_loop_source_builds_with_the_strict_warning_set(spec, tmp_path):
+    """The kernels' warning policy: -std=c99 -Wall -Wextra -Werror (and -pedantic) on the loop."""
+    files = c_loop.render_sources(spec)
+    for name, data in files.items():
+        (tmp_path / name).write_bytes(data)
+    source = next(n for n in files if n.endswith("_solver.c"))
+    cc = compiled.compiler_command()
+    done = subprocess.run([*cc, "-std=c99", "-Wall", "-Wextra", "-Werror", "-pedantic", "-c", source, "-o",
+                           "loop.o"], cwd=tmp_path, capture_output=True, text=True, check=False)
+    assert done.returncode == 0, done.stderr
+
+
+def test_workspace_is_sized_up_front():
+    """One workspace for the whole run, its size known before the first step (docs/c-backend.md)."""
+    sc = scenario("coupled-dynamic", "c", cars=3, spans=4)
+    model = build_model(sc)
+    stepper = c_backend.CStepper(model, initial_state(model), "coupled-dynamic")
+    doubles = stepper.work.size
+    assert 0 < doubles < 10 * (model.bridge.spans * model.bridge.ndof) ** 2
+    assert math.isfinite(float(stepper.work.sum()))
+
+
+def test_render_is_deterministic():
+    spec = c_loop.LoopSpec("pioneer-2d", 14, 4)
+    assert c_loop.render_sources(spec) == c_loop.render_sources(spec)
+    assert Path(compiled.generated_root(), "frame2d", "frame2d_kernels.c").is_file()
+
+
+# --------------------------------------------------------------------------------------------------
+# the embedded solver: `svbi export MODEL DIR --solver`
+
+
+@pytest.mark.skipif(shutil.which("make") is None, reason="needs make")
+def test_exported_solver_builds_with_make_and_reproduces_svbi_run(tmp_path):
+    """The exported folder builds with `make` under the strict warning set and, with no Python,
+    writes the same numbers as `svbi run` on the scenario baked into it."""
+    import tomli_w
+    import xarray as xr
+    from typer.testing import CliRunner
+
+    from svbi.runtime import cli, c_export
+
+    cli._register()
+    runner = CliRunner()
+    folder = tmp_path / "solver"
+    done = runner.invoke(cli.app, ["export", "pioneer-2d", str(folder), "--solver"])
+    assert done.exit_code == 0, done.output
+    build = subprocess.run(["make", "-C", str(folder)], capture_output=True, text=True, check=False)
+    assert build.returncode == 0, build.stdout + build.stderr
+    assert "-Werror" in build.stdout
+    csv = tmp_path / "out.csv"
+    ran = subprocess.run([str(folder / c_export.PROGRAM), str(csv)], capture_output=True, text=True, check=False)
+    assert ran.returncode == 0, ran.stderr
+    table = np.genfromtxt(csv, delimiter=",", names=True)
+
+    scenario_file = tmp_path / "example.toml"
+    scenario_file.write_text(tomli_w.dumps(c_export.example_scenario("pioneer-2d")))
+    results = tmp_path / "run.nc"
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        done = runner.invoke(cli.app, ["run", str(scenario_file), "-o", str(results), "-q"])
+    assert done.exit_code == 0, done.output
+    ref = xr.load_dataset(results)
+    assert ref.attrs["backend"] == "c" and len(table) == ref.sizes["time"] > 100
+    np.testing.assert_array_equal(table["time"], ref.time.values)
+    columns = {
+        "midspan_uz": [f"midspan_uz_{s}" for s in ref.span.values],
+        "midspan_ux": [f"midspan_ux_{s}" for s in ref.span.values],
+        "contact_force": [f"contact_force_{c}_{w}" for c in ref.car.values for w in ref.wheel.values],
+        "creep_force": [f"creep_force_{c}_{w}" for c in ref.car.values for w in ref.wheel.values],
+        "carbody_uz": [f"carbody_uz_{c}" for c in ref.car.values],
+    }
+    for name, cols in columns.items():
+        expected = ref[name].values.reshape(len(table), -1)
+        got = np.stack([table[c] for c in cols], axis=1)
+        peak = float(np.abs(expected).max())
+        assert peak > 0, name
+        assert float(np.abs(got - expected).max()) <= RTOL * peak, name
