@@ -33,9 +33,7 @@ from collections.abc import Callable
 from typing import Any
 
 import numpy as np
-import scipy.linalg as sla
 from scipy.interpolate import PPoly
-
 from svbi.codegen.vehicle import GRAVITY
 from svbi.runtime import c_loop
 from svbi.runtime.model import FlatTrack, GroundAtRest, Model, State
@@ -101,18 +99,33 @@ def _window_count(offsets: np.ndarray, width: float) -> int:
 # excitation tables
 
 
-def _ppoly_struct(keep: list[Any], x: np.ndarray, c: np.ndarray, left: tuple[float, float, float],
-                  right: tuple[float, float, float]) -> c_loop.PPoly:
+def _ppoly_struct(
+    keep: list[Any],
+    x: np.ndarray,
+    c: np.ndarray,
+    left: tuple[float, float, float],
+    right: tuple[float, float, float],
+) -> c_loop.PPoly:
     x = np.ascontiguousarray(x, dtype=float)
     c = np.ascontiguousarray(c, dtype=float)
     keep += [x, c]
     n = c.shape[1] if c.ndim == 2 else 0
     steps = np.diff(x)
     uniform = bool(n > 0 and np.allclose(steps, steps[0], rtol=1e-12, atol=0.0))
-    return c_loop.PPoly(n=n, k=(c.shape[0] - 1) if n else 0, uniform=int(uniform),
-                        h=float(steps[0]) if n else 0.0, x=x.ctypes.data, c=c.ctypes.data,
-                        left0=left[0], left1=left[1], left2=left[2],
-                        right0=right[0], right1=right[1], right2=right[2])
+    return c_loop.PPoly(
+        n=n,
+        k=(c.shape[0] - 1) if n else 0,
+        uniform=int(uniform),
+        h=float(steps[0]) if n else 0.0,
+        x=x.ctypes.data,
+        c=c.ctypes.data,
+        left0=left[0],
+        left1=left[1],
+        left2=left[2],
+        right0=right[0],
+        right1=right[1],
+        right2=right[2],
+    )
 
 
 def _empty_ppoly() -> c_loop.PPoly:
@@ -136,9 +149,11 @@ def _ramp_table(ramp: Any) -> tuple[np.ndarray, np.ndarray] | None:
     for degree in range(1, 12):
         coef = np.polynomial.polynomial.polyfit(s, h, degree)
         p = np.polynomial.Polynomial(coef)
-        ok = (np.abs(p(s) - h).max() <= 1e-14
-              and np.abs(p.deriv(1)(s) - dh).max() <= 1e-12 * max(np.abs(dh).max(), 1e-300)
-              and np.abs(p.deriv(2)(s) - ddh).max() <= 1e-10 * max(np.abs(ddh).max(), 1e-300))
+        ok = (
+            np.abs(p(s) - h).max() <= 1e-14
+            and np.abs(p.deriv(1)(s) - dh).max() <= 1e-12 * max(np.abs(dh).max(), 1e-300)
+            and np.abs(p.deriv(2)(s) - ddh).max() <= 1e-10 * max(np.abs(ddh).max(), 1e-300)
+        )
         if ok:
             return np.array([ramp.start, ramp.start + ramp.length]), coef[::-1].reshape(-1, 1)
     return None
@@ -158,8 +173,10 @@ class ExcitationInput:
         b = model.bridge
         self.struct.ground_per_support = int(not model.ground.uniform)
         self.nrec = b.spans * b.nsupport
-        self.describe = (f"irregularity: {'stream' if self.irr_stream else 'table'}, "
-                         f"ground: {'stream' if self.ground_stream else 'table'}")
+        self.describe = (
+            f"irregularity: {'stream' if self.irr_stream else 'table'}, "
+            f"ground: {'stream' if self.ground_stream else 'table'}"
+        )
 
     # ----------------------------------------------------------------------------------------------
     def _irregularity(self) -> None:
@@ -177,10 +194,16 @@ class ExcitationInput:
                 keep = np.flatnonzero(np.diff(x) > 0)
                 x = np.concatenate([x[keep], [x[keep[-1] + 1]]])
                 c = c[:, keep]
-                lo = (float(irr.spline(irr.x_min)), float(irr.spline(irr.x_min, 1)),
-                      float(irr.spline(irr.x_min, 2)))
-                hi = (float(irr.spline(irr.x_max)), float(irr.spline(irr.x_max, 1)),
-                      float(irr.spline(irr.x_max, 2)))
+                lo = (
+                    float(irr.spline(irr.x_min)),
+                    float(irr.spline(irr.x_min, 1)),
+                    float(irr.spline(irr.x_min, 2)),
+                )
+                hi = (
+                    float(irr.spline(irr.x_max)),
+                    float(irr.spline(irr.x_max, 1)),
+                    float(irr.spline(irr.x_max, 2)),
+                )
                 e.irr_base = _ppoly_struct(self.keep, x, c, lo, hi)
                 e.irr_onset = _ppoly_struct(self.keep, ramp[0], ramp[1], (0.0, 0.0, 0.0), (1.0, 0.0, 0.0))
                 e.irr_ramp = 1
@@ -364,8 +387,24 @@ class CStepper:
             setattr(st, name, np.zeros(nc) if value is None else np.array(value, dtype=float, order="C"))
         self.cstate = c_loop.State(
             t=st.t,
-            **{k: getattr(st, k).ctypes.data for k in ("uV", "vV", "aV", "uB", "vB", "aB", "ug", "vg", "ag",
-                                                       "P", "PV", "creepage", "creep_force")},
+            **{
+                k: getattr(st, k).ctypes.data
+                for k in (
+                    "uV",
+                    "vV",
+                    "aV",
+                    "uB",
+                    "vB",
+                    "aB",
+                    "ug",
+                    "vg",
+                    "ag",
+                    "P",
+                    "PV",
+                    "creepage",
+                    "creep_force",
+                )
+            },
             **{k: v.ctypes.data for k, v in self.lam.items()},
         )
 
@@ -404,8 +443,9 @@ class CStepper:
         S.bw_car = int((per_car.max(axis=1) - per_car.min(axis=1)).max(initial=0))
         S.order, S.offsets = self._arr(order, np.int32), self._arr(tr.offsets)
         S.axle_loads = self._arr(tr.axle_loads if tr.moving_load else np.zeros(nc))
-        S.rows = self._arr(c_loop.row_coefficients(b.element_length, tr.speed, s.time_step, kappa, zeta,
-                                                   b.rail_height))
+        S.rows = self._arr(
+            c_loop.row_coefficients(b.element_length, tr.speed, s.time_step, kappa, zeta, b.rail_height)
+        )
 
         # one span
         k_hat = b.K + nm.a1 * b.C + nm.a0 * b.M
@@ -473,7 +513,11 @@ class CStepper:
                 S.creep = 1
                 S.creep_ground = int(creep.longitudinal_ground)
                 ptr, idx, val = _csr(np.asarray(creep.W_T, dtype=float).T)
-                S.VT_ptr, S.VT_idx, S.VT_val = self._arr(ptr, np.int32), self._arr(idx, np.int32), self._arr(val)
+                S.VT_ptr, S.VT_idx, S.VT_val = (
+                    self._arr(ptr, np.int32),
+                    self._arr(idx, np.int32),
+                    self._arr(val),
+                )
                 S.creep_rolling = self._arr(creep.rolling[:nw].astype(np.int32), np.int32)
                 params = np.zeros((nw, 8))
                 for law, mask in creep.laws:
@@ -504,19 +548,40 @@ class CStepper:
     def _outputs(self, recorder: Any) -> Any:
         d = recorder.data
         out = c_loop.Outputs(row=recorder.count, nout=recorder.nout)
-        for name in ("time", "midspan_uz", "midspan_ux", "ground_uz", "ground_ux", "contact_force",
-                     "creep_force", "creepage", "irregularity", "carbody_uz", "carbody_az", "carbody_pitch",
-                     "gap_vehicle", "gap_bridge", "gap_support"):
+        for name in (
+            "time",
+            "midspan_uz",
+            "midspan_ux",
+            "ground_uz",
+            "ground_ux",
+            "contact_force",
+            "creep_force",
+            "creepage",
+            "irregularity",
+            "carbody_uz",
+            "carbody_az",
+            "carbody_pitch",
+            "gap_vehicle",
+            "gap_bridge",
+            "gap_support",
+        ):
             setattr(out, name, c_loop.pointer(d[name]))
         out.forces = c_loop.pointer(recorder.forces)
         return out
 
     def _call(self, out: Any, n0: int, count: int) -> int:
         self.excitation.fill(n0, count)
-        return self.library.run(ctypes.byref(self.setup), ctypes.byref(self.cstate),
-                                ctypes.byref(self.excitation.struct), ctypes.byref(out),
-                                self.work.ctypes.data, self.iwork.ctypes.data, n0, count,
-                                ctypes.byref(self.info))
+        return self.library.run(
+            ctypes.byref(self.setup),
+            ctypes.byref(self.cstate),
+            ctypes.byref(self.excitation.struct),
+            ctypes.byref(out),
+            self.work.ctypes.data,
+            self.iwork.ctypes.data,
+            n0,
+            count,
+            ctypes.byref(self.info),
+        )
 
     def run_loop(self, recorder: Any, guard: Any, bar: Any = None, chunk: int | None = None) -> None:
         """Run every step, writing into ``recorder``; raises ``simulate.Diverged`` like the NumPy loop."""
@@ -552,13 +617,16 @@ class CStepper:
             guard.check_finite(st)  # raises Diverged with the NumPy backend's message
         elif status == c_loop.STATUS_GAP_LIMIT:
             k = recorder.count - 1
-            gaps = {"support": recorder.data["gap_support"][k],
-                    "vehicle": recorder.data["gap_vehicle"][k].reshape(-1),
-                    "bridge": recorder.data["gap_bridge"][k].reshape(-1)}
+            gaps = {
+                "support": recorder.data["gap_support"][k],
+                "vehicle": recorder.data["gap_vehicle"][k].reshape(-1),
+                "bridge": recorder.data["gap_bridge"][k].reshape(-1),
+            }
             guard.check_gaps(st, gaps)
         elif status == c_loop.STATUS_SINGULAR:
-            raise np.linalg.LinAlgError(f"singular interface matrix at t = {st.t:.6g} s (C loop, step "
-                                        f"{info.step})")
+            raise np.linalg.LinAlgError(
+                f"singular interface matrix at t = {st.t:.6g} s (C loop, step {info.step})"
+            )
         name = c_loop.STATUS_NAMES.get(status, str(status))
         if status in (c_loop.STATUS_NOT_FINITE, c_loop.STATUS_FORCE_LIMIT, c_loop.STATUS_GAP_LIMIT):
             raise Diverged(f"run diverged at t = {st.t:.6g} s: {name} ({info.value:.4g})")
@@ -607,9 +675,13 @@ def c_stepper(method: str) -> Callable[[Model, State], Any]:
         except CompilerError as exc:
             if not _FALLBACK_WARNED:
                 _FALLBACK_WARNED = True
-                warnings.warn(f"solver.backend = 'c': no working C compiler ({str(exc).splitlines()[0]}); "
-                              "running the NumPy backend instead (same results, slower). Install a C "
-                              "compiler or set CC.", BackendFallback, stacklevel=3)
+                warnings.warn(
+                    f"solver.backend = 'c': no working C compiler ({str(exc).splitlines()[0]}); "
+                    "running the NumPy backend instead (same results, slower). Install a C "
+                    "compiler or set CC.",
+                    BackendFallback,
+                    stacklevel=3,
+                )
             stepper = _numpy_steppers()[method](model, state)
             stepper.backend = "numpy"
             return stepper
@@ -624,7 +696,3 @@ def register() -> None:
     from svbi.runtime.simulate import register_backend
 
     register_backend("c", {m: c_stepper(m) for m in c_loop.METHOD_CODES})
-
-
-def _unused() -> None:  # keep linters quiet about helpers used only in type positions
-    _ = sla

@@ -17,15 +17,28 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
-
 from svbi.runtime import c_loop
 
 GENERATOR = "svbi.runtime.c_export"
 PER_LINE = 4
 PROGRAM = "svbi_solver_example"
-OUTPUT_NAMES = ("time", "midspan_uz", "midspan_ux", "ground_uz", "ground_ux", "contact_force", "creep_force",
-                "creepage", "irregularity", "carbody_uz", "carbody_az", "carbody_pitch", "gap_vehicle",
-                "gap_bridge", "gap_support")
+OUTPUT_NAMES = (
+    "time",
+    "midspan_uz",
+    "midspan_ux",
+    "ground_uz",
+    "ground_ux",
+    "contact_force",
+    "creep_force",
+    "creepage",
+    "irregularity",
+    "carbody_uz",
+    "carbody_az",
+    "carbody_pitch",
+    "gap_vehicle",
+    "gap_bridge",
+    "gap_support",
+)
 
 
 def example_scenario(vehicle: str) -> dict[str, Any]:
@@ -35,13 +48,25 @@ def example_scenario(vehicle: str) -> dict[str, Any]:
     moving = load_topology(vehicle).kind == "moving-load"
     return {
         "title": f"svbi export example: 2 cars of {vehicle} over 2 spans, synthetic quake, German-low track",
-        "bridge": dict(spans=2, span_length=32.0, mass_per_length=22.4e3, youngs_modulus=35.5e9, area=8.63,
-                       second_moment=6.58, elements_per_span=8),
+        "bridge": dict(
+            spans=2,
+            span_length=32.0,
+            mass_per_length=22.4e3,
+            youngs_modulus=35.5e9,
+            area=8.63,
+            second_moment=6.58,
+            elements_per_span=8,
+        ),
         "train": dict(vehicle=vehicle, cars=2, speed_kmh=300.0),
         "track": dict(irregularity="german-low", seed=3),
         "earthquake": dict(vertical="synthetic", longitudinal="synthetic", arrival=0.1),
-        "solver": dict(method="localized-dynamic", backend="c", time_step=1e-3, duration=0.5 if moving else 0.6,
-                       output_every=5),
+        "solver": dict(
+            method="localized-dynamic",
+            backend="c",
+            time_step=1e-3,
+            duration=0.5 if moving else 0.6,
+            output_every=5,
+        ),
     }
 
 
@@ -75,8 +100,15 @@ class _Baker:
         a = self.known[address]
         integer = a.dtype.kind in "iu"
         values = [str(int(v)) for v in a.reshape(-1)] if integer else [_double(v) for v in a.reshape(-1)]
-        self.arrays.append({"name": name, "ctype": "int" if integer else "double", "const": const,
-                            "values": values, "lines": _lines(values)})
+        self.arrays.append(
+            {
+                "name": name,
+                "ctype": "int" if integer else "double",
+                "const": const,
+                "values": values,
+                "lines": _lines(values),
+            }
+        )
         self.names[address] = name
         return name
 
@@ -93,8 +125,9 @@ class _Baker:
         return ", ".join(fields)
 
 
-def scenario_files(model_name: str, scenario: Any, extra: dict[str, bytes] | None = None,
-                   embedded: bool = False) -> tuple[dict[str, bytes], Any]:
+def scenario_files(
+    model_name: str, scenario: Any, extra: dict[str, bytes] | None = None, embedded: bool = False
+) -> tuple[dict[str, bytes], Any]:
     """``{file name: bytes}`` of the exported solver for ``scenario`` (plus ``extra`` files, which the
     Makefile builds too), and the validated scenario."""
     from svbi.runtime.initial import initial_state
@@ -112,8 +145,10 @@ def scenario_files(model_name: str, scenario: Any, extra: dict[str, bytes] | Non
 
     stepper = CStepper(model, state, model.settings.method)
     if stepper.excitation.streamed:
-        raise ValueError(f"cannot export this scenario: its excitations ({stepper.excitation.describe}) are "
-                         "evaluated by Python while the loop runs")
+        raise ValueError(
+            f"cannot export this scenario: its excitations ({stepper.excitation.describe}) are "
+            "evaluated by Python while the loop runs"
+        )
     spec = stepper.library.spec
     recorder = Recorder(model)
     recorder.force(0, state.P)
@@ -127,7 +162,7 @@ def scenario_files(model_name: str, scenario: Any, extra: dict[str, bytes] | Non
     for key in ("uV", "vV", "aV", "uB", "vB", "aB", "ug", "vg", "ag", "P", "PV", "creepage", "creep_force"):
         a = getattr(state, key)
         known[a.ctypes.data] = a
-    for key, a in stepper.lam.items():
+    for a in stepper.lam.values():
         known[a.ctypes.data] = a
     baker = _Baker(known)
 
@@ -153,14 +188,21 @@ def scenario_files(model_name: str, scenario: Any, extra: dict[str, bytes] | Non
     for f in c_loop.EXCITATION_FIELDS:
         value = getattr(e, f.name)
         if f.kind == "ppoly":
-            ppolys.append({"name": f"exc_{f.name}", "count": 1, "items": [baker.ppoly(value, f"exc_{f.name}")]})
+            ppolys.append(
+                {"name": f"exc_{f.name}", "count": 1, "items": [baker.ppoly(value, f"exc_{f.name}")]}
+            )
             exc.append({"name": f.name, "value": f"exc_{f.name}[0]"})
         elif f.kind == "ppoly*":
             if value:
                 count = model.bridge.spans + 1
                 items = (c_loop.PPoly * count).from_address(value)
-                ppolys.append({"name": f"exc_{f.name}", "count": count,
-                               "items": [baker.ppoly(p, f"exc_{f.name}_{k}") for k, p in enumerate(items)]})
+                ppolys.append(
+                    {
+                        "name": f"exc_{f.name}",
+                        "count": count,
+                        "items": [baker.ppoly(p, f"exc_{f.name}_{k}") for k, p in enumerate(items)],
+                    }
+                )
                 exc.append({"name": f.name, "value": f"exc_{f.name}"})
             else:
                 exc.append({"name": f.name, "value": "0"})
@@ -211,24 +253,40 @@ def scenario_files(model_name: str, scenario: Any, extra: dict[str, bytes] | Non
         raise ValueError(f"the scenario's vehicle is {spec.model!r}, not the exported model {model_name!r}")
     env = c_loop._environment()
     files = {**(extra or {}), **c_loop.render_sources(spec, embedded=embedded)}
-    for template, name in (("solver/scenario_data.c.j2", "scenario_data.c"),
-                           ("solver/scenario.h.j2", "scenario_data.h"),
-                           ("solver/main.c.j2", "main.c")):
+    for template, name in (
+        ("solver/scenario_data.c.j2", "scenario_data.c"),
+        ("solver/scenario.h.j2", "scenario_data.h"),
+        ("solver/main.c.j2", "main.c"),
+    ):
         files[name] = env.get_template(template).render({**context, "template": template}).encode()
     casadi = sorted(n for n in files if n.endswith("_kernels.c"))
     strict = sorted(n for n in files if n.endswith(".c") and n not in casadi)
-    files["Makefile"] = env.get_template("solver/Makefile.j2").render({
-        "generator": GENERATOR, "template": "solver/Makefile.j2", "model": spec.model, "program": PROGRAM,
-        "casadi_objects": [n.replace(".c", ".o") for n in casadi],
-        "strict_objects": [n.replace(".c", ".o") for n in strict],
-        "objects": [n.replace(".c", ".o") for n in casadi + strict],
-        "headers": sorted(n for n in files if n.endswith(".h")),
-    }).encode()
+    files["Makefile"] = (
+        env.get_template("solver/Makefile.j2")
+        .render(
+            {
+                "generator": GENERATOR,
+                "template": "solver/Makefile.j2",
+                "model": spec.model,
+                "program": PROGRAM,
+                "casadi_objects": [n.replace(".c", ".o") for n in casadi],
+                "strict_objects": [n.replace(".c", ".o") for n in strict],
+                "objects": [n.replace(".c", ".o") for n in casadi + strict],
+                "headers": sorted(n for n in files if n.endswith(".h")),
+            }
+        )
+        .encode()
+    )
     return files, scenario
 
 
-def write_solver(model_name: str, folder: str | Path, scenario: Any = None,
-                 extra: dict[str, bytes] | None = None, embedded: bool = False) -> tuple[Path, dict[str, bytes]]:
+def write_solver(
+    model_name: str,
+    folder: str | Path,
+    scenario: Any = None,
+    extra: dict[str, bytes] | None = None,
+    embedded: bool = False,
+) -> tuple[Path, dict[str, bytes]]:
     """Write the solver example of ``model_name`` (built-in scenario unless ``scenario`` is given)."""
     from svbi.codegen.c_emit import write_files
 

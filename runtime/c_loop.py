@@ -31,7 +31,6 @@ from typing import Any
 import jinja2
 import numpy as np
 import sympy as sp
-
 from svbi.codegen import beam
 from svbi.codegen.c_emit import CASADI_WARNING_EXCEPTION, STRICT_FLAGS
 from svbi.codegen.kernels import c_identifier
@@ -54,6 +53,7 @@ STATUS_SINGULAR = 4
 STATUS_BANDWIDTH = 5
 STATUS_NOT_SPD = 6
 STATUS_INTERRUPTED = 7
+STATUS_RANGE = 8
 STATUS_NAMES = {
     STATUS_OK: "ok",
     STATUS_NOT_FINITE: "not finite",
@@ -63,6 +63,7 @@ STATUS_NAMES = {
     STATUS_BANDWIDTH: "interface bandwidth exceeds the workspace",
     STATUS_NOT_SPD: "matrix not positive definite",
     STATUS_INTERRUPTED: "interrupted",
+    STATUS_RANGE: "steps asked beyond the run (setup.steps)",
 }
 
 
@@ -106,8 +107,11 @@ PPOLY_FIELDS = [
     F("uniform", "int", "1 when the breaks are equally spaced (O(1) interval lookup)"),
     F("h", "double", "break spacing when uniform"),
     F("x", "double*", "n + 1 increasing breaks"),
-    F("c", "double*", "(k + 1) x n coefficients, scipy.interpolate.PPoly layout: c[m][i] multiplies "
-                      "(x - x[i])^(k - m)"),
+    F(
+        "c",
+        "double*",
+        "(k + 1) x n coefficients, scipy.interpolate.PPoly layout: c[m][i] multiplies (x - x[i])^(k - m)",
+    ),
     F("left0", "double", "value for x <= x[0]"),
     F("left1", "double", "first derivative for x <= x[0]"),
     F("left2", "double", "second derivative for x <= x[0]"),
@@ -242,8 +246,12 @@ EXCITATION_FIELDS = [
     F("irr_start", "double", "r = 0 for x <= irr_start"),
     F("irr_base", "ppoly", "profile"),
     F("irr_onset", "ppoly", "onset ramp"),
-    F("gv_mode", "int", "vertical ground: 0 at rest, 1 synchronous table, 2 travelling table, 3 stream, "
-                        "4 one table per support line"),
+    F(
+        "gv_mode",
+        "int",
+        "vertical ground: 0 at rest, 1 synchronous table, 2 travelling table, 3 stream, "
+        "4 one table per support line",
+    ),
     F("gh_mode", "int", "longitudinal ground: same codes"),
     F("gv", "ppoly", "vertical q(t)"),
     F("gh", "ppoly", "longitudinal q(t)"),
@@ -256,8 +264,11 @@ EXCITATION_FIELDS = [
     F("s_n0", "long", "streams: step index n of the first stream entry (t = (n + 1) dt)"),
     F("s_count", "long", "streams: entries held"),
     F("s_rail", "double*", "s_count x 3 x nc: r, r', r'' under every contact"),
-    F("s_under", "double*", "s_count x 4 x nc: q, q', q'' of the ground under every contact, and the "
-                            "longitudinal q'"),
+    F(
+        "s_under",
+        "double*",
+        "s_count x 4 x nc: q, q', q'' of the ground under every contact, and the longitudinal q'",
+    ),
     F("s_sup", "double*", "s_count x 3 x (spans * ns): support targets q, q', q''"),
     F("s_rec", "double*", "s_count x 2 x nrec: recorded ground_uz, ground_ux"),
 ]
@@ -285,8 +296,11 @@ OUTPUT_FIELDS = [
 
 INFO_FIELDS = [
     F("status", "int", "0 ok, else an error code (see the header)"),
-    F("quantity", "int", "what failed: 1 contact force, 2 bridge, 3 vehicle; gaps: 1 support, "
-                         "2 vehicle, 3 bridge"),
+    F(
+        "quantity",
+        "int",
+        "what failed: 1 contact force, 2 bridge, 3 vehicle; gaps: 1 support, 2 vehicle, 3 bridge",
+    ),
     F("step", "long", "n of the step that failed (t = (n + 1) dt)"),
     F("steps_done", "long", "last step index whose state is complete (n + 1)"),
     F("value", "double", "the offending value"),
@@ -354,6 +368,77 @@ def row_structure() -> tuple[int, tuple[bool, ...]]:
     return degree, tuple(nonzero)
 
 
+CREEP_MODEL = "creep_split"
+"""Model name of the two generated creep functions linked into the loop (:func:`creep_split`)."""
+
+
+@cache
+def creep_split() -> tuple[tuple[sp.Expr, ...], sp.Expr, tuple[sp.Symbol, ...]]:
+    """The creep law of ``svbi.codegen.creep`` split for the time loop.
+
+    The law's parameters are fixed for a run, so every subexpression that depends on them only
+    (``E^(1/3)``, ``(1/(2 R_wheel) + 1/(2 R_rail))^(-2/3)``, ...) becomes a coefficient ``c_k``,
+    computed once per wheel; what is left depends on the creepage, the normal load and the
+    ``c_k``. Powers of products are separated first (``(N (1 - nu^2))^(2/3)`` ->
+    ``N^(2/3) (1 - nu^2)^(2/3)``: N > 0 wherever the law is used, and the parameters are
+    positive), so that only the powers of N remain per step. Returns the coefficient expressions,
+    the reduced law and the coefficient symbols.
+    """
+    from svbi.codegen import creep as law
+
+    params = set(law.PARAMETERS)
+    expanded = sp.expand_power_base(law.creep_force(), force=True)
+    coefs: dict[sp.Expr, sp.Symbol] = {}
+
+    def split(e: sp.Expr) -> sp.Expr:
+        free = e.free_symbols
+        if free and free <= params and not e.is_Number:  # a parameter itself is a coefficient too
+            if e not in coefs:
+                coefs[e] = sp.Symbol(f"creep_c{len(coefs)}", real=True)
+            return coefs[e]
+        if not e.args or e.is_Symbol:
+            return e
+        return e.func(*[split(a) for a in e.args])
+
+    reduced = split(expanded)
+    return tuple(coefs), reduced, tuple(coefs.values())
+
+
+@cache
+def creep_split_sources(embedded: bool = False) -> dict[str, bytes]:
+    """C sources of the split creep law (:func:`creep_split`), from the CasADi emitter: the
+    functions ``svbi_creep_split_coefficients(creep[8]) -> c`` and
+    ``svbi_creep_split_force(creepage, N, c) -> F_x``."""
+    from svbi.codegen import c_emit
+    from svbi.codegen import creep as law
+    from svbi.codegen.kernels import CREEP_SAMPLE, KernelSpec, ModelSpec, column
+
+    coefs, reduced, symbols = creep_split()
+    sample = {k: v for k, v in CREEP_SAMPLE.items() if k not in ("xi_x", "N_c")}
+    kernels = [
+        KernelSpec(
+            "coefficients",
+            "Parameter-only subexpressions of the creep law (Eqs. 15-16).",
+            [("creep", column(law.PARAMETERS))],
+            [("c", sp.Matrix(list(coefs)))],
+            sample,
+        ),
+        KernelSpec(
+            "force",
+            "Creep force F_x(creepage, N) from the coefficients of `coefficients`.",
+            [("creepage", column([law.xi])), ("N", column([law.normal_load])), ("c", column(symbols))],
+            [("F_x", sp.Matrix([[reduced]]))],
+            {"xi_x": 5e-3, "N_c": 8.5e4},
+        ),
+    ]
+    model = ModelSpec(
+        CREEP_MODEL, "The creep law split into per-run coefficients and a per-step force.", kernels
+    )
+    files = c_emit.render_model(model, c_emit.EmitOptions.embedded() if embedded else c_emit.EmitOptions())
+    names = (f"{CREEP_MODEL}_kernels.c", f"{CREEP_MODEL}_kernels.h", f"{CREEP_MODEL}.h")
+    return {n: files[n] for n in names}
+
+
 def creep_kernel_sources(embedded: bool = False) -> dict[str, bytes]:
     """The generated ``frame2d`` kernels (the creep law, ``creep_force``) linked into the loop: the
     committed ones, or rendered with the embedded options (32-bit ``casadi_int``, no stack)."""
@@ -371,14 +456,21 @@ def creep_kernel_sources(embedded: bool = False) -> dict[str, bytes]:
     return {n: (folder / n).read_bytes() for n in names}
 
 
-def row_coefficients(le: float, speed: float, dt: float, kappa: float, zeta: float,
-                     rail_height: float = 0.0) -> np.ndarray:
+def row_coefficients(
+    le: float, speed: float, dt: float, kappa: float, zeta: float, rail_height: float = 0.0
+) -> np.ndarray:
     """``(degree + 1, ROW_COLUMNS)`` coefficients of every column in ascending powers of xi."""
     from svbi.codegen import constraints
     from svbi.runtime.numeric import XiPolynomials
 
-    subs = {beam.le: le, constraints.v: speed, constraints.dt: dt, constraints.kappa: kappa,
-            constraints.zeta: zeta, beam.h: rail_height}
+    subs = {
+        beam.le: le,
+        constraints.v: speed,
+        constraints.dt: dt,
+        constraints.kappa: kappa,
+        constraints.zeta: zeta,
+        beam.h: rail_height,
+    }
     poly = XiPolynomials(list(row_expressions()), subs)
     degree, _ = row_structure()
     out = np.zeros((degree + 1, ROW_COLUMNS))
@@ -456,6 +548,7 @@ def render_sources(spec: LoopSpec, embedded: bool = False) -> dict[str, bytes]:
             for i, n in enumerate(ROW_BLOCKS)
         ],
         "row_scalars": [{"name": n, "col": 6 * len(ROW_BLOCKS) + i} for i, n in enumerate(ROW_SCALARS)],
+        "creep_nc": len(creep_split()[0]),
         "structs": {k: [_c_field(f) for f in v] for k, v in STRUCTS.items()},
         "status": {
             "OK": STATUS_OK,
@@ -466,6 +559,7 @@ def render_sources(spec: LoopSpec, embedded: bool = False) -> dict[str, bytes]:
             "BANDWIDTH": STATUS_BANDWIDTH,
             "NOT_SPD": STATUS_NOT_SPD,
             "INTERRUPTED": STATUS_INTERRUPTED,
+            "RANGE": STATUS_RANGE,
         },
     }
     env = _environment()
@@ -473,7 +567,7 @@ def render_sources(spec: LoopSpec, embedded: bool = False) -> dict[str, bytes]:
     for template, name in (("solver/solver.h.j2", f"{base}.h"), ("solver/solver.c.j2", f"{base}.c")):
         files[name] = env.get_template(template).render({**context, "template": template}).encode()
     if not spec.moving_load:
-        files.update(creep_kernel_sources(embedded))
+        files.update(creep_split_sources(embedded))
     return files
 
 
@@ -485,16 +579,25 @@ class LoopLibrary:
         self._library = library
         p = f"svbi_{spec.c_name}"
         self.workspace = library[f"{p}_workspace"]
-        self.workspace.argtypes = [ctypes.POINTER(Setup), ctypes.POINTER(ctypes.c_long),
-                                   ctypes.POINTER(ctypes.c_long)]
+        self.workspace.argtypes = [
+            ctypes.POINTER(Setup),
+            ctypes.POINTER(ctypes.c_long),
+            ctypes.POINTER(ctypes.c_long),
+        ]
         self.workspace.restype = ctypes.c_int
         self.init = library[f"{p}_init"]
         self.init.argtypes = [ctypes.POINTER(Setup), ctypes.c_void_p, ctypes.c_void_p]
         self.init.restype = ctypes.c_int
         self.run = library[f"{p}_run"]
         self.run.argtypes = [
-            ctypes.POINTER(Setup), ctypes.POINTER(State), ctypes.POINTER(Excitation),
-            ctypes.POINTER(Outputs), ctypes.c_void_p, ctypes.c_void_p, ctypes.c_long, ctypes.c_long,
+            ctypes.POINTER(Setup),
+            ctypes.POINTER(State),
+            ctypes.POINTER(Excitation),
+            ctypes.POINTER(Outputs),
+            ctypes.c_void_p,
+            ctypes.c_void_p,
+            ctypes.c_long,
+            ctypes.c_long,
             ctypes.POINTER(Info),
         ]
         self.run.restype = ctypes.c_int
@@ -513,8 +616,14 @@ def load_loop(spec: LoopSpec) -> LoopLibrary:
 
         sources = render_sources(spec)
         # the CasADi kernels linked in (creep law) need their one exception (svbi.codegen.c_emit)
-        flags = (*STRICT_FLAGS, CASADI_WARNING_EXCEPTION, "-O3", "-fPIC", "-shared",
-                 *shlex.split(os.environ.get("SVBI_CFLAGS", "")))
+        flags = (
+            *STRICT_FLAGS,
+            CASADI_WARNING_EXCEPTION,
+            "-O3",
+            "-fPIC",
+            "-shared",
+            *shlex.split(os.environ.get("SVBI_CFLAGS", "")),
+        )
         library = compiled.load_library(sources, f"svbi_{spec.c_name}_solver", flags=flags)
         _LIBRARIES[spec] = LoopLibrary(spec, library)
     return _LIBRARIES[spec]

@@ -145,12 +145,16 @@ def export(
     model: str = typer.Argument(..., help="Built-in model name or topology file."),
     folder: Path = typer.Argument(..., help="Folder to write the self-contained C sources into."),
     solver: bool = typer.Option(
-        False, "--solver", help="Also export the C time loop, with a scenario baked into scenario_data.c and "
-        "an example main.c that runs it and writes a CSV."
+        False,
+        "--solver",
+        help="Also export the C time loop, with a scenario baked into scenario_data.c and "
+        "an example main.c that runs it and writes a CSV.",
     ),
     scenario: Path | None = typer.Option(
-        None, "--scenario", help="With --solver: the scenario to bake in (default: a small built-in one, "
-        "2 cars over 2 spans with a synthetic quake and a German-low track)."
+        None,
+        "--scenario",
+        help="With --solver: the scenario to bake in (default: a small built-in one, "
+        "2 cars over 2 spans with a synthetic quake and a German-low track).",
     ),
     embedded: bool = typer.Option(
         False, "--embedded", help="32-bit casadi_int and no stack temporaries (small embedded targets)."
@@ -189,8 +193,10 @@ def export(
     except (ScenarioError, ValueError) as exc:
         typer.echo(f"error: {exc}", err=True)
         raise typer.Exit(2) from None
-    typer.echo(f"exported {name} with the C time loop to {folder} ({len(files)} files): build with "
-               f"`make -C {folder}`, run `{folder}/{PROGRAM} results.csv`")
+    typer.echo(
+        f"exported {name} with the C time loop to {folder} ({len(files)} files): build with "
+        f"`make -C {folder}`, run `{folder}/{PROGRAM} results.csv`"
+    )
 
 
 def register(app: typer.Typer) -> None:

@@ -7,7 +7,12 @@ motion the bearings follow). Excitations plug in through two tiny interfaces, so
 change when new ones arrive:
 
 * irregularity: ``evaluate(x) -> (r, dr/dx, d2r/dx2)`` (``svbi.runtime.excitation.irregularity``);
-* ground: :class:`Ground` (``supports``, ``under`` and ``at``), adapting a ground-motion object.
+* ground: :class:`Ground` (``supports``, ``under``, ``under_longitudinal`` for creep off the bridge,
+  ``recorded`` for the output), adapting a ground-motion object
+  (``svbi.runtime.excitation.ground.RecordGround``).
+
+Creep forces (``[contact]``) are the :class:`~svbi.runtime.creep_forces.CreepForces` of
+:attr:`Model.creep`, explicit loads of the next step (``docs/method.md`` section 3b).
 """
 
 from __future__ import annotations

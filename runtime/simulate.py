@@ -2,8 +2,11 @@
 
 Backends plug in through :func:`register_backend`: a backend maps a method name to a stepper class
 with ``__init__(model, state)``, ``step(n) -> State`` and a ``contacts`` attribute (the geometry of
-the last step). This issue ships the NumPy backend; ``"c"`` and ``"casadi"`` fall back to it with a
-one-time warning until they are registered.
+the last step). A stepper that also has ``run_loop(recorder, guard, bar)`` runs the whole loop
+itself (the ``"c"`` backend, ``svbi.runtime.c_backend``: chunks of steps in C); a ``backend``
+attribute on the stepper overrides the name recorded in the results (a fallback says so).
+``"numpy"`` is the reference; ``"c"`` and ``"casadi"`` (``svbi.runtime.casadi_backend``) register
+themselves on first use.
 
 A run that goes unstable (NaN or Inf, a runaway gap, an absurd contact force) stops with a message
 naming the time, the quantity and the likely cause. What was computed until then is returned,
@@ -88,6 +91,10 @@ def stepper_class(backend: str, method: str) -> tuple[str, Callable[..., Any]]:
         from svbi.runtime.c_backend import register  # the whole loop in C (docs/c-backend.md)
 
         register()
+    if backend == "casadi" and "casadi" not in _BACKENDS:
+        from svbi.runtime.casadi_backend import register as register_casadi
+
+        register_casadi()
     if backend not in _BACKENDS or method not in _BACKENDS[backend]:
         if backend not in _WARNED:
             _WARNED.add(backend)

@@ -46,8 +46,19 @@ import svbi
 METHODS = ("localized-dynamic", "coupled-dynamic", "coupled-classic")
 RTOL = 1e-10
 EPS = np.finfo(float).eps
-POSITION_LIKE = ("midspan_uz", "midspan_ux", "contact_force", "contact_force_filtered", "carbody_uz",
-                 "carbody_pitch", "irregularity", "ground_uz", "ground_ux", "creep_force", "creepage")
+POSITION_LIKE = (
+    "midspan_uz",
+    "midspan_ux",
+    "contact_force",
+    "contact_force_filtered",
+    "carbody_uz",
+    "carbody_pitch",
+    "irregularity",
+    "ground_uz",
+    "ground_ux",
+    "creep_force",
+    "creepage",
+)
 GAPS = ("gap_vehicle", "gap_bridge", "gap_support")
 
 
@@ -59,16 +70,35 @@ def _compiler_works() -> bool:
     return True
 
 
-pytestmark = pytest.mark.skipif(not _compiler_works(), reason="no working C compiler: the C backend falls "
-                                "back to NumPy (tested in test_no_compiler_falls_back_to_numpy)")
+pytestmark = pytest.mark.skipif(
+    not _compiler_works(),
+    reason="no working C compiler: the C backend falls "
+    "back to NumPy (tested in test_no_compiler_falls_back_to_numpy)",
+)
 
 
-def scenario(method: str, backend: str, vehicle: str = "pioneer-2d", cars: int = 2, spans: int = 2,
-             quake: bool = True, irregularity: str = "german-low", dt: float = 1e-3, every: int = 2,
-             **solver: float):
+def scenario(
+    method: str,
+    backend: str,
+    vehicle: str = "pioneer-2d",
+    cars: int = 2,
+    spans: int = 2,
+    quake: bool = True,
+    irregularity: str = "german-low",
+    dt: float = 1e-3,
+    every: int = 2,
+    **solver: float,
+):
     data = {
-        "bridge": dict(spans=spans, span_length=32.0, mass_per_length=22.4e3, youngs_modulus=35.5e9, area=8.63,
-                       second_moment=6.58, elements_per_span=8),
+        "bridge": dict(
+            spans=spans,
+            span_length=32.0,
+            mass_per_length=22.4e3,
+            youngs_modulus=35.5e9,
+            area=8.63,
+            second_moment=6.58,
+            elements_per_span=8,
+        ),
         "train": dict(vehicle=vehicle, cars=cars, speed_kmh=300.0),
         "track": dict(irregularity=irregularity, seed=3),
         "solver": dict(method=method, backend=backend, time_step=dt, output_every=every, **solver),
@@ -129,22 +159,32 @@ def test_pioneer_train_with_quake_irregularity_and_creep(method):
 
 def _record_ground(kind: str, spans: int) -> RecordGround:
     if kind == "travelling":
-        return RecordGround(ground_motion(vertical="synthetic", longitudinal="synthetic", arrival=0.3,
-                                          apparent_velocity=400.0))
+        return RecordGround(
+            ground_motion(
+                vertical="synthetic", longitudinal="synthetic", arrival=0.3, apparent_velocity=400.0
+            )
+        )
     lines = list(np.arange(spans + 1) * 32.0)
-    return RecordGround(ground_motion(
-        vertical=[synthetic_record("vertical", seed=k) for k in range(1, spans + 2)],
-        longitudinal=[synthetic_record("longitudinal", seed=k) for k in range(11, spans + 12)],
-        arrival=0.2, support_positions=lines))
+    return RecordGround(
+        ground_motion(
+            vertical=[synthetic_record("vertical", seed=k) for k in range(1, spans + 2)],
+            longitudinal=[synthetic_record("longitudinal", seed=k) for k in range(11, spans + 12)],
+            arrival=0.2,
+            support_positions=lines,
+        )
+    )
 
 
-@pytest.mark.parametrize(("vehicle", "ground", "method"), [
-    ("sprung-mass", "travelling", "localized-dynamic"),
-    ("pioneer-2d", "lines", "localized-dynamic"),
-    ("moving-load", "lines", "localized-dynamic"),
-    ("moving-load", "travelling", "coupled-dynamic"),
-    ("moving-load", "lines", "coupled-classic"),
-])
+@pytest.mark.parametrize(
+    ("vehicle", "ground", "method"),
+    [
+        ("sprung-mass", "travelling", "localized-dynamic"),
+        ("pioneer-2d", "lines", "localized-dynamic"),
+        ("moving-load", "lines", "localized-dynamic"),
+        ("moving-load", "travelling", "coupled-dynamic"),
+        ("moving-load", "lines", "coupled-classic"),
+    ],
+)
 def test_other_vehicles_and_ground_models(vehicle, ground, method):
     """The sprung mass and moving loads; a travelling wave (apparent velocity) and one record per
     support line (the nearest line moves each point), distinct records on every line."""
@@ -165,8 +205,15 @@ def test_divergence_stops_with_the_same_message_and_partial_results():
     """A huge kappa makes the gap correction overshoot until the contact force exceeds its limit."""
     res = {}
     for backend in ("numpy", "c"):
-        sc = scenario("localized-dynamic", backend, cars=1, quake=False, irregularity="none", every=3,
-                      constraint_kappa=1e4)
+        sc = scenario(
+            "localized-dynamic",
+            backend,
+            cars=1,
+            quake=False,
+            irregularity="none",
+            every=3,
+            constraint_kappa=1e4,
+        )
         with pytest.warns(svbi.runtime.simulate.SimulationIncomplete, match="diverged"):
             res[backend] = svbi.simulate(sc)
     ref, out = res["numpy"], res["c"]
@@ -191,7 +238,9 @@ def test_chunk_size_does_not_change_the_results():
         recorder.record(state, model.contacts(0.0))
         stepper.run_loop(recorder, _Guard(model), None, chunk=chunk)
         assert recorder.steps_done == model.settings.steps
-        rows.append({k: v[: recorder.count].copy() for k, v in recorder.data.items()} | {"f": recorder.forces})
+        rows.append(
+            {k: v[: recorder.count].copy() for k, v in recorder.data.items()} | {"f": recorder.forces}
+        )
     for other in rows[1:]:
         for key, value in rows[0].items():
             np.testing.assert_array_equal(other[key], value, err_msg=key)
@@ -202,14 +251,32 @@ def test_no_compiler_falls_back_to_numpy(monkeypatch, tmp_path):
     monkeypatch.setenv("SVBI_CACHE_DIR", str(tmp_path / "cache"))
     monkeypatch.setattr(c_loop, "_LIBRARIES", {})
     monkeypatch.setattr(c_backend, "_FALLBACK_WARNED", False)
-    sc = scenario("localized-dynamic", "c", vehicle="moving-load", cars=1, spans=1, quake=False,
-                  irregularity="none", duration=0.05)
+    sc = scenario(
+        "localized-dynamic",
+        "c",
+        vehicle="moving-load",
+        cars=1,
+        spans=1,
+        quake=False,
+        irregularity="none",
+        duration=0.05,
+    )
     with pytest.warns(BackendFallback, match="no working C compiler") as caught:
         ds = svbi.simulate(sc)
     assert ds.attrs["backend"] == "numpy" and ds.attrs["backend_requested"] == "c"
     assert len([w for w in caught if issubclass(w.category, BackendFallback)]) == 1
-    ref = simulate(scenario("localized-dynamic", "numpy", vehicle="moving-load", cars=1, spans=1, quake=False,
-                            irregularity="none", duration=0.05))
+    ref = simulate(
+        scenario(
+            "localized-dynamic",
+            "numpy",
+            vehicle="moving-load",
+            cars=1,
+            spans=1,
+            quake=False,
+            irregularity="none",
+            duration=0.05,
+        )
+    )
     np.testing.assert_array_equal(ds.midspan_uz.values, ref.midspan_uz.values)
 
 
@@ -225,8 +292,13 @@ def test_loop_source_builds_with_the_strict_warning_set(spec, tmp_path):
         (tmp_path / name).write_bytes(data)
     source = next(n for n in files if n.endswith("_solver.c"))
     cc = compiled.compiler_command()
-    done = subprocess.run([*cc, "-std=c99", "-Wall", "-Wextra", "-Werror", "-pedantic", "-c", source, "-o",
-                           "loop.o"], cwd=tmp_path, capture_output=True, text=True, check=False)
+    done = subprocess.run(
+        [*cc, "-std=c99", "-Wall", "-Wextra", "-Werror", "-pedantic", "-c", source, "-o", "loop.o"],
+        cwd=tmp_path,
+        capture_output=True,
+        text=True,
+        check=False,
+    )
     assert done.returncode == 0, done.stderr
 
 
@@ -256,9 +328,8 @@ def test_exported_solver_builds_with_make_and_reproduces_svbi_run(tmp_path):
     writes the same numbers as `svbi run` on the scenario baked into it."""
     import tomli_w
     import xarray as xr
+    from svbi.runtime import c_export, cli
     from typer.testing import CliRunner
-
-    from svbi.runtime import cli, c_export
 
     cli._register()
     runner = CliRunner()
@@ -269,7 +340,9 @@ def test_exported_solver_builds_with_make_and_reproduces_svbi_run(tmp_path):
     assert build.returncode == 0, build.stdout + build.stderr
     assert "-Werror" in build.stdout
     csv = tmp_path / "out.csv"
-    ran = subprocess.run([str(folder / c_export.PROGRAM), str(csv)], capture_output=True, text=True, check=False)
+    ran = subprocess.run(
+        [str(folder / c_export.PROGRAM), str(csv)], capture_output=True, text=True, check=False
+    )
     assert ran.returncode == 0, ran.stderr
     table = np.genfromtxt(csv, delimiter=",", names=True)
 

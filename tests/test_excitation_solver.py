@@ -405,3 +405,63 @@ def test_record_timing_errors_and_warnings_name_the_file(tmp_path: Path):
     # the record ends before the run: a warning naming the file
     with pytest.warns(UserWarning, match="short.txt"):
         build_model(quake_only(dict(vertical=str(short), record_dt=0.005, arrival=0.5), duration=4.0))
+
+
+def test_a_wave_must_not_reach_the_standing_train_before_t0():
+    data = {
+        "bridge": bridge(),
+        "train": dict(vehicle="sprung-mass", cars=3, speed_kmh=100.0),  # axles back to x = -50 m
+        "earthquake": dict(vertical="synthetic", apparent_velocity=200.0, arrival=0.1),
+        "solver": dict(backend="numpy", time_step=1e-3, duration=1.0),
+    }
+    with pytest.raises(ValueError, match=r"earthquake\.arrival to at least 0\.25 s"):
+        build_model(validate_scenario(data))
+    data["earthquake"]["arrival"] = 0.25
+    assert not build_model(validate_scenario(data)).ground.uniform
+
+
+def test_earthquake_and_contact_keys_are_validated(tmp_path: Path):
+    def problems(earthquake: dict, spans: int = 2, **extra) -> str:
+        data = {
+            "bridge": bridge(spans),
+            "train": dict(vehicle="moving-load", speed=10.0),
+            "earthquake": earthquake,
+        }
+        data.update(extra)
+        with pytest.raises(ScenarioError) as err:
+            validate_scenario(data)
+        return str(err.value)
+
+    record = str(write_record(tmp_path / "a.txt", seed=1))
+    msg = problems(dict(vertical=[record, record]))
+    assert "earthquake.vertical: one record per support needs bridge.spans + 1 = 3 entries" in msg
+    msg = problems(dict(vertical=[record, "missing.AT2", record], apparent_velocity=500.0))
+    assert "earthquake.vertical[1]" in msg and "missing.AT2" in msg
+    assert "earthquake.apparent_velocity: cannot be combined with one record per support" in msg
+    assert "earthquake.arrival" in problems(dict(vertical="synthetic", arrival=-1.0))
+    assert "earthquake.target_pga" in problems(dict(vertical="synthetic", target_pga=0.0))
+    assert "earthquake.vertical_scale" in problems(dict(vertical="synthetic", vertical_scale=-1.0))
+    assert "contact.friction" in problems(dict(vertical="synthetic"), contact=dict(friction=0.0))
+    assert "contact.colour" in problems(dict(vertical="synthetic"), contact=dict(colour="red"))
+    ok = validate_scenario(
+        {
+            "bridge": bridge(2),
+            "train": dict(vehicle="moving-load", speed=10.0),
+            "earthquake": dict(vertical=[record, "none", "synthetic"], seed=7, target_pga=2.0),
+        }
+    )
+    assert ok.earthquake.sources("vertical") == [record, "none", "synthetic"]
+    assert ok.contact.creep and ok.contact.friction == 0.3
+
+
+def test_target_pga_and_component_scales(tmp_path: Path):
+    record = str(write_record(tmp_path / "a.txt", seed=1))
+    eq = dict(
+        vertical=record, longitudinal="synthetic", target_pga=2.0, scale=1.5, vertical_scale=0.5, seed=9
+    )
+    source = build_model(quake_only(eq, duration=1.0)).ground.source
+    assert source.vertical.histories[0].pga == pytest.approx(2.0 * 1.5 * 0.5, rel=1e-12)
+    assert source.longitudinal.histories[0].pga == pytest.approx(2.0 * 1.5, rel=1e-12)
+    # the synthetic record of that seed, independently
+    ref = process_record(synthetic_record("longitudinal", 9), target_pga=3.0)
+    np.testing.assert_allclose(source.longitudinal.histories[0].accel, ref.accel, rtol=0, atol=1e-12)

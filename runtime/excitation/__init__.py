@@ -9,7 +9,14 @@ The runtime calls:
 Conventions and choices are documented in ``docs/excitations.md``.
 """
 
-from svbi.runtime.excitation.ground import COMPONENTS, ComponentMotion, GroundMotion, ground_motion
+from svbi.runtime.excitation.ground import (
+    COMPONENTS,
+    ComponentMotion,
+    GroundMotion,
+    RecordGround,
+    ground_from_scenario,
+    ground_motion,
+)
 from svbi.runtime.excitation.irregularity import (
     GermanSpectrum,
     Irregularity,
@@ -17,6 +24,7 @@ from svbi.runtime.excitation.irregularity import (
     OnsetRamp,
     SampledIrregularity,
     SpectralIrregularity,
+    horner,
     make_irregularity,
     read_profile,
 )
@@ -45,10 +53,13 @@ __all__ = [
     "Processing",
     "Record",
     "RecordError",
+    "RecordGround",
     "SampledIrregularity",
     "SpectralIrregularity",
     "StochasticModel",
+    "ground_from_scenario",
     "ground_motion",
+    "horner",
     "integrate",
     "make_irregularity",
     "process_record",
