@@ -347,6 +347,8 @@ class CStepper:
         self._state_arrays(state)
         self.setup = self._setup()
         self.excitation = ExcitationInput(model)
+        # The C tables clamp beyond their ends; NumPy raises there: ask NumPy where the run ends.
+        model.irregularity.evaluate(model.train.positions(model.settings.steps * model.dt))
         n_double, n_int = ctypes.c_long(), ctypes.c_long()
         self.library.workspace(ctypes.byref(self.setup), ctypes.byref(n_double), ctypes.byref(n_int))
         self.work = np.zeros(n_double.value)

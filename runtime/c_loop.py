@@ -439,23 +439,6 @@ def creep_split_sources(embedded: bool = False) -> dict[str, bytes]:
     return {n: files[n] for n in names}
 
 
-def creep_kernel_sources(embedded: bool = False) -> dict[str, bytes]:
-    """The generated ``frame2d`` kernels (the creep law, ``creep_force``) linked into the loop: the
-    committed ones, or rendered with the embedded options (32-bit ``casadi_int``, no stack)."""
-    from svbi.codegen.kernels import FRAME2D
-    from svbi.runtime.compiled import generated_root
-
-    names = ("frame2d_kernels.c", "frame2d_kernels.h", "frame2d.h")
-    if embedded:
-        from svbi.codegen import c_emit
-        from svbi.codegen.kernels import frame2d_model_spec
-
-        files = c_emit.render_model(frame2d_model_spec(), c_emit.EmitOptions.embedded())
-        return {n: files[n] for n in names}
-    folder = generated_root() / FRAME2D
-    return {n: (folder / n).read_bytes() for n in names}
-
-
 def row_coefficients(
     le: float, speed: float, dt: float, kappa: float, zeta: float, rail_height: float = 0.0
 ) -> np.ndarray:

@@ -201,6 +201,18 @@ def test_other_vehicles_and_ground_models(vehicle, ground, method):
     assert_agree(ref, out["c"], method, 1e-3)
 
 
+@pytest.mark.parametrize("method", ["localized-dynamic", "coupled-dynamic"])
+def test_hslm_train_many_axles_in_one_unit(method):
+    """An EN 1991-2 HSLM-A train: dozens of axles in one "car", several on each span."""
+    out = {}
+    for backend in ("numpy", "c"):
+        data = scenario(method, backend, vehicle="moving-load", cars=1, duration=0.4).to_dict()
+        data["train"]["hslm"] = "A3"
+        out[backend] = simulate(validate_scenario(data))
+    assert out["numpy"].sizes["wheel"] > 20
+    assert_agree(out["numpy"], out["c"], method, 1e-3)
+
+
 def test_divergence_stops_with_the_same_message_and_partial_results():
     """A huge kappa makes the gap correction overshoot until the contact force exceeds its limit."""
     res = {}

@@ -228,10 +228,13 @@ def test_export_builds_with_cmake(tmp_path: Path) -> None:
     assert "mass_matrix.M[0][0] = 5750" in run.stdout
 
 
-def test_export_solver_flag_is_not_yet_available(tmp_path: Path) -> None:
+def test_export_solver_flag_adds_the_time_loop(tmp_path: Path) -> None:
+    """`--solver` adds the C time loop and a baked-in scenario (built and run in test_c_backend)."""
     result = CliRunner().invoke(_app(), ["export", "sprung-mass", str(tmp_path / "x"), "--solver"])
-    assert result.exit_code == 0
-    assert "not yet available" in result.output
+    assert result.exit_code == 0, result.output
+    names = {p.name for p in (tmp_path / "x").iterdir()}
+    assert {"svbi_sprung_mass_solver.c", "scenario_data.c", "main.c", "Makefile"} <= names
+    assert "sprung_mass_kernels.c" in names  # the kernels are still exported
 
 
 # ---------------------------------------------------------------------------------------------
