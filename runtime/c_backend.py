@@ -432,9 +432,8 @@ class CStepper:
         S.d = point.d
         omega = kappa / s.time_step
         S.c2 = 2 * zeta * omega
-        from svbi.runtime.simulate import GAP_LIMIT
 
-        S.gap_limit = GAP_LIMIT
+        S.gap_limit = m.settings.max_gap
         S.force_limit = math.inf
 
         # contacts, in track order (front to back)

@@ -228,6 +228,7 @@ class Settings:
     zeta: float = 1.0
     split: float = 0.5
     force_filter_hz: float = 20.0
+    max_gap: float = 1.0
 
 
 class Model:

@@ -168,6 +168,8 @@ class SolverSpec(_Table):
     constraint_kappa: NonNegative = 1.0
     constraint_zeta: NonNegative = 1.0
     contact_split: Annotated[float, Field(gt=0, lt=1)] = 0.5
+    max_gap: Positive = 1.0
+    """Divergence guard: a constraint violation above this (m) stops the run as diverged."""
 
 
 class OutputSpec(_Table):

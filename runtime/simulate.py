@@ -33,7 +33,6 @@ from svbi.runtime.results import Recorder
 from svbi.runtime.scenario import Scenario, _vehicle_ref, load_scenario, validate_scenario
 from svbi.runtime.train import Train, vehicle_model
 
-GAP_LIMIT = 1.0
 """|gap| (m) beyond which a run is declared diverged: a wheel a metre off its rail is no longer a
 constraint violation but a failed integration."""
 FORCE_LIMIT_FACTOR = 1.0e3
@@ -148,6 +147,7 @@ def build_model(scenario: Scenario, hold_train: bool = False) -> Model:
         zeta=ss.constraint_zeta,
         split=ss.contact_split,
         force_filter_hz=scenario.output.force_filter_hz,
+        max_gap=ss.max_gap,
     )
     irregularity = _irregularity(scenario, train, duration, steps * ss.time_step)
     ground = _ground(scenario, duration)
@@ -378,8 +378,8 @@ class _Guard:
     def check_gaps(self, st: Any, gaps: Mapping[str, np.ndarray]) -> None:
         for name, g in gaps.items():
             worst = float(np.abs(g).max(initial=0.0))
-            if not worst <= GAP_LIMIT:
+            if not worst <= self.model.settings.max_gap:
                 raise Diverged(
                     f"run diverged at t = {st.t:.6g} s: |gap_{name}| = {worst:.4g} m exceeds "
-                    f"{GAP_LIMIT:g} m; likely cause: {self._cause()}"
+                    f"{self.model.settings.max_gap:g} m (solver.max_gap); likely cause: {self._cause()}"
                 )
