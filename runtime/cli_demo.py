@@ -41,6 +41,7 @@ def demo(
     quiet: Annotated[bool, typer.Option("--quiet", "-q", help="No progress bars.")] = False,
 ) -> None:
     """Run the paper example with the three methods; write results, figures and a summary."""
+    from svbi.runtime.atomic import write_atomic
     from svbi.runtime.plots import plot_results, summary_text
     from svbi.runtime.results import write_netcdf
     from svbi.runtime.scenario import ScenarioError, load_scenario
@@ -78,7 +79,7 @@ def demo(
         results[method] = ds
     figures = plot_results(results, out / "figures")
     summary = summary_text(results)
-    (out / "summary.txt").write_text(summary + "\n", encoding="utf-8")
+    write_atomic(out / "summary.txt", lambda tmp: tmp.write_text(summary + "\n", encoding="utf-8"))
     typer.echo("\n" + summary)
     typer.echo(f"\n{len(figures)} figures in {out / 'figures'}; summary in {out / 'summary.txt'}")
 

@@ -6,13 +6,13 @@ from pathlib import Path
 
 import typer
 import xarray as xr
+from svbi.runtime.atomic import write_atomic
 from svbi.runtime.plots import (
     ResultsFileError,
     default_labels,
     plot_results,
     read_results,
     summary_text,
-    write_atomic,
 )
 
 SUMMARY_NAME = "summary.txt"

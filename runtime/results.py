@@ -10,14 +10,13 @@ peaks scale as 1/dt (DESIGN.md section 5), and subsampling them first would alia
 
 from __future__ import annotations
 
-import os
-import tempfile
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 import scipy.signal as sig
 import xarray as xr
+from svbi.runtime.atomic import write_atomic
 from svbi.runtime.bridge import SUPPORT_COMPONENTS
 from svbi.runtime.model import Contacts, Model, State
 from svbi.runtime.numeric import AxialShapeKernel, ShapeKernel
@@ -214,21 +213,12 @@ def _a(units: str, long_name: str) -> dict[str, str]:
 
 def write_netcdf(ds: xr.Dataset, path: str | Path) -> Path:
     """Write atomically: a temporary file in the same folder, then ``os.replace``."""
-    path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent)
-    os.close(fd)
-    try:
+
+    def write(tmp: Path) -> None:
         out = ds.copy()
         for name in ("support_component",):
             if name in out.coords:
                 out.coords[name] = out.coords[name].astype(str)
         out.to_netcdf(tmp, engine="h5netcdf")
-        umask = os.umask(0)
-        os.umask(umask)
-        os.chmod(tmp, 0o666 & ~umask)  # mkstemp makes the file private; give it the usual mode
-        os.replace(tmp, path)
-    except BaseException:
-        Path(tmp).unlink(missing_ok=True)
-        raise
-    return path
+
+    return write_atomic(path, write)
