@@ -549,23 +549,7 @@ class CStepper:
     def _outputs(self, recorder: Any) -> Any:
         d = recorder.data
         out = c_loop.Outputs(row=recorder.count, nout=recorder.nout)
-        for name in (
-            "time",
-            "midspan_uz",
-            "midspan_ux",
-            "ground_uz",
-            "ground_ux",
-            "contact_force",
-            "creep_force",
-            "creepage",
-            "irregularity",
-            "carbody_uz",
-            "carbody_az",
-            "carbody_pitch",
-            "gap_vehicle",
-            "gap_bridge",
-            "gap_support",
-        ):
+        for name in c_loop.OUTPUT_NAMES:
             setattr(out, name, c_loop.pointer(d[name]))
         out.forces = c_loop.pointer(recorder.forces)
         return out

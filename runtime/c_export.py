@@ -22,23 +22,7 @@ from svbi.runtime import c_loop
 GENERATOR = "svbi.runtime.c_export"
 PER_LINE = 4
 PROGRAM = "svbi_solver_example"
-OUTPUT_NAMES = (
-    "time",
-    "midspan_uz",
-    "midspan_ux",
-    "ground_uz",
-    "ground_ux",
-    "contact_force",
-    "creep_force",
-    "creepage",
-    "irregularity",
-    "carbody_uz",
-    "carbody_az",
-    "carbody_pitch",
-    "gap_vehicle",
-    "gap_bridge",
-    "gap_support",
-)
+OUTPUT_NAMES = c_loop.OUTPUT_NAMES
 
 
 def example_scenario(vehicle: str) -> dict[str, Any]:

@@ -49,6 +49,25 @@ STATUS_OK = 0
 STATUS_NOT_FINITE = 1
 STATUS_FORCE_LIMIT = 2
 STATUS_GAP_LIMIT = 3
+
+OUTPUT_NAMES = (
+    "time",
+    "midspan_uz",
+    "midspan_ux",
+    "ground_uz",
+    "ground_ux",
+    "contact_force",
+    "creep_force",
+    "creepage",
+    "irregularity",
+    "carbody_uz",
+    "carbody_az",
+    "carbody_pitch",
+    "gap_vehicle",
+    "gap_bridge",
+    "gap_support",
+)
+"""Stored output arrays of the C loop, in the order of its ``Outputs`` struct's pointers."""
 STATUS_SINGULAR = 4
 STATUS_BANDWIDTH = 5
 STATUS_NOT_SPD = 6

@@ -132,15 +132,7 @@ class CoupledClassic:
         Qw = (QV_ @ tr.W).reshape(-1)
         Pe = PB[span[:, None], idx]
         Qe = QB[span[:, None], idx]
-        h_on = (
-            rows.c_P_ug * Pw
-            + rows.c_Q_ug * Qw
-            + np.einsum("ij,ij->i", rows.c_P_ue, Pe)
-            + np.einsum("ij,ij->i", rows.c_Q_ue, Qe)
-            + rows.c_r * c.r
-            + rows.c_r_x * c.r1
-            + rows.c_r_xx * c.r2
-        )
+        h_on = rows.h_bridge(Pw, Qw, Pe, Qe, c)
         v = m.speed
         h_off = self.point.target(Pw, Qw, c.q + c.r, c.q1 + v * c.r1, c.q2 + v * v * c.r2)
         rhs[self.oP : self.oP + self.nc] = self.sC * np.where(on, h_on, h_off)

@@ -138,15 +138,7 @@ class LocalizedDynamic:
         # aux-bridge rows: W_hat, h_B (on the bridge), or the ground target (off)
         Pe = PB[span[:, None], idx]
         Qe = QB[span[:, None], idx]
-        h_on = (
-            rows.c_P_ug * Pg
-            + rows.c_Q_ug * Qg
-            + np.einsum("ij,ij->i", rows.c_P_ue, Pe)
-            + np.einsum("ij,ij->i", rows.c_Q_ue, Qe)
-            + rows.c_r * c.r
-            + rows.c_r_x * c.r1
-            + rows.c_r_xx * c.r2
-        )
+        h_on = rows.h_bridge(Pg, Qg, Pe, Qe, c)
         if on.all():
             h_B = h_on
         else:

@@ -17,6 +17,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 from functools import cache
+from typing import Any
 
 import numpy as np
 import sympy as sp
@@ -108,6 +109,24 @@ class ContactRows:
     c_r: np.ndarray
     c_r_x: np.ndarray
     c_r_xx: np.ndarray
+
+    def h_bridge(
+        self, p_aux: np.ndarray, q_aux: np.ndarray, p_elem: np.ndarray, q_elem: np.ndarray, contacts: Any
+    ) -> np.ndarray:
+        """Right-hand side ``h_B`` of the discrete aux-bridge row for contacts on the bridge.
+
+        ``p_aux``/``q_aux`` are the Newmark histories of the point held by the row (the aux point, or
+        the wheel in coupled-classic), ``p_elem``/``q_elem`` those of the element DOFs ``(n, 6)``.
+        """
+        return (
+            self.c_P_ug * p_aux
+            + self.c_Q_ug * q_aux
+            + np.einsum("ij,ij->i", self.c_P_ue, p_elem)
+            + np.einsum("ij,ij->i", self.c_Q_ue, q_elem)
+            + self.c_r * contacts.r
+            + self.c_r_x * contacts.r1
+            + self.c_r_xx * contacts.r2
+        )
 
 
 class ContactRowKernel:
