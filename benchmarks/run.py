@@ -6,7 +6,7 @@ the same run. Pass names to run a subset: ``python benchmarks/run.py codegen met
 
 from __future__ import annotations
 
-import runpy
+import subprocess
 import sys
 from pathlib import Path
 
@@ -16,10 +16,16 @@ def main(argv: list[str]) -> int:
     scripts = sorted(here.glob("bench_*.py"))
     if argv:
         scripts = [s for s in scripts if any(s.stem == f"bench_{a}" for a in argv)]
+    failed = []
     for script in scripts:
         print(f"\n=== {script.stem} ===", flush=True)
-        runpy.run_path(str(script), run_name="__main__")
-    return 0
+        # One process per script: each measures from a clean interpreter, and a script that exits
+        # does not end the others.
+        if subprocess.run([sys.executable, str(script)], check=False).returncode:
+            failed.append(script.stem)
+    if failed:
+        print(f"\nfailed: {', '.join(failed)}", file=sys.stderr)
+    return 1 if failed else 0
 
 
 if __name__ == "__main__":
