@@ -7,6 +7,13 @@ Implements Stoura, Paraskevopoulos & Dimitrakopoulos (17WCEE 2020). The symbolic
 from __future__ import annotations
 
 from importlib.metadata import PackageNotFoundError, version
+from pathlib import Path
+from typing import TYPE_CHECKING, Any
+
+if TYPE_CHECKING:  # the runtime imports are deferred so that `import svbi` stays light
+    import xarray as xr
+
+    from svbi.runtime.scenario import Scenario
 
 try:
     __version__ = version("svbi")
@@ -16,14 +23,14 @@ except PackageNotFoundError:  # pragma: no cover - running from a source tree wi
 __all__ = ["__version__", "load_scenario", "simulate"]
 
 
-def load_scenario(path):  # noqa: ANN001, ANN201 - thin re-export, typed in svbi.runtime.scenario
+def load_scenario(path: str | Path) -> Scenario:
     """Read and validate a scenario TOML file (see ``svbi.runtime.scenario.load_scenario``)."""
     from svbi.runtime.scenario import load_scenario as _load
 
     return _load(path)
 
 
-def simulate(scenario, **kwargs):  # noqa: ANN001, ANN201, ANN003
+def simulate(scenario: Scenario | str | Path, **kwargs: Any) -> xr.Dataset:
     """Run a scenario and return the results as an ``xarray.Dataset`` (``svbi.runtime.simulate``)."""
     from svbi.runtime.simulate import simulate as _simulate
 
