@@ -489,7 +489,7 @@ class CStepper:
         if not tr.moving_load:
             v = tr.vehicle
             mass = v.M if classic else tr.M_active
-            S.V_M, S.V_C = self._arr(mass), self._arr(v.C)
+            S.V_K, S.V_M, S.V_C = self._arr(v.K), self._arr(mass), self._arr(v.C)
             S.V_F = self._arr(tr.F_full if classic else tr.F_active)
             S.V_W = self._arr(tr.W)
             S.V_khat = self._arr(v.K + nm.a1 * v.C + nm.a0 * mass)

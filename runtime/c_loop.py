@@ -222,6 +222,7 @@ SETUP_FIELDS = [
     F("VW_val", "double*", "values"),
     F("V_kinv", "double*", "NV x NV: inverse of the vehicle effective matrix"),
     F("V_khat", "double*", "NV x NV: vehicle effective matrix K + a1 C + a0 M"),
+    F("V_K", "double*", "NV x NV: vehicle stiffness"),
     F("V_M", "double*", "NV x NV: vehicle mass in the equations of motion (active or full)"),
     F("V_C", "double*", "NV x NV: vehicle damping"),
     F("V_F", "double*", "NV: constant vehicle load (gravity less the static spring forces)"),

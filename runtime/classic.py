@@ -117,8 +117,10 @@ class CoupledClassic:
             st.t = t
             return st
 
-        PV_, QV_ = nm.history(st.uV, st.vV, st.aV)
-        fV = tr.F_full + PV_ @ tr.vehicle.M + QV_ @ tr.vehicle.C
+        # vehicle unknowns are the increments over the step (Newmark.update_increment)
+        PtV, QtV = nm.increment_history(st.vV, st.aV)
+        PV_, QV_ = nm.a0 * st.uV + PtV, nm.a1 * st.uV + QtV
+        fV = tr.F_full - st.uV @ tr.vehicle.K + PtV @ tr.vehicle.M + QtV @ tr.vehicle.C
         creep = m.creep
         if creep is not None:  # explicit: the creep force of t_n loads this step (docs/method.md)
             fV += creep.vehicle_load(st.creep_force)
@@ -135,13 +137,14 @@ class CoupledClassic:
         h_on = rows.h_bridge(Pw, Qw, Pe, Qe, c)
         v = m.speed
         h_off = self.point.target(Pw, Qw, c.q + c.r, c.q1 + v * c.r1, c.q2 + v * v * c.r2)
-        rhs[self.oP : self.oP + self.nc] = self.sC * np.where(on, h_on, h_off)
+        wheel_n = (st.uV @ tr.W).reshape(-1)
+        rhs[self.oP : self.oP + self.nc] = self.sC * (np.where(on, h_on, h_off) - wheel_n)
         T.add(np.repeat(self.oP + sel, 6), gdofs[sel], -self.sC * rows.W_hat[sel])
 
         x = solve_sparse(self.const, T, self.n, rhs)
-        uV = x[: self.NV].reshape(tr.cars, self.nV)
-        st.vV, st.aV = nm.update(uV, PV_, QV_)
-        st.uV = uV
+        duV = x[: self.NV].reshape(tr.cars, self.nV)
+        st.vV, st.aV = nm.update_increment(duV, PtV, QtV)
+        uV = st.uV = st.uV + duV
         self._finish_bridge(x, PB, QB)
         st.P = self.sC * x[self.oP : self.oP + self.nc]
         st.PV = st.P

@@ -236,7 +236,9 @@ class CoupledDynamic:
             st.t = t
             return st
 
-        PV_, QV_ = nm.history(st.uV, st.vV, st.aV)
+        # vehicle unknowns are the increments over the step (Newmark.update_increment)
+        PtV, QtV = nm.increment_history(st.vV, st.aV)
+        PV_, QV_ = nm.a0 * st.uV + PtV, nm.a1 * st.uV + QtV
         Pg, Qg = nm.history(st.ug, st.vg, st.ag)
         mB = self._mB(c)
         DB = self.d * mB
@@ -245,7 +247,7 @@ class CoupledDynamic:
 
         # vehicle rows (the creep force of t_n is an explicit load, docs/method.md)
         creep = m.creep
-        fV = tr.F_active + PV_ @ tr.M_active + QV_ @ tr.vehicle.C
+        fV = tr.F_active - st.uV @ tr.vehicle.K + PtV @ tr.M_active + QtV @ tr.vehicle.C
         fV -= HV.reshape(tr.cars, tr.wheels) @ tr.W.T
         if creep is not None:
             fV += creep.vehicle_load(st.creep_force)
@@ -259,7 +261,7 @@ class CoupledDynamic:
         h_V = self.point.c_P * ((PV_ @ tr.W).reshape(-1) - Pg) + self.point.c_Q * (
             (QV_ @ tr.W).reshape(-1) - Qg
         )
-        rhs[self.oLV : self.oLV + self.nc] = self.DV * h_V
+        rhs[self.oLV : self.oLV + self.nc] = self.DV * (h_V - (st.uV @ tr.W).reshape(-1))
         # aux-bridge rows
         Pe = PB[span[:, None], idx]
         Qe = QB[span[:, None], idx]
@@ -277,9 +279,9 @@ class CoupledDynamic:
 
         x = solve_sparse(self.const, T, self.n, rhs)
 
-        uV = x[: self.NV].reshape(tr.cars, self.nV)
-        st.vV, st.aV = nm.update(uV, PV_, QV_)
-        st.uV = uV
+        duV = x[: self.NV].reshape(tr.cars, self.nV)
+        st.vV, st.aV = nm.update_increment(duV, PtV, QtV)
+        st.uV = st.uV + duV
         ug = x[self.oG : self.oG + self.nc]
         st.vg, st.ag = nm.update(ug, Pg, Qg)
         st.ug = ug

@@ -122,12 +122,16 @@ class LocalizedDynamic:
             return st
 
         # vehicle and aux predictors, wheel-aux target h_V
-        PV_, QV_ = nm.history(st.uV, st.vV, st.aV)
+        # The vehicles solve for the increment over the step (Newmark.update_increment): the
+        # car-body acceleration is a plotted result and the total form rounds it to a0 eps |u|.
+        PtV, QtV = nm.increment_history(st.vV, st.aV)
+        PV_, QV_ = nm.a0 * st.uV + PtV, nm.a1 * st.uV + QtV
         Pg, Qg = nm.history(st.ug, st.vg, st.ag)
-        fV = tr.F_active + PV_ @ tr.M_active + QV_ @ tr.vehicle.C
+        fV = tr.F_active - st.uV @ tr.vehicle.K + PtV @ tr.M_active + QtV @ tr.vehicle.C
         if creep is not None:
             fV = fV + creep.vehicle_load(st.creep_force)
-        uV_t = fV @ self.k_inv
+        duV_t = fV @ self.k_inv
+        uV_t = st.uV + duV_t
         wheel_t = (uV_t @ tr.W).reshape(-1)
         p_t = (Pg - GRAVITY) / nm.a0
         h_V = self.point.c_P * ((PV_ @ tr.W).reshape(-1) - Pg) + self.point.c_Q * (
@@ -159,11 +163,11 @@ class LocalizedDynamic:
         # back-substitution
         PV = ((self.c_g * P - d_V).reshape(tr.cars, tr.wheels) @ self.B.T).reshape(-1)
         ug = p_t + self.c_g * (P - PV)
-        uV = uV_t + PV.reshape(tr.cars, tr.wheels) @ self.A.T
+        duV = duV_t + PV.reshape(tr.cars, tr.wheels) @ self.A.T
         uB = uB_t - self._bridge_load(c, rows, idx, np.where(on, P, 0.0)) @ self.bridge.S
 
-        st.vV, st.aV = nm.update(uV, PV_, QV_)
-        st.uV = uV
+        st.vV, st.aV = nm.update_increment(duV, PtV, QtV)
+        st.uV = st.uV + duV
         st.vg, st.ag = nm.update(ug, Pg, Qg)
         st.ug = ug
         self._finish_bridge(uB, PB, QB)

@@ -42,3 +42,19 @@ class Newmark:
     def update(self, u_new: np.ndarray, P: np.ndarray, Q: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """Velocity and acceleration at t_{n+1} from the new position and the histories."""
         return self.a1 * u_new - Q, self.a0 * u_new - P
+
+    def increment_history(self, v: np.ndarray, a: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """``P[y] - a0 y_n`` and ``Q[y] - a1 y_n``: the histories of the increment ``y_{n+1} - y_n``."""
+        return self.a2 * v + a, v
+
+    def update_increment(
+        self, du: np.ndarray, Pt: np.ndarray, Qt: np.ndarray
+    ) -> tuple[np.ndarray, np.ndarray]:
+        """Velocity and acceleration at t_{n+1} from the increment and :meth:`increment_history`.
+
+        Same values as :meth:`update` in exact arithmetic, without its cancellation: ``a0 u_{n+1}``
+        and ``P`` are both ~``a0 |u|`` while their difference is ~``|u''|``, so the total form rounds
+        the acceleration to ``a0 eps |u|`` (4e-9 m/s^2 for a car body 9 cm off its start at
+        dt = 1e-4). The increment form rounds it to ``a0 eps |du|``.
+        """
+        return self.a1 * du - Qt, self.a0 * du - Pt

@@ -55,13 +55,6 @@ def test_localized_equals_coupled_dynamic_on_bridge_and_contact_series(runs: dic
         assert rel <= 1e-8, (name, rel)
 
 
-@pytest.mark.xfail(
-    strict=True,
-    reason="known miss (issue 7 open): car-body series of localized and coupled-dynamic agree to "
-    "2.5e-8 (uz) and 4.5e-8 (az), target 1e-8, in NumPy and C alike, while bridge and contact series "
-    "agree to 1e-10. The floor is in the localized condensation: localized results change by 1.8e-8 "
-    "between contact_split 0.5 and 0.3, coupled-dynamic by 3e-10 (see the issue note).",
-)
 def test_localized_equals_coupled_dynamic_on_car_body_series(runs: dict[str, xr.Dataset]) -> None:
     for name, rel in _max_relative_difference(runs, CAR_BODY).items():
         assert rel <= 1e-8, (name, rel)
