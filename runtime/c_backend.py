@@ -111,12 +111,14 @@ def _ppoly_struct(
     keep += [x, c]
     n = c.shape[1] if c.ndim == 2 else 0
     steps = np.diff(x)
-    uniform = bool(n > 0 and np.allclose(steps, steps[0], rtol=1e-12, atol=0.0))
+    # "uniform" only seeds the interval search, which then steps to the exact interval, so breaks
+    # equally spaced up to round-off (a table over [250, 283.37] steps by h (1 +- 3e-12)) qualify
+    uniform = bool(n > 0 and np.allclose(steps, steps[0], rtol=1e-6, atol=0.0))
     return c_loop.PPoly(
         n=n,
         k=(c.shape[0] - 1) if n else 0,
         uniform=int(uniform),
-        h=float(steps[0]) if n else 0.0,
+        h=float((x[-1] - x[0]) / n) if n else 0.0,
         x=x.ctypes.data,
         c=c.ctypes.data,
         left0=left[0],

@@ -123,7 +123,7 @@ def F(name: str, kind: str, doc: str) -> Field:  # noqa: N802 - reads like a tab
 PPOLY_FIELDS = [
     F("n", "int", "number of intervals (0: a step at x[0] from `left` to `right`)"),
     F("k", "int", "degree of every piece"),
-    F("uniform", "int", "1 when the breaks are equally spaced (O(1) interval lookup)"),
+    F("uniform", "int", "1 when the breaks are equally spaced to 1e-6 (O(1) interval guess, then exact)"),
     F("h", "double", "break spacing when uniform"),
     F("x", "double*", "n + 1 increasing breaks"),
     F(
