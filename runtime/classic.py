@@ -120,7 +120,7 @@ class CoupledClassic:
         # vehicle unknowns are the increments over the step (Newmark.update_increment)
         PtV, QtV = nm.increment_history(st.vV, st.aV)
         PV_, QV_ = nm.a0 * st.uV + PtV, nm.a1 * st.uV + QtV
-        fV = tr.F_full - st.uV @ tr.vehicle.K + PtV @ tr.vehicle.M + QtV @ tr.vehicle.C
+        fV = tr.increment_load(st.uV, PtV, QtV, full_mass=True)
         creep = m.creep
         if creep is not None:  # explicit: the creep force of t_n loads this step (docs/method.md)
             fV += creep.vehicle_load(st.creep_force)

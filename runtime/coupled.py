@@ -247,7 +247,7 @@ class CoupledDynamic:
 
         # vehicle rows (the creep force of t_n is an explicit load, docs/method.md)
         creep = m.creep
-        fV = tr.F_active - st.uV @ tr.vehicle.K + PtV @ tr.M_active + QtV @ tr.vehicle.C
+        fV = tr.increment_load(st.uV, PtV, QtV)
         fV -= HV.reshape(tr.cars, tr.wheels) @ tr.W.T
         if creep is not None:
             fV += creep.vehicle_load(st.creep_force)

@@ -127,7 +127,7 @@ class LocalizedDynamic:
         PtV, QtV = nm.increment_history(st.vV, st.aV)
         PV_, QV_ = nm.a0 * st.uV + PtV, nm.a1 * st.uV + QtV
         Pg, Qg = nm.history(st.ug, st.vg, st.ag)
-        fV = tr.F_active - st.uV @ tr.vehicle.K + PtV @ tr.M_active + QtV @ tr.vehicle.C
+        fV = tr.increment_load(st.uV, PtV, QtV)
         if creep is not None:
             fV = fV + creep.vehicle_load(st.creep_force)
         duV_t = fV @ self.k_inv

@@ -84,6 +84,19 @@ class Train:
         self.F_full = v.F_gravity - v.K @ self.u_static
         self.F_active = self.F_full + self.W @ (self.aux_masses * GRAVITY)
 
+    def increment_load(
+        self, u: np.ndarray, Pt: np.ndarray, Qt: np.ndarray, *, full_mass: bool = False
+    ) -> np.ndarray:
+        """``F - K u_n + M P~ + C Q~`` per car: the load of the vehicles' increment equation
+        ``K^ du = ...`` (docs/method.md section 3), without contact or creep forces.
+
+        ``full_mass`` gives the whole vehicle (coupled-classic, no aux points); otherwise the active
+        mass and load of Section 2.3.
+        """
+        v = self.vehicle
+        F, M = (self.F_full, v.M) if full_mass else (self.F_active, self.M_active)
+        return F - u @ v.K + Pt @ M + Qt @ v.C
+
     # ----------------------------------------------------------------------------------------------
     def positions(self, t: float) -> np.ndarray:
         """x of every contact point at time t."""
