@@ -107,16 +107,17 @@ def _ppoly_struct(
     right: tuple[float, float, float],
 ) -> c_loop.PPoly:
     x = np.ascontiguousarray(x, dtype=float)
-    c = np.ascontiguousarray(c, dtype=float)
+    # one interval's coefficients side by side: an evaluation reads one cache line, not k + 1
+    c = np.ascontiguousarray(np.asarray(c, dtype=float).T)
     keep += [x, c]
-    n = c.shape[1] if c.ndim == 2 else 0
+    n = c.shape[0] if c.ndim == 2 else 0
     steps = np.diff(x)
     # "uniform" only seeds the interval search, which then steps to the exact interval, so breaks
     # equally spaced up to round-off (a table over [250, 283.37] steps by h (1 +- 3e-12)) qualify
     uniform = bool(n > 0 and np.allclose(steps, steps[0], rtol=1e-6, atol=0.0))
     return c_loop.PPoly(
         n=n,
-        k=(c.shape[0] - 1) if n else 0,
+        k=(c.shape[1] - 1) if n else 0,
         uniform=int(uniform),
         h=float((x[-1] - x[0]) / n) if n else 0.0,
         x=x.ctypes.data,

@@ -129,7 +129,8 @@ PPOLY_FIELDS = [
     F(
         "c",
         "double*",
-        "(k + 1) x n coefficients, scipy.interpolate.PPoly layout: c[m][i] multiplies (x - x[i])^(k - m)",
+        "n x (k + 1) coefficients, the transpose of scipy.interpolate.PPoly.c: c[i][m] multiplies "
+        "(x - x[i])^(k - m)",
     ),
     F("left0", "double", "value for x <= x[0]"),
     F("left1", "double", "first derivative for x <= x[0]"),
