@@ -74,12 +74,19 @@ def d_dx(row: sp.Matrix, order: int = 1) -> sp.Matrix:
     return out
 
 
+def _integral_over_element(expr: sp.Expr) -> sp.Expr:
+    """Integral over 0 <= xi <= 1 of a polynomial in ``xi`` (exact, as ``sympy.integrate`` but
+    through ``Poly``, which is a hundred times faster on these integrands)."""
+    antiderivative = sp.Poly(sp.expand(expr), xi).integrate()
+    return sp.factor(antiderivative.eval(1) - antiderivative.eval(0))
+
+
 @cache
 def element_mass() -> sp.Matrix:
     """Consistent mass matrix: integral of mu N^T N over the element (axial + bending)."""
     na, nb = axial_shape(), bending_shape()
     integrand = mu * (na.T * na + nb.T * nb) * le
-    return integrand.applyfunc(lambda e: sp.factor(sp.integrate(sp.expand(e), (xi, 0, 1))))
+    return integrand.applyfunc(_integral_over_element)
 
 
 @cache
@@ -88,7 +95,7 @@ def element_stiffness() -> sp.Matrix:
     dna = d_dx(axial_shape(), 1)
     ddnb = d_dx(bending_shape(), 2)
     integrand = (E * A * dna.T * dna + E * I * ddnb.T * ddnb) * le
-    return integrand.applyfunc(lambda e: sp.factor(sp.integrate(sp.expand(e), (xi, 0, 1))))
+    return integrand.applyfunc(_integral_over_element)
 
 
 @cache

@@ -167,7 +167,7 @@ def discrete_bridge_row() -> tuple[DiscreteRow, dict[str, sp.Matrix | sp.Symbol]
         subs.update({ue[i]: ue_new[i], ue1[i]: vel, ue2[i]: acc})
     ode = sp.expand((gap.g_tt + 2 * zeta * omega * gap.g_t + omega**2 * gap.g).xreplace(subs))
     d = sp.factor(ode.coeff(ug_new))
-    row = sp.Matrix([[-sp.expand(sp.simplify(ode.coeff(ue_new[i]) / d)) for i in range(beam.NDOF)]])
+    row = sp.Matrix([[-sp.expand(sp.cancel(ode.coeff(ue_new[i]) / d)) for i in range(beam.NDOF)]])
     rest = ode.subs({ug_new: 0, **{s: 0 for s in ue_new}})
     rhs = sp.expand(-rest / d)
     names: dict[str, sp.Matrix | sp.Symbol] = {"P_ug": pg, "Q_ug": qg, "P_ue": pe, "Q_ue": qe}

@@ -3,22 +3,21 @@
 from __future__ import annotations
 
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import typer
-import xarray as xr
 from svbi.runtime.atomic import write_atomic
-from svbi.runtime.plots import (
-    ResultsFileError,
-    default_labels,
-    plot_results,
-    read_results,
-    summary_text,
-)
+
+if TYPE_CHECKING:
+    import xarray as xr
 
 SUMMARY_NAME = "summary.txt"
 
 
 def _read(paths: list[Path]) -> list[xr.Dataset]:
+    # matplotlib and xarray load here, not when the CLI starts (every `svbi` command registers us)
+    from svbi.runtime.plots import ResultsFileError, read_results
+
     try:
         return [read_results(p) for p in paths]
     except ResultsFileError as exc:
@@ -27,6 +26,8 @@ def _read(paths: list[Path]) -> list[xr.Dataset]:
 
 
 def _draw(paths: list[Path], out_dir: Path) -> None:
+    from svbi.runtime.plots import default_labels, plot_results, summary_text
+
     datasets = _read(paths)
     if out_dir.exists() and not out_dir.is_dir():
         typer.echo(f"error: {out_dir}: output folder exists and is not a folder", err=True)
