@@ -81,7 +81,8 @@ def test_localized_equals_coupled_dynamic(split):
     # the run covers entry, joints and exit of both cars, on a shaking bridge
     assert loc.attrs["steps"] > 1500 and float(np.abs(loc.ground_uz).max()) > 1e-3
     diff = max_relative_difference(loc, cpl)
-    assert max(diff.values()) < 1e-8, diff
+    # measured <= 4e-11 (raw contact force at a = 0.01), <= 1e-12 on the car body
+    assert max(diff.values()) < 3e-10, diff
     for gap in ("gap_vehicle", "gap_bridge"):
         assert float(np.abs(loc[gap] - cpl[gap]).max()) < 1e-12
 
@@ -89,7 +90,7 @@ def test_localized_equals_coupled_dynamic(split):
 def test_split_does_not_change_the_results():
     """Each wheel and its aux point move as one body, whatever share of the mass the aux point has."""
     diff = max_relative_difference(run("localized-dynamic", 0.01), run("localized-dynamic", 0.99))
-    assert max(diff.values()) < 1e-8, diff
+    assert max(diff.values()) < 1e-11, diff  # measured 8e-13
 
 
 def test_coupled_dynamic_with_kappa_zero_is_classic():
