@@ -435,6 +435,7 @@ class CStepper:
         S.d = point.d
         omega = kappa / s.time_step
         S.c2 = 2 * zeta * omega
+        S.w2 = omega * omega
 
         S.gap_limit = m.settings.max_gap
         S.force_limit = math.inf

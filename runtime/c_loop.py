@@ -183,6 +183,7 @@ SETUP_FIELDS = [
     F("p_q", "double", "point row: coefficient of q"),
     F("d", "double", "a0 + 2 zeta omega a1 + omega^2"),
     F("c2", "double", "2 zeta omega"),
+    F("w2", "double", "omega^2"),
     F("force_limit", "double", "|contact force| that stops the run (N)"),
     F("gap_limit", "double", "|gap| that stops the run (m)"),
     F("sC", "double", "coupled-classic: scale of the contact rows and columns"),

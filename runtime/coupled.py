@@ -4,8 +4,9 @@ Unknowns ``[u_V, u_B, lambda_V, lambda_B, u_g, lambda_G]``: vehicle and bridge D
 multipliers of the wheel-aux, aux-bridge and support constraints, and the aux points. Each force is a
 dynamic multiplier through its constraint ODE (Eqs. 7, 12, 13)::
 
-    P = mbar lambda'' + cbar lambda' + kbar lambda = D lambda - H,
-    D = mbar (a0 + 2 zeta omega a1 + omega^2),  H = mbar (P[lambda] + 2 zeta omega Q[lambda])
+    P = mbar lambda'' + cbar lambda' + kbar lambda = D dlambda - H,
+    D = mbar (a0 + 2 zeta omega a1 + omega^2),
+    H = mbar (P~[lambda] + 2 zeta omega Q~[lambda] - omega^2 lambda_n)
 
 with ``cbar = 2 zeta omega mbar``, ``kbar = omega^2 mbar`` and the constraint masses ``mbar`` of
 Eqs. (25)-(35) from ``svbi.codegen.constraints`` (Eq. 27 with the active vehicle mass, Eq. 31 with the
@@ -13,6 +14,11 @@ element holding the contact, so it changes as the wheel moves, Eq. 34). Each con
 discrete constraint multiplied by ``D`` (Eqs. 19, 20, 24). The system is sparse and non-symmetric; it
 is assembled and LU-factored (``scipy.sparse.linalg.splu``) every step, which is what the
 localized method avoids. In exact arithmetic both solve the same discrete equations.
+
+The multiplier unknowns are the increments ``dlambda = lambda_{n+1} - lambda_n`` with the increment
+histories ``P~``, ``Q~`` of ``Newmark.increment_history`` (like the vehicles): in the total form
+``D lambda - H`` both terms grow like ``a0 |lambda|``, and with ``kappa = 0`` lambda grows like t^2
+(method-notes pitfall 7), so the force lost digits with every step.
 
 Sign convention: ``lambda`` has the sign of the force it generates (compression positive).
 """
@@ -163,8 +169,9 @@ class CoupledDynamic:
         return np.where(c.on, self.mB_kernel(c.loc.xi), m_g)
 
     def _force(self, lam: list[np.ndarray], D: np.ndarray, mbar: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        P, Q = self.nm.history(*lam)
-        H = mbar * (P + self.c2 * Q)
+        """``H`` of the force ``D dlambda - H`` (module docstring), and ``D``."""
+        Pt, Qt = self.nm.increment_history(lam[1], lam[2])
+        H = mbar * (Pt + self.c2 * Qt - self.w2 * lam[0])
         return H, D
 
     def _constant_part(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -286,12 +293,12 @@ class CoupledDynamic:
         st.vg, st.ag = nm.update(ug, Pg, Qg)
         st.ug = ug
         self._finish_bridge(x, PB, QB)
-        lamV = x[self.oLV : self.oLV + self.nc]
-        lamB = x[self.oLB : self.oLB + self.nc]
-        st.PV = self.DV * lamV - HV
-        st.P = DB * lamB - HB
-        self._update_lambda(self.lamV, lamV)
-        self._update_lambda(self.lamB, lamB)
+        dlamV = x[self.oLV : self.oLV + self.nc]
+        dlamB = x[self.oLB : self.oLB + self.nc]
+        st.PV = self.DV * dlamV - HV
+        st.P = DB * dlamB - HB
+        self._update_lambda(self.lamV, dlamV)
+        self._update_lambda(self.lamB, dlamB)
         self._update_lambda(self.lamG, x[self.oLG :])
         st.t = t
         if creep is not None:
@@ -304,7 +311,7 @@ class CoupledDynamic:
         st.vB, st.aB = self.nm.update(uB, PB, QB)
         st.uB = uB
 
-    def _update_lambda(self, lam: list[np.ndarray], new: np.ndarray) -> None:
-        P, Q = self.nm.history(*lam)
-        v, a = self.nm.update(new, P, Q)
-        lam[0], lam[1], lam[2] = np.array(new), v, a
+    def _update_lambda(self, lam: list[np.ndarray], delta: np.ndarray) -> None:
+        Pt, Qt = self.nm.increment_history(lam[1], lam[2])
+        v, a = self.nm.update_increment(delta, Pt, Qt)
+        lam[0], lam[1], lam[2] = lam[0] + delta, v, a
