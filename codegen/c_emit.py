@@ -38,13 +38,11 @@ from typing import Any
 
 import casadi as ca
 import jinja2
+from svbi.codegen.c_flags import CASADI_WARNING_EXCEPTION, STRICT_FLAGS
 from svbi.codegen.casadi_emit import build_functions, casadi_files
 from svbi.codegen.kernels import ModelSpec
 
 GENERATOR = "svbi.codegen.c_emit"
-CASADI_WARNING_EXCEPTION = "-Wno-unused-parameter"
-"""The one warning switched off, for CasADi's generated file only (see the module docstring)."""
-STRICT_FLAGS = ("-std=c99", "-Wall", "-Wextra", "-Werror")
 
 _TEMPLATES = {
     "{c}.h": "c/model.h.j2",

@@ -1,11 +1,15 @@
-"""The compiled Newmark loop: C sources rendered from ``templates/solver/``, built and loaded.
+"""The compiled Newmark loop: static C in ``runtime/csrc/`` plus thin generated glue, built and loaded.
 
-One loop library per vehicle topology. Sizes that are fixed by the topology are baked into the C
-source as constants (vehicle DOFs ``NV``, wheels per car ``NW``, element DOFs, the degree and
-non-zero pattern of the contact-row polynomials); everything that depends on the run (cars, spans,
-elements, the numbers of every matrix) travels in a setup struct. The structs are written once,
-here, as lists of :class:`Field`; the C header and the ctypes mirrors are both rendered from those
-lists, so they cannot disagree.
+The loop is ordinary C (``runtime/csrc/*.c``, docs/c-backend.md). One loop library is built per
+vehicle topology: the sizes fixed by the topology (vehicle DOFs ``NV``, wheels per car ``NW``, moving
+loads or not) come from the generated header ``svbi_topology.h``; the contact-row table (degree and
+non-zero pattern of the polynomials in ``xi``) from ``svbi_contact_rows.h``; the creep law from the
+CasADi-emitted ``creep_split`` kernels; the structs from ``svbi_solver_types.h``. Those are rendered
+by ``svbi generate`` (:mod:`svbi.runtime.c_glue`) and committed under ``generated/`` for the built-in
+models, so that running a built-in model imports neither Jinja2 nor CasADi. Everything that depends
+on the run (cars, spans, elements, the numbers of every matrix) travels in a setup struct. The
+structs are written once, here, as lists of :class:`Field`; the C header (generated) and the ctypes
+mirrors are both built from those lists, so they cannot disagree.
 
 Every formula the C loop evaluates comes from the symbolic pipeline: the contact rows (``W_N^B``
 and the discrete aux-bridge row of ``svbi.codegen.constraints``) are passed as the coefficients of
@@ -15,8 +19,9 @@ the two polynomials of its ratio. The loop itself is Newmark's average-accelerat
 linear algebra.
 
 The library is compiled through :mod:`svbi.runtime.compiled` (per-user cache keyed by the content
-hash and the flags, ``-O3``), with the strict warning set of the kernels (``-std=c99 -Wall -Wextra
--Werror``). ``$SVBI_CFLAGS`` appends flags, e.g. ``-march=native`` for a machine-specific build.
+hash of every source and the flags, ``-O3``), with the strict warning set of the kernels
+(``-std=c99 -Wall -Wextra -Werror``). ``$SVBI_CFLAGS`` appends flags, e.g. ``-march=native`` for a
+machine-specific build.
 """
 
 from __future__ import annotations
@@ -26,16 +31,15 @@ import os
 import shlex
 from dataclasses import dataclass
 from functools import cache
+from importlib import resources
 from typing import Any
 
-import jinja2
 import numpy as np
 import sympy as sp
 from svbi.codegen import beam
-from svbi.codegen.c_emit import CASADI_WARNING_EXCEPTION, STRICT_FLAGS
+from svbi.codegen.c_flags import CASADI_WARNING_EXCEPTION, STRICT_FLAGS
 from svbi.codegen.kernels import c_identifier
 
-GENERATOR = "svbi.runtime.c_loop"
 ROW_BLOCKS = ("N0", "W_hat", "c_P_ue", "c_Q_ue", "T0", "T1")
 """Six-column blocks of the contact-row table, in column order; then ``ROW_SCALARS``. ``N0`` is
 ``W_N^B``, ``W_hat`` and the ``c_*`` columns the discrete aux-bridge row, ``T0`` and ``T1`` the
@@ -73,6 +77,18 @@ STATUS_BANDWIDTH = 5
 STATUS_NOT_SPD = 6
 STATUS_INTERRUPTED = 7
 STATUS_RANGE = 8
+STATUS_CODES = {
+    "OK": STATUS_OK,
+    "NOT_FINITE": STATUS_NOT_FINITE,
+    "FORCE_LIMIT": STATUS_FORCE_LIMIT,
+    "GAP_LIMIT": STATUS_GAP_LIMIT,
+    "SINGULAR": STATUS_SINGULAR,
+    "BANDWIDTH": STATUS_BANDWIDTH,
+    "NOT_SPD": STATUS_NOT_SPD,
+    "INTERRUPTED": STATUS_INTERRUPTED,
+    "RANGE": STATUS_RANGE,
+}
+"""``SVBI_SOLVER_STATUS_<name>`` of the generated ``svbi_solver_types.h``."""
 STATUS_NAMES = {
     STATUS_OK: "ok",
     STATUS_NOT_FINITE: "not finite",
@@ -95,7 +111,8 @@ class Field:
     doc: str
 
 
-_C_TYPES = {
+C_TYPES = {
+    # the C type of every Field kind (svbi_solver_types.h)
     "int": "int",
     "long": "long",
     "double": "double",
@@ -426,41 +443,6 @@ def creep_split() -> tuple[tuple[sp.Expr, ...], sp.Expr, tuple[sp.Symbol, ...]]:
     return tuple(coefs), reduced, tuple(coefs.values())
 
 
-@cache
-def creep_split_sources(embedded: bool = False) -> dict[str, bytes]:
-    """C sources of the split creep law (:func:`creep_split`), from the CasADi emitter: the
-    functions ``svbi_creep_split_coefficients(creep[8]) -> c`` and
-    ``svbi_creep_split_force(creepage, N, c) -> F_x``."""
-    from svbi.codegen import c_emit
-    from svbi.codegen import creep as law
-    from svbi.codegen.kernels import CREEP_SAMPLE, KernelSpec, ModelSpec, column
-
-    coefs, reduced, symbols = creep_split()
-    sample = {k: v for k, v in CREEP_SAMPLE.items() if k not in ("xi_x", "N_c")}
-    kernels = [
-        KernelSpec(
-            "coefficients",
-            "Parameter-only subexpressions of the creep law (Eqs. 15-16).",
-            [("creep", column(law.PARAMETERS))],
-            [("c", sp.Matrix(list(coefs)))],
-            sample,
-        ),
-        KernelSpec(
-            "force",
-            "Creep force F_x(creepage, N) from the coefficients of `coefficients`.",
-            [("creepage", column([law.xi])), ("N", column([law.normal_load])), ("c", column(symbols))],
-            [("F_x", sp.Matrix([[reduced]]))],
-            {"xi_x": 5e-3, "N_c": 8.5e4},
-        ),
-    ]
-    model = ModelSpec(
-        CREEP_MODEL, "The creep law split into per-run coefficients and a per-step force.", kernels
-    )
-    files = c_emit.render_model(model, c_emit.EmitOptions.embedded() if embedded else c_emit.EmitOptions())
-    names = (f"{CREEP_MODEL}_kernels.c", f"{CREEP_MODEL}_kernels.h", f"{CREEP_MODEL}.h")
-    return {n: files[n] for n in names}
-
-
 def row_coefficients(
     le: float, speed: float, dt: float, kappa: float, zeta: float, rail_height: float = 0.0
 ) -> np.ndarray:
@@ -484,22 +466,11 @@ def row_coefficients(
 
 
 # --------------------------------------------------------------------------------------------------
-# rendering
+# sources: static C plus the generated glue
 
 
-def _environment() -> jinja2.Environment:
-    return jinja2.Environment(
-        loader=jinja2.PackageLoader("svbi.templates", "."),
-        undefined=jinja2.StrictUndefined,
-        keep_trailing_newline=True,
-        trim_blocks=True,
-        lstrip_blocks=True,
-        autoescape=False,
-    )
-
-
-def _c_field(f: Field) -> dict[str, str]:
-    return {"name": f.name, "ctype": _C_TYPES[f.kind], "doc": f.doc}
+CSRC = "csrc"
+"""Package-data folder of :mod:`svbi.runtime` holding the static C of the loop."""
 
 
 @dataclass(frozen=True)
@@ -530,50 +501,59 @@ def loop_spec(train: Any) -> LoopSpec:
     return LoopSpec(name, int(train.ndof), int(train.wheels))
 
 
-def render_sources(spec: LoopSpec, embedded: bool = False) -> dict[str, bytes]:
-    """``{file name: bytes}`` of the loop library of one vehicle topology (with the generated creep
-    law for rigid-body vehicles; ``embedded``: its embedded-target variant)."""
-    degree, nonzero = row_structure()
-    base = f"svbi_{spec.c_name}_solver"
-    context = {
-        "generator": GENERATOR,
-        "model": spec.model,
-        "c": spec.c_name,
-        "M": spec.c_name.upper(),
-        "prefix": f"svbi_{spec.c_name}",
-        "header": f"{base}.h",
-        "nv": spec.nv,
-        "nw": spec.nw,
-        "moving_load": spec.moving_load,
-        "ne": beam.NDOF,
-        "row_degree": degree,
-        "row_cols": ROW_COLUMNS,
-        "row_blocks": [
-            {"name": n, "first": 6 * i, "nonzero": [j for j in range(6) if nonzero[6 * i + j]]}
-            for i, n in enumerate(ROW_BLOCKS)
-        ],
-        "row_scalars": [{"name": n, "col": 6 * len(ROW_BLOCKS) + i} for i, n in enumerate(ROW_SCALARS)],
-        "creep_nc": len(creep_split()[0]),
-        "structs": {k: [_c_field(f) for f in v] for k, v in STRUCTS.items()},
-        "status": {
-            "OK": STATUS_OK,
-            "NOT_FINITE": STATUS_NOT_FINITE,
-            "FORCE_LIMIT": STATUS_FORCE_LIMIT,
-            "GAP_LIMIT": STATUS_GAP_LIMIT,
-            "SINGULAR": STATUS_SINGULAR,
-            "BANDWIDTH": STATUS_BANDWIDTH,
-            "NOT_SPD": STATUS_NOT_SPD,
-            "INTERRUPTED": STATUS_INTERRUPTED,
-            "RANGE": STATUS_RANGE,
-        },
+def static_sources() -> dict[str, bytes]:
+    """``{file name: bytes}`` of the static C of the loop (``runtime/csrc/*.c, *.h``)."""
+    folder = resources.files("svbi.runtime").joinpath(CSRC)
+    return {
+        p.name: p.read_bytes()
+        for p in sorted(folder.iterdir(), key=lambda p: p.name)
+        if p.name.endswith((".c", ".h"))
     }
-    env = _environment()
-    files = {}
-    for template, name in (("solver/solver.h.j2", f"{base}.h"), ("solver/solver.c.j2", f"{base}.c")):
-        files[name] = env.get_template(template).render({**context, "template": template}).encode()
-    if not spec.moving_load:
-        files.update(creep_split_sources(embedded))
+
+
+def _committed(folder: str, names: tuple[str, ...]) -> dict[str, bytes] | None:
+    """Files of ``generated/<folder>/``, or None when one is missing."""
+    from svbi.runtime.compiled import generated_root
+
+    root = generated_root() / folder
+    paths = [root / n for n in names]
+    if not all(p.is_file() for p in paths):
+        return None
+    return {p.name: p.read_bytes() for p in paths}
+
+
+def _topology_matches(header: bytes, spec: LoopSpec) -> bool:
+    text = header.decode()
+    return f"#define SVBI_NV {spec.nv} " in text and f"#define SVBI_NW {spec.nw} " in text
+
+
+def glue_sources(spec: LoopSpec, embedded: bool = False) -> dict[str, bytes]:
+    """The generated glue of one topology: the committed files for built-in models (no Jinja2 or
+    CasADi import); for a topology file, its ``svbi_topology.h`` rendered now. ``embedded``: the
+    embedded-target variant of the CasADi creep law (rendered now)."""
+    from svbi.runtime import c_glue
+
+    files = _committed(c_glue.SOLVER_FOLDER, (c_glue.TYPES_HEADER,)) or c_glue.solver_types()
+    bridge_names = (c_glue.ROWS_HEADER,) if spec.moving_load else (c_glue.ROWS_HEADER, *c_glue.CREEP_FILES)
+    bridge = None if embedded and not spec.moving_load else _committed(c_glue.BRIDGE_FOLDER, bridge_names)
+    if bridge is None:
+        glue = c_glue.contact_rows()
+        if not spec.moving_load:
+            glue.update(c_glue.creep_split_sources(embedded))
+        bridge = glue
+    files.update(bridge)
+    folder = c_glue.MOVING_LOAD_FOLDER if spec.moving_load else spec.model
+    topology = _committed(folder, (c_glue.TOPOLOGY_HEADER,)) if "/" not in folder else None
+    if topology is None or not _topology_matches(topology[c_glue.TOPOLOGY_HEADER], spec):
+        topology = c_glue.topology(spec.model, spec.nv, spec.nw)
+    files.update(topology)
     return files
+
+
+def render_sources(spec: LoopSpec, embedded: bool = False) -> dict[str, bytes]:
+    """``{file name: bytes}`` of the loop library of one vehicle topology: the static C of
+    ``runtime/csrc`` and the generated glue (:func:`glue_sources`), one flat folder."""
+    return {**static_sources(), **glue_sources(spec, embedded)}
 
 
 class LoopLibrary:
@@ -582,18 +562,17 @@ class LoopLibrary:
     def __init__(self, spec: LoopSpec, library: ctypes.CDLL) -> None:
         self.spec = spec
         self._library = library
-        p = f"svbi_{spec.c_name}"
-        self.workspace = library[f"{p}_workspace"]
+        self.workspace = library.svbi_solver_workspace
         self.workspace.argtypes = [
             ctypes.POINTER(Setup),
             ctypes.POINTER(ctypes.c_long),
             ctypes.POINTER(ctypes.c_long),
         ]
         self.workspace.restype = ctypes.c_int
-        self.init = library[f"{p}_init"]
+        self.init = library.svbi_solver_init
         self.init.argtypes = [ctypes.POINTER(Setup), ctypes.c_void_p, ctypes.c_void_p]
         self.init.restype = ctypes.c_int
-        self.run = library[f"{p}_run"]
+        self.run = library.svbi_solver_run
         self.run.argtypes = [
             ctypes.POINTER(Setup),
             ctypes.POINTER(State),
@@ -610,26 +589,21 @@ class LoopLibrary:
 
 _LIBRARIES: dict[LoopSpec, LoopLibrary] = {}
 
+LOOP_FLAGS = (*STRICT_FLAGS, CASADI_WARNING_EXCEPTION, "-O3", "-fPIC", "-shared")
+"""Flags of the loop library (then ``$SVBI_CFLAGS``). The CasADi kernels linked in (creep law) need
+their one exception (svbi.codegen.c_flags)."""
+
 
 def load_loop(spec: LoopSpec) -> LoopLibrary:
-    """Render, compile (cached) and load the loop library of a topology.
+    """Collect the sources, compile them (cached) and load the loop library of a topology.
 
     Raises :class:`svbi.runtime.compiled.CompilerError` when no C compiler works.
     """
     if spec not in _LIBRARIES:
         from svbi.runtime import compiled
 
-        sources = render_sources(spec)
-        # the CasADi kernels linked in (creep law) need their one exception (svbi.codegen.c_emit)
-        flags = (
-            *STRICT_FLAGS,
-            CASADI_WARNING_EXCEPTION,
-            "-O3",
-            "-fPIC",
-            "-shared",
-            *shlex.split(os.environ.get("SVBI_CFLAGS", "")),
-        )
-        library = compiled.load_library(sources, f"svbi_{spec.c_name}_solver", flags=flags)
+        flags = (*LOOP_FLAGS, *shlex.split(os.environ.get("SVBI_CFLAGS", "")))
+        library = compiled.load_library(render_sources(spec), f"svbi_{spec.c_name}_solver", flags=flags)
         _LIBRARIES[spec] = LoopLibrary(spec, library)
     return _LIBRARIES[spec]
 

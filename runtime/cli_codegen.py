@@ -22,12 +22,28 @@ def _is_file_target(target: str) -> bool:
 
 
 def _render(target: str, embedded: bool = False) -> tuple[str, dict[str, bytes]]:
+    """Every file of a model folder: the kernels, and the C time loop's glue of the model
+    (svbi.runtime.c_glue: the topology header of a vehicle, the contact rows and creep law of
+    frame2d)."""
     from svbi.codegen import c_emit
     from svbi.codegen.kernels import model_spec
+    from svbi.runtime import c_glue
 
     spec = model_spec(target)
     options = c_emit.EmitOptions.embedded() if embedded else c_emit.EmitOptions()
-    return spec.name, c_emit.render_model(spec, options)
+    files = {**c_emit.render_model(spec, options), **c_glue.model_glue(spec)}
+    return spec.name, dict(sorted(files.items()))
+
+
+def _builtin_tree() -> dict[str, dict[str, bytes]]:
+    """``{folder: files}`` of the whole committed tree: every built-in model and the loop's folders
+    that belong to no kernel model (``solver/``, ``moving-load/``)."""
+    from svbi.codegen.kernels import builtin_models
+    from svbi.runtime import c_glue
+
+    tree = dict(_render(model) for model in builtin_models())
+    tree.update(c_glue.extra_folders())
+    return tree
 
 
 def _tree(folder: Path) -> dict[str, bytes]:
@@ -62,11 +78,9 @@ def check_tree(committed: Path) -> list[str]:
     Returns the unified diff lines (empty when the trees match).
     """
     from svbi.codegen import c_emit
-    from svbi.codegen.kernels import builtin_models
 
     with tempfile.TemporaryDirectory(prefix="svbi-check-") as tmp:
-        for model in builtin_models():
-            name, files = _render(model)
+        for name, files in _builtin_tree().items():
             c_emit.write_files(files, Path(tmp) / name)
         fresh = _tree(Path(tmp))
     current = _tree(committed)
@@ -115,8 +129,11 @@ def generate(
 
     targets = list(models or [])
     if all_:
-        targets = builtin_models() + [t for t in targets if t not in builtin_models()]
-    if not targets:
+        targets = [t for t in targets if t not in builtin_models()]
+        for name, files in _builtin_tree().items():
+            folder = c_emit.write_files(files, (out or _generated_root()) / name)
+            typer.echo(f"generated {name}: {len(files)} files in {folder}")
+    if not targets and not all_:
         typer.echo("Name one or more models (or topology files), or pass --all.", err=True)
         raise typer.Exit(2)
     for target in targets:
@@ -176,8 +193,10 @@ def export(
     exported: dict[str, bytes] = {}
     name = model
     if not reason:
+        from svbi.runtime.c_glue import GLUE_NAMES
+
         name, files = _render(model, embedded=embedded)
-        exported = {n: d for n, d in files.items() if n.endswith(EXPORTED_SUFFIXES)}
+        exported = {n: d for n, d in files.items() if n.endswith(EXPORTED_SUFFIXES) and n not in GLUE_NAMES}
     if not solver:
         c_emit.write_files(exported, folder, prune=False)
         typer.echo(f"exported {name} to {folder} ({len(exported)} files): build with `make -C {folder}`")

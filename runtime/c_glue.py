@@ -1,0 +1,147 @@
+"""The generated glue of the C time loop: thin headers rendered at generation time.
+
+The loop itself is static C in ``runtime/csrc/`` (docs/c-backend.md). What depends on the symbolic
+pipeline or on a vehicle topology is rendered here, by ``svbi generate`` (Jinja2 templates in
+``templates/solver/``, the creep law through the CasADi emitter), and committed under
+``generated/`` for the built-in models:
+
+* ``generated/solver/svbi_solver_types.h``: the structs and status codes, from the field lists of
+  :mod:`svbi.runtime.c_loop` (which also build the ctypes mirrors: one definition);
+* ``generated/frame2d/svbi_contact_rows.h``: the contact-row table of the bridge element (degree,
+  columns, structural non-zeros, the unrolled evaluation) from ``c_loop.row_structure``;
+  ``generated/frame2d/creep_split*``: the creep law split into per-run coefficients and a per-step
+  force (``c_loop.creep_split``), C from the CasADi emitter;
+* ``generated/<model>/svbi_topology.h``: the sizes of one vehicle topology (``moving-load`` too).
+
+At run time a built-in model reads these files (no Jinja2, no CasADi); a topology file has its
+``svbi_topology.h`` rendered here when its loop is first built. This module imports Jinja2, SymPy
+and CasADi: only generation and exports use it.
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+import jinja2
+import sympy as sp
+
+GENERATOR = "svbi.runtime.c_glue"
+TYPES_HEADER = "svbi_solver_types.h"
+ROWS_HEADER = "svbi_contact_rows.h"
+TOPOLOGY_HEADER = "svbi_topology.h"
+SOLVER_FOLDER = "solver"
+"""``generated/solver/``: the glue that depends on neither the topology nor the bridge element."""
+BRIDGE_FOLDER = "frame2d"
+MOVING_LOAD_FOLDER = "moving-load"
+CREEP_FILES = ("creep_split_kernels.c", "creep_split_kernels.h", "creep_split.h")
+GLUE_NAMES = frozenset({TYPES_HEADER, ROWS_HEADER, TOPOLOGY_HEADER, *CREEP_FILES})
+"""File names of the loop's glue inside model folders (not part of a kernels-only export)."""
+
+
+def _environment() -> jinja2.Environment:
+    return jinja2.Environment(
+        loader=jinja2.PackageLoader("svbi.templates", "."),
+        undefined=jinja2.StrictUndefined,
+        keep_trailing_newline=True,
+        trim_blocks=True,
+        lstrip_blocks=True,
+        autoescape=False,
+    )
+
+
+def _render(template: str, context: dict[str, Any]) -> bytes:
+    full = f"solver/{template}"
+    return (
+        _environment()
+        .get_template(full)
+        .render({"generator": GENERATOR, "template": f"templates/{full}", **context})
+        .encode()
+    )
+
+
+def solver_types() -> dict[str, bytes]:
+    """``svbi_solver_types.h``: the structs (``c_loop.STRUCTS``) and status codes."""
+    from svbi.runtime import c_loop
+
+    structs = {
+        k: [{"name": f.name, "ctype": c_loop.C_TYPES[f.kind], "doc": f.doc} for f in v]
+        for k, v in c_loop.STRUCTS.items()
+    }
+    return {TYPES_HEADER: _render("types.h.j2", {"structs": structs, "status": c_loop.STATUS_CODES})}
+
+
+def contact_rows() -> dict[str, bytes]:
+    """``svbi_contact_rows.h``: the contact-row table of the bridge element."""
+    from svbi.runtime import c_loop
+
+    degree, nonzero = c_loop.row_structure()
+    blocks = c_loop.ROW_BLOCKS
+    context = {
+        "row_degree": degree,
+        "row_cols": c_loop.ROW_COLUMNS,
+        "row_blocks": [
+            {"name": n, "first": 6 * i, "nonzero": [j for j in range(6) if nonzero[6 * i + j]]}
+            for i, n in enumerate(blocks)
+        ],
+        "row_scalars": [{"name": n, "col": 6 * len(blocks) + i} for i, n in enumerate(c_loop.ROW_SCALARS)],
+    }
+    return {ROWS_HEADER: _render("contact_rows.h.j2", context)}
+
+
+def creep_split_sources(embedded: bool = False) -> dict[str, bytes]:
+    """C sources of the split creep law (``c_loop.creep_split``), from the CasADi emitter: the
+    functions ``svbi_creep_split_coefficients(creep[8]) -> c`` and
+    ``svbi_creep_split_force(creepage, N, c) -> F_x``."""
+    from svbi.codegen import c_emit
+    from svbi.codegen import creep as law
+    from svbi.codegen.kernels import CREEP_SAMPLE, KernelSpec, ModelSpec, column
+    from svbi.runtime import c_loop
+
+    coefs, reduced, symbols = c_loop.creep_split()
+    sample = {k: v for k, v in CREEP_SAMPLE.items() if k not in ("xi_x", "N_c")}
+    kernels = [
+        KernelSpec(
+            "coefficients",
+            "Parameter-only subexpressions of the creep law (Eqs. 15-16).",
+            [("creep", column(law.PARAMETERS))],
+            [("c", sp.Matrix(list(coefs)))],
+            sample,
+        ),
+        KernelSpec(
+            "force",
+            "Creep force F_x(creepage, N) from the coefficients of `coefficients`.",
+            [("creepage", column([law.xi])), ("N", column([law.normal_load])), ("c", column(symbols))],
+            [("F_x", sp.Matrix([[reduced]]))],
+            {"xi_x": 5e-3, "N_c": 8.5e4},
+        ),
+    ]
+    model = ModelSpec(
+        c_loop.CREEP_MODEL, "The creep law split into per-run coefficients and a per-step force.", kernels
+    )
+    files = c_emit.render_model(model, c_emit.EmitOptions.embedded() if embedded else c_emit.EmitOptions())
+    return {n: files[n] for n in CREEP_FILES}
+
+
+def bridge_glue(embedded: bool = False) -> dict[str, bytes]:
+    """The loop's files in ``generated/frame2d/``: contact rows and the split creep law."""
+    return {**contact_rows(), **creep_split_sources(embedded)}
+
+
+def topology(model: str, nv: int, nw: int) -> dict[str, bytes]:
+    """``svbi_topology.h`` of one vehicle topology (``nv = 0``: moving loads)."""
+    context = {"model": model, "nv": nv, "nw": nw, "moving_load": nv == 0}
+    return {TOPOLOGY_HEADER: _render("topology.h.j2", context)}
+
+
+def model_glue(spec: Any) -> dict[str, bytes]:
+    """The loop's files inside the generated folder of a :class:`svbi.codegen.kernels.ModelSpec`."""
+    from svbi.codegen.kernels import FRAME2D
+
+    if spec.name == FRAME2D:
+        return bridge_glue()
+    return topology(spec.name, int(spec.sizes["n_dofs"]), int(spec.sizes["n_wheels"]))
+
+
+def extra_folders() -> dict[str, dict[str, bytes]]:
+    """Generated folders of the loop that belong to no kernel model: ``solver/``, ``moving-load/``."""
+    return {SOLVER_FOLDER: solver_types(), MOVING_LOAD_FOLDER: topology(MOVING_LOAD_FOLDER, 0, 0)}

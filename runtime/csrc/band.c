@@ -1,0 +1,196 @@
+/*
+ * Small dense and banded linear algebra of svbi's C time loop; layouts in band.h. The banded
+ * Cholesky factors the span matrices, the banded LU the interface systems (contact forces or
+ * multipliers, in track order), the dense Cholesky the car blocks of the coupled methods.
+ */
+#include <math.h>
+
+#include "band.h"
+
+/* Lower band Cholesky in place: element (i, j), i >= j, at L[j * (p + 1) + (i - j)]. */
+int svbi_band_cholesky(double* L, int n, int p) {
+  int j, r, k;
+  for (j = 0; j < n; ++j) {
+    double* col = L + (long)j * (p + 1);
+    int kn = n - 1 - j < p ? n - 1 - j : p;
+    double d = col[0];
+    if (!(d > 0.0)) return SVBI_SOLVER_STATUS_NOT_SPD;
+    d = sqrt(d);
+    col[0] = d;
+    for (r = 1; r <= kn; ++r) col[r] /= d;
+    for (k = 1; k <= kn; ++k) {
+      double* ck = L + (long)(j + k) * (p + 1);
+      double lk = col[k];
+      for (r = k; r <= kn; ++r) ck[r - k] -= col[r] * lk;
+    }
+  }
+  return SVBI_SOLVER_STATUS_OK;
+}
+
+/* Solve L L^T x = b in place. */
+void svbi_band_solve(const double* L, int n, int p, double* b) {
+  int j, r;
+  for (j = 0; j < n; ++j) {
+    const double* col = L + (long)j * (p + 1);
+    int kn = n - 1 - j < p ? n - 1 - j : p;
+    double x = b[j] / col[0];
+    b[j] = x;
+    for (r = 1; r <= kn; ++r) b[j + r] -= col[r] * x;
+  }
+  for (j = n - 1; j >= 0; --j) {
+    const double* col = L + (long)j * (p + 1);
+    int kn = n - 1 - j < p ? n - 1 - j : p;
+    double x = b[j];
+    for (r = 1; r <= kn; ++r) x -= col[r] * b[j + r];
+    b[j] = x / col[0];
+  }
+}
+
+/* Solve L L^T X = B in place for nblk * SW right-hand sides stored row by row (B[j * m + s],
+ * m = nblk * SW); dinv holds the reciprocals of L's diagonal. Every row update runs over all the
+ * right-hand sides, in blocks of SW (fixed width: vector instructions, independent chains). */
+void svbi_band_solve_blocked(const double* L, const double* dinv, int n, int p, double* b, long nblk) {
+  int j, r, l;
+  long k, m = nblk * SW;
+  for (j = 0; j < n; ++j) {
+    const double* col = L + (long)j * (p + 1);
+    int kn = n - 1 - j < p ? n - 1 - j : p;
+    double* bj = b + (long)j * m;
+    double di = dinv[j];
+    for (k = 0; k < nblk; ++k)
+      for (l = 0; l < SW; ++l) bj[k * SW + l] *= di;
+    for (r = 1; r <= kn; ++r) {
+      double c = col[r];
+      double* br = bj + (long)r * m;
+      if (c == 0.0) continue; /* axial and bending DOFs do not couple: the band is 40 % zeros */
+      for (k = 0; k < nblk; ++k)
+        for (l = 0; l < SW; ++l) br[k * SW + l] -= c * bj[k * SW + l];
+    }
+  }
+  for (j = n - 1; j >= 0; --j) {
+    const double* col = L + (long)j * (p + 1);
+    int kn = n - 1 - j < p ? n - 1 - j : p;
+    double* bj = b + (long)j * m;
+    double di = dinv[j];
+    for (r = 1; r <= kn; ++r) {
+      double c = col[r];
+      const double* br = bj + (long)r * m;
+      if (c == 0.0) continue;
+      for (k = 0; k < nblk; ++k)
+        for (l = 0; l < SW; ++l) bj[k * SW + l] -= c * br[k * SW + l];
+    }
+    for (k = 0; k < nblk; ++k)
+      for (l = 0; l < SW; ++l) bj[k * SW + l] *= di;
+  }
+}
+/* General band matrix in LAPACK layout: A(r, c) at AB[(kv + r - c) + c * ldab], kv = kl + ku,
+ * ldab = 2 kl + ku + 1. LU with partial pivoting (dgbtf2) and the solve (dgbtrs), kl = ku = bw. */
+int svbi_gb_factor(double* AB, int n, int bw, int* ipiv) {
+  int kl = bw, ku = bw, kv = 2 * bw, ldab = 3 * bw + 1;
+  int j, i, jp, ju = 0, km, jj;
+  for (j = 0; j < n; ++j) {
+    double* colj = AB + (long)j * ldab;
+    double pmax, piv;
+    km = kl < n - 1 - j ? kl : n - 1 - j;
+    jp = 0;
+    pmax = fabs(colj[kv]);
+    for (i = 1; i <= km; ++i) {
+      if (fabs(colj[kv + i]) > pmax) {
+        pmax = fabs(colj[kv + i]);
+        jp = i;
+      }
+    }
+    ipiv[j] = j + jp;
+    if (colj[kv + jp] == 0.0) return SVBI_SOLVER_STATUS_SINGULAR;
+    {
+      int jmax = j + ku + jp < n - 1 ? j + ku + jp : n - 1;
+      if (jmax > ju) ju = jmax;
+    }
+    if (jp != 0) {
+      /* swap rows j and j + jp over columns j .. ju */
+      for (jj = j; jj <= ju; ++jj) {
+        double* cc = AB + (long)jj * ldab;
+        double tmp = cc[kv + j - jj];
+        cc[kv + j - jj] = cc[kv + j + jp - jj];
+        cc[kv + j + jp - jj] = tmp;
+      }
+    }
+    piv = colj[kv];
+    for (i = 1; i <= km; ++i) colj[kv + i] /= piv;
+    for (jj = j + 1; jj <= ju; ++jj) {
+      double* cc = AB + (long)jj * ldab;
+      double u = cc[kv + j - jj];
+      if (u != 0.0) {
+        for (i = 1; i <= km; ++i) cc[kv + j + i - jj] -= colj[kv + i] * u;
+      }
+    }
+  }
+  return SVBI_SOLVER_STATUS_OK;
+}
+
+void svbi_gb_solve(const double* AB, int n, int bw, const int* ipiv, double* b) {
+  int kl = bw, kv = 2 * bw, ldab = 3 * bw + 1;
+  int j, i;
+  for (j = 0; j < n - 1; ++j) {
+    const double* colj = AB + (long)j * ldab;
+    int lm = kl < n - 1 - j ? kl : n - 1 - j;
+    int l = ipiv[j];
+    double x;
+    if (l != j) {
+      double tmp = b[l];
+      b[l] = b[j];
+      b[j] = tmp;
+    }
+    x = b[j];
+    for (i = 1; i <= lm; ++i) b[j + i] -= colj[kv + i] * x;
+  }
+  for (j = n - 1; j >= 0; --j) {
+    const double* colj = AB + (long)j * ldab;
+    int i0 = j - kv > 0 ? j - kv : 0;
+    double x = b[j] / colj[kv];
+    b[j] = x;
+    for (i = i0; i < j; ++i) b[i] -= colj[kv + i - j] * x;
+  }
+}
+
+/* y += A x for a CSR matrix. */
+void svbi_csr_add(const int* ptr, const int* idx, const double* val, int n, const double* x, double* y) {
+  int i, k;
+  for (i = 0; i < n; ++i) {
+    double s = 0.0;
+    for (k = ptr[i]; k < ptr[i + 1]; ++k) s += val[k] * x[idx[k]];
+    y[i] += s;
+  }
+}
+
+/* Dense Cholesky of an n x n row-major matrix in place (lower triangle). */
+int svbi_dense_cholesky(double* A, int n) {
+  int i, j, k;
+  for (j = 0; j < n; ++j) {
+    double d = A[j * n + j];
+    for (k = 0; k < j; ++k) d -= A[j * n + k] * A[j * n + k];
+    if (!(d > 0.0)) return SVBI_SOLVER_STATUS_NOT_SPD;
+    d = sqrt(d);
+    A[j * n + j] = d;
+    for (i = j + 1; i < n; ++i) {
+      double s = A[i * n + j];
+      for (k = 0; k < j; ++k) s -= A[i * n + k] * A[j * n + k];
+      A[i * n + j] = s / d;
+    }
+  }
+  return SVBI_SOLVER_STATUS_OK;
+}
+
+void svbi_dense_solve(const double* L, int n, double* b) {
+  int i, k;
+  for (i = 0; i < n; ++i) {
+    double s = b[i];
+    for (k = 0; k < i; ++k) s -= L[i * n + k] * b[k];
+    b[i] = s / L[i * n + i];
+  }
+  for (i = n - 1; i >= 0; --i) {
+    double s = b[i];
+    for (k = i + 1; k < n; ++k) s -= L[k * n + i] * b[k];
+    b[i] = s / L[i * n + i];
+  }
+}

@@ -1,0 +1,52 @@
+/*
+ * Small dense and banded linear algebra of svbi's C time loop (band.c). Independent of the
+ * topology: tests/test_c_numerics.py compiles band.c alone and checks it against SciPy and NumPy.
+ *
+ * Layouts:
+ *  - symmetric positive definite band (Cholesky): the lower band by columns, element (i, j),
+ *    i >= j, at L[j * (p + 1) + (i - j)] (p: half bandwidth);
+ *  - general band (LU with partial pivoting, LAPACK's dgbtf2/dgbtrs): A(r, c) at
+ *    AB[(kv + r - c) + c * ldab], kl = ku = bw, kv = 2 bw, ldab = 3 bw + 1;
+ *  - dense: row-major n x n.
+ */
+#ifndef SVBI_SOLVER_BAND_H
+#define SVBI_SOLVER_BAND_H
+
+#include <string.h>
+
+#include "svbi_solver_types.h"
+
+#define SW 4 /* spans per block of the localized bridge state ([block][DOF][SW], padded with zeros) */
+
+/* Lower band Cholesky in place. Returns SVBI_SOLVER_STATUS_NOT_SPD on a non-positive pivot. */
+int svbi_band_cholesky(double* L, int n, int p);
+
+/* Solve L L^T x = b in place. */
+void svbi_band_solve(const double* L, int n, int p, double* b);
+
+/* Solve L L^T X = B in place for nblk * SW right-hand sides stored row by row (B[j * m + s],
+ * m = nblk * SW); dinv holds the reciprocals of L's diagonal. */
+void svbi_band_solve_blocked(const double* L, const double* dinv, int n, int p, double* b, long nblk);
+
+/* Dense Cholesky of an n x n row-major matrix in place (lower triangle); the solve with it. */
+int svbi_dense_cholesky(double* A, int n);
+void svbi_dense_solve(const double* L, int n, double* b);
+
+/* General band LU with partial pivoting in place (ipiv: n) and the solve with it. Returns
+ * SVBI_SOLVER_STATUS_SINGULAR on a zero pivot. */
+int svbi_gb_factor(double* AB, int n, int bw, int* ipiv);
+void svbi_gb_solve(const double* AB, int n, int bw, const int* ipiv, double* b);
+
+/* Clear a general band matrix, add v to its element (r, c). */
+static inline void svbi_gb_zero(double* AB, int n, int bw) {
+  memset(AB, 0, sizeof(double) * (size_t)n * (size_t)(3 * bw + 1));
+}
+
+static inline void svbi_gb_add(double* AB, int bw, int r, int c, double v) {
+  AB[(2 * bw + r - c) + (long)c * (3 * bw + 1)] += v;
+}
+
+/* y += A x for a CSR matrix with n rows. */
+void svbi_csr_add(const int* ptr, const int* idx, const double* val, int n, const double* x, double* y);
+
+#endif /* SVBI_SOLVER_BAND_H */

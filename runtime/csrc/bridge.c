@@ -1,0 +1,91 @@
+/*
+ * Bridge pieces shared by the methods: where every contact is (span, element, xi and its contact
+ * rows), the contacts grouped by span, the bridge's Newmark histories with the support targets, the
+ * span loads and the final Newmark update.
+ */
+#include "internal.h"
+
+/* Span, element, local coordinate and contact rows of every contact (svbi.runtime.bridge.locate). */
+void svbi_locate(const setup_t* S, work_t* w) {
+  int i, p;
+  for (i = 0; i < S->nc; ++i) {
+    double x = w->cx[i];
+    double span_f = floor(x * S->inv_span_length);
+    double span, local, element, xi, pw[ROW_DEG + 1];
+    double* row = w->crow + (long)i * ROW_COLS;
+    const double* cf = S->rows;
+    w->con[i] = span_f >= 0.0 && span_f < (double)S->spans;
+    span = span_f < 0.0 ? 0.0 : (span_f > S->spans - 1 ? (double)(S->spans - 1) : span_f);
+    local = (x - span * S->span_length) * S->inv_element_length;
+    element = floor(local);
+    if (element < 0.0) element = 0.0;
+    if (element > S->elements - 1) element = (double)(S->elements - 1);
+    xi = local - element;
+    if (xi < 0.0) xi = 0.0;
+    if (xi > 1.0) xi = 1.0;
+    w->cspan[i] = (int)span;
+    w->cfirst[i] = 3 * (int)element;
+    w->cxi[i] = xi;
+    pw[0] = 1.0;
+    for (p = 1; p <= ROW_DEG; ++p) pw[p] = pw[p - 1] * xi;
+    svbi_contact_rows(pw, cf, row); /* generated: the structural non-zeros, unrolled */
+  }
+}
+
+/* Contacts grouped by span (in track order), for the span blocks. */
+void svbi_group_by_span(const setup_t* S, work_t* w) {
+  int k, s;
+  for (s = 0; s <= S->spans; ++s) w->sstart[s] = 0;
+  for (k = 0; k < S->nc; ++k) {
+    int i = S->order[k];
+    if (w->con[i]) w->sstart[w->cspan[i] + 1] += 1;
+  }
+  for (s = 0; s < S->spans; ++s) w->sstart[s + 1] += w->sstart[s];
+  for (s = 0; s < S->spans; ++s) w->loaded[s] = w->sstart[s];
+  for (k = 0; k < S->nc; ++k) {
+    int i = S->order[k];
+    if (w->con[i]) w->slist[w->loaded[w->cspan[i]]++] = i;
+  }
+  for (s = 0; s < S->spans; ++s) w->loaded[s] = w->sstart[s + 1] > w->sstart[s];
+}
+
+
+/* Newmark histories of the bridge and the support targets q^ (row of svbi.codegen.constraints). */
+void svbi_bridge_histories(const setup_t* S, work_t* w) {
+  long i, n = w->nb;
+  int s, j, ns = S->ns, NS = S->spans * S->ns;
+  for (i = 0; i < n; ++i) {
+    w->PB[i] = S->a0 * w->bu[i] + S->a2 * w->bv[i] + w->ba[i];
+    w->QB[i] = S->a1 * w->bu[i] + w->bv[i];
+  }
+  for (s = 0; s < S->spans; ++s) {
+    for (j = 0; j < ns; ++j) {
+      int k = s * ns + j;
+      w->qhat[k] = S->p_P * BR(w->PB, s, S->sup[j]) + S->p_Q * BR(w->QB, s, S->sup[j]) +
+                   S->p_q2 * w->qs[2 * NS + k] + S->p_q1 * w->qs[NS + k] + S->p_q * w->qs[k];
+    }
+  }
+}
+
+void svbi_span_load(const setup_t* S, const work_t* w, int s, double* f) {
+  int i, j, nd = S->nd, ns = S->ns, NS = S->spans * S->ns;
+  const double* P = w->PB + (long)s * nd;
+  const double* Q = w->QB + (long)s * nd;
+  const double* q1 = w->qs + NS + (long)s * ns;
+  for (i = 0; i < nd; ++i) {
+    double v = 0.0;
+    for (j = 0; j < ns; ++j) v += S->CT[i * ns + j] * q1[j];
+    f[i] = v;
+  }
+  svbi_csr_add(S->M_ptr, S->M_idx, S->M_val, nd, P, f);
+  svbi_csr_add(S->C_ptr, S->C_idx, S->C_val, nd, Q, f);
+}
+
+/* The Newmark update of the bridge from its new displacements. */
+void svbi_bridge_update(const setup_t* S, work_t* w) {
+  long i, n = w->nb;
+  for (i = 0; i < n; ++i) {
+    w->bv[i] = S->a1 * w->bu[i] - w->QB[i];
+    w->ba[i] = S->a0 * w->bu[i] - w->PB[i];
+  }
+}

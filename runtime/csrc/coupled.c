@@ -1,0 +1,408 @@
+/*
+ * coupled-dynamic and coupled-classic (svbi.runtime.coupled, .classic): the monolithic system
+ * (paper Eq. 36) by block ("arrow") elimination, solved anew every step as the method prescribes
+ * (docs/c-backend.md, "Structure exploited").
+ */
+#include "internal.h"
+
+/* Unknowns: DOF blocks (spans, cars, aux points) and multipliers. Each multiplier has up to two  */
+/* attachments to DOF blocks: B (its column in the block's rows) and C (its row in the block's    */
+/* columns). The blocks are factored every step; the multipliers' Schur complement             */
+/* -sum_b C_b A_b^-1 B_b is banded in track order and solved by LU with partial pivoting.       */
+
+/* Track order of the multipliers: contacts front to back merged with the supports (right support */
+/* of span s, then its left ones, from the last span to the first). per_contact: 2 (lamV, lamB)  */
+/* or 1 (classic P, or none for moving loads: 0).                                                */
+static void multiplier_order(const setup_t* S, work_t* w, int per_contact) {
+  int k = 0, pos = 0, s, j, ns = S->ns, nc = S->nc;
+  int base = per_contact * nc;
+  for (s = S->spans - 1; s >= -1; --s) {
+    /* supports at x = (s + 1) L: the left ones of span s + 1 were placed; now the right of span s */
+    double xs = (s + 1) * S->span_length;
+    if (per_contact) {
+      while (k < nc && w->cx[S->order[k]] >= xs) {
+        int i = S->order[k++];
+        if (per_contact == 2) {
+          w->mpos[i] = pos++;
+          w->mpos[nc + i] = pos++;
+        } else {
+          w->mpos[i] = pos++;
+        }
+      }
+    }
+    if (s < 0) break;
+    for (j = 0; j < ns; ++j)
+      if (S->sup_x[j] != 0.0) w->mpos[base + s * ns + j] = pos++;
+    xs = s * S->span_length;
+    if (per_contact) {
+      while (k < nc && w->cx[S->order[k]] >= xs) {
+        int i = S->order[k++];
+        if (per_contact == 2) {
+          w->mpos[i] = pos++;
+          w->mpos[nc + i] = pos++;
+        } else {
+          w->mpos[i] = pos++;
+        }
+      }
+    }
+    for (j = 0; j < ns; ++j)
+      if (S->sup_x[j] == 0.0) w->mpos[base + s * ns + j] = pos++;
+  }
+  if (per_contact) {
+    while (k < nc) {
+      int i = S->order[k++];
+      if (per_contact == 2) {
+        w->mpos[i] = pos++;
+        w->mpos[nc + i] = pos++;
+      } else {
+        w->mpos[i] = pos++;
+      }
+    }
+  }
+}
+
+static void extent(int* lo, int* hi, int p) {
+  if (p < *lo) *lo = p;
+  if (p > *hi) *hi = p;
+}
+
+/* Half bandwidth of the multipliers' Schur complement. */
+static int multiplier_bandwidth(const setup_t* S, const work_t* w, int per_contact) {
+  int bw = 0, s, j, m, k, i, nc = S->nc, ns = S->ns, base = per_contact * nc;
+  for (s = 0; s < S->spans; ++s) {
+    int lo = w->mpos[base + s * ns], hi = lo;
+    for (j = 0; j < ns; ++j) extent(&lo, &hi, w->mpos[base + s * ns + j]);
+    for (m = w->sstart[s]; per_contact && m < w->sstart[s + 1]; ++m) {
+      int c = w->slist[m];
+      extent(&lo, &hi, w->mpos[(per_contact == 2 ? nc : 0) + c]);
+    }
+    if (hi - lo > bw) bw = hi - lo;
+  }
+  if (per_contact && !S->moving_load) {
+    for (k = 0; k < S->cars; ++k) {
+      int lo = w->mpos[k * S->nw], hi = lo;
+      for (i = 0; i < S->nw; ++i) extent(&lo, &hi, w->mpos[k * S->nw + i]);
+      if (hi - lo > bw) bw = hi - lo;
+    }
+    if (per_contact == 2 && bw < 1) bw = 1;
+  }
+  return bw;
+}
+
+/* Eliminate the span blocks: factor K^_B, y_s = K^-1 r_s, Z_a = K^-1 B_a; add -C Z to the Schur
+ * complement and -C y to the multipliers' right-hand side. The attachments of span s are its
+ * support multipliers and the aux-bridge (or contact) multipliers of the contacts on it; each has
+ * a B column and a C row over the span DOFs afirst .. afirst + alen. */
+static int span_blocks(const setup_t* S, work_t* w, int per_contact, int bw, const double* DB_or_sC,
+                       int lamB_base) {
+  int s, nd = S->nd, ns = S->ns, p = S->band_p;
+  long zoff = 0;
+  for (s = 0; s < S->spans; ++s) {
+    double* y = w->xB + (long)s * nd;
+    int na = 0, a, b, m, k, q;
+    svbi_band_solve(w->Kb, nd, p, y); /* Kb: the span factor, set once at initialisation */
+    for (k = 0; k < ns; ++k, ++na) {
+      w->aid[na] = per_contact * S->nc + s * ns + k;
+      w->afirst[na] = S->sup[k];
+      w->alen[na] = 1;
+      w->ab[na * NE] = -w->DG[k];
+      w->ac[na * NE] = w->DG[k];
+    }
+    if (per_contact) {
+      for (m = w->sstart[s]; m < w->sstart[s + 1]; ++m, ++na) {
+        int c = w->slist[m];
+        const double* row = w->crow + (long)c * ROW_COLS;
+        w->aid[na] = lamB_base + c;
+        w->afirst[na] = w->cfirst[c];
+        w->alen[na] = NE;
+        for (q = 0; q < NE; ++q) {
+          w->ab[na * NE + q] = row[COL_N0 + q] * DB_or_sC[c];
+          w->ac[na * NE + q] = -row[COL_W_HAT + q] * DB_or_sC[c];
+        }
+      }
+    }
+    for (a = 0; a < na; ++a) {
+      double* z = w->Z + zoff + (long)a * nd;
+      memset(z, 0, sizeof(double) * (size_t)nd);
+      for (q = 0; q < w->alen[a]; ++q) z[w->afirst[a] + q] = w->ab[a * NE + q];
+      svbi_band_solve(w->Kb, nd, p, z);
+    }
+    for (a = 0; a < na; ++a) {
+      const double* ca = w->ac + a * NE;
+      const double* ya = y + w->afirst[a];
+      int ra = w->mpos[w->aid[a]];
+      double cy = 0.0;
+      for (q = 0; q < w->alen[a]; ++q) cy += ca[q] * ya[q];
+      w->rl[w->aid[a]] -= cy;
+      for (b = 0; b < na; ++b) {
+        const double* z = w->Z + zoff + (long)b * nd + w->afirst[a];
+        double cz = 0.0;
+        for (q = 0; q < w->alen[a]; ++q) cz += ca[q] * z[q];
+        svbi_gb_add(w->band, bw, ra, w->mpos[w->aid[b]], -cz);
+      }
+    }
+    zoff += (long)na * nd;
+  }
+  return ST_OK;
+}
+
+/* x_s = y_s - sum_a Z_a lambda_a for every span (same attachment order as span_blocks). */
+static void span_back(const setup_t* S, work_t* w, int per_contact, int lamB_base, state_t* X) {
+  int s, nd = S->nd, ns = S->ns, i;
+  long zoff = 0;
+  for (s = 0; s < S->spans; ++s) {
+    double* y = w->xB + (long)s * nd;
+    int a = 0, k, m;
+    for (k = 0; k < ns; ++k, ++a) {
+      double lam = w->bsol[w->mpos[per_contact * S->nc + s * ns + k]];
+      const double* z = w->Z + zoff + (long)a * nd;
+      for (i = 0; i < nd; ++i) y[i] -= z[i] * lam;
+    }
+    if (per_contact) {
+      for (m = w->sstart[s]; m < w->sstart[s + 1]; ++m, ++a) {
+        double lam = w->bsol[w->mpos[lamB_base + w->slist[m]]];
+        const double* z = w->Z + zoff + (long)a * nd;
+        for (i = 0; i < nd; ++i) y[i] -= z[i] * lam;
+      }
+    }
+    zoff += (long)a * nd;
+    memcpy(X->uB + (long)s * nd, y, sizeof(double) * (size_t)nd);
+  }
+}
+
+/* The multiplier unknowns are increments (svbi.runtime.coupled): the force of a multiplier triple
+ * (lambda, lambda', lambda'') is D dlambda - H with H = mbar (P~ + c2 Q~ - omega^2 lambda_n). */
+static void lam_increment_history(const setup_t* S, const double* lam, long n, long i, double* P, double* Q) {
+  *P = S->a2 * lam[n + i] + lam[2 * n + i];
+  *Q = lam[n + i];
+}
+
+static double lam_H(const setup_t* S, const double* lam, long n, long i, double mbar) {
+  double P, Q;
+  lam_increment_history(S, lam, n, i, &P, &Q);
+  return mbar * (P + S->c2 * Q - S->w2 * lam[i]);
+}
+
+static void lam_update(const setup_t* S, double* lam, long n, long i, double delta) {
+  double P, Q;
+  lam_increment_history(S, lam, n, i, &P, &Q);
+  lam[i] += delta;
+  lam[n + i] = S->a1 * delta - Q;
+  lam[2 * n + i] = S->a0 * delta - P;
+}
+
+int svbi_step_coupled(const setup_t* S, state_t* X, work_t* w, int classic) {
+  int s, i, j, nd = S->nd, ns = S->ns, nc = S->nc, NS = S->spans * S->ns, status, bw;
+  int per_contact = S->moving_load ? 0 : (classic ? 1 : 2);
+  int nm = (int)n_multipliers(S);
+  svbi_bridge_histories(S, w);
+  svbi_group_by_span(S, w);
+  for (j = 0; j < ns; ++j) w->DG[j] = classic ? S->sG[j] : S->d * S->mG[j];
+  /* span right-hand sides: f = M P + C Q + C T q' (less the support multipliers' history H_G) */
+  for (s = 0; s < S->spans; ++s) {
+    double* f = w->xB + (long)s * nd;
+    svbi_span_load(S, w, s, f);
+    for (j = 0; j < ns; ++j) {
+      int k = s * ns + j;
+      if (!classic) {
+        w->HG[k] = lam_H(S, X->lamG, NS, k, S->mG[j]);
+        f[S->sup[j]] -= w->HG[k];
+      }
+      w->rl[per_contact * nc + k] = w->DG[j] * w->qhat[k];
+    }
+  }
+  if (S->moving_load) {
+    for (i = 0; i < nc; ++i) {
+      if (w->con[i]) {
+        const double* N0 = w->crow + (long)i * ROW_COLS + COL_N0;
+        double* f = w->xB + (long)w->cspan[i] * nd + w->cfirst[i];
+        for (j = 0; j < NE; ++j) f[j] -= N0[j] * S->axle_loads[i];
+      }
+    }
+  }
+#if !SVBI_MOVING_LOAD
+  else {
+    int k, d, m;
+    for (i = 0; i < nc; ++i) {
+      int wi = i % NW;
+      w->Pg[i] = S->a0 * X->ug[i] + S->a2 * X->vg[i] + X->ag[i];
+      w->Qg[i] = S->a1 * X->ug[i] + X->vg[i];
+      if (!classic) {
+        if (w->con[i]) {
+          double num = 0.0, den = 0.0, pw = 1.0, xi = w->cxi[i];
+          for (m = 0; m < S->mb_num_n || m < S->mb_den_n; ++m) {
+            if (m < S->mb_num_n) num += S->mb_num[m] * pw;
+            if (m < S->mb_den_n) den += S->mb_den[m] * pw;
+            pw *= xi;
+          }
+          w->mB[i] = num / den;
+        } else {
+          w->mB[i] = S->m_g[wi];
+        }
+        w->dV[i] = S->d * w->mB[i]; /* D_B */
+        w->HV[i] = lam_H(S, X->lamV, nc, i, S->mV[wi]);
+        w->HB[i] = lam_H(S, X->lamB, nc, i, w->mB[i]);
+      } else {
+        w->dV[i] = S->sC;
+      }
+    }
+    /* the vehicle unknowns are the increments over the step (Newmark.update_increment) */
+    for (k = 0; k < S->cars; ++k) {
+      const double* u = X->uV + (long)k * NV;
+      const double* v = X->vV + (long)k * NV;
+      const double* a = X->aV + (long)k * NV;
+      double* Pt = w->PVh + (long)k * NV;
+      double* Qt = w->QVh + (long)k * NV;
+      double* f = w->xV + (long)k * NV;
+      double PV[NV], QV[NV];
+      svbi_vehicle_increment_load(S, u, v, a, Pt, Qt, PV, QV, f);
+      if (!classic) {
+        for (d = 0; d < NV; ++d) {
+          double sh = 0.0;
+          for (i = 0; i < NW; ++i) sh += w->HV[k * NW + i] * S->V_W[d * NW + i];
+          f[d] -= sh;
+        }
+      }
+      if (S->creep) svbi_creep_vehicle_load(S, X->creep_force, k, f);
+      for (i = 0; i < NW; ++i) {
+        int c = k * NW + i;
+        double wp = wheel(S, PV, i), wq = wheel(S, QV, i), wn = wheel(S, u, i);
+        if (classic) {
+          /* the wheel itself touches the rail: its histories replace the aux point's */
+          w->rl[c] = S->sC * (svbi_row_target(S, w, c, wp, wq) - wn);
+        } else {
+          double hV = S->p_P * (wp - w->Pg[c]) + S->p_Q * (wq - w->Qg[c]);
+          w->rl[c] = S->d * S->mV[i] * (hV - wn);
+          w->rl[nc + c] = w->dV[c] * svbi_row_target(S, w, c, w->Pg[c], w->Qg[c]);
+          w->xg[c] = S->m_g[i] * (w->Pg[c] - S->gravity) - w->HB[c] + w->HV[c];
+        }
+      }
+    }
+    if (S->creep) svbi_creep_bridge_load(S, X->creep_force, w);
+    if (!classic) {
+      for (i = 0; i < nc; ++i) {
+        if (w->con[i]) {
+          const double* N0 = w->crow + (long)i * ROW_COLS + COL_N0;
+          double* f = w->xB + (long)w->cspan[i] * nd + w->cfirst[i];
+          for (j = 0; j < NE; ++j) f[j] += N0[j] * w->HB[i];
+        }
+      }
+    }
+  }
+#endif
+
+  /* order, bandwidth and elimination */
+  multiplier_order(S, w, per_contact);
+  bw = multiplier_bandwidth(S, w, per_contact);
+  if (bw > S->bw_max) return ST_BANDWIDTH;
+  if (bw > nm - 1) bw = nm - 1;
+  svbi_gb_zero(w->band, nm, bw);
+  status = span_blocks(S, w, per_contact, bw, w->dV, per_contact == 2 ? nc : 0);
+  if (status) return status;
+#if !SVBI_MOVING_LOAD
+  if (!S->moving_load) {
+    int k, d, a, b;
+    double sc = S->sC;
+    for (k = 0; k < S->cars; ++k) {
+      double* y = w->xV + (long)k * NV;
+      svbi_dense_solve(w->Kv, NV, y);
+      for (a = 0; a < NW; ++a) {
+        int ca = k * NW + a;
+        double wy = 0.0, sa = classic ? sc : S->d * S->mV[a];
+        for (d = 0; d < NV; ++d) wy += S->V_W[d * NW + a] * y[d];
+        w->rl[ca] -= sa * wy;
+        for (b = 0; b < NW; ++b) {
+          int cb = k * NW + b;
+          double sb = classic ? sc : S->d * S->mV[b];
+          svbi_gb_add(w->band, bw, w->mpos[ca], w->mpos[cb], sa * sb * w->WG[a * NW + b]);
+        }
+      }
+    }
+    if (!classic) {
+      for (i = 0; i < nc; ++i) {
+        double A = S->a0 * S->m_g[i % NW];
+        double DV = S->d * S->mV[i % NW], DB = w->dV[i];
+        double y = w->xg[i] / A;
+        int pv = w->mpos[i], pb = w->mpos[nc + i];
+        svbi_gb_add(w->band, bw, pv, pv, DV * DV / A);
+        svbi_gb_add(w->band, bw, pv, pb, -DV * DB / A);
+        svbi_gb_add(w->band, bw, pb, pv, -DB * DV / A);
+        svbi_gb_add(w->band, bw, pb, pb, DB * DB / A);
+        w->rl[i] += DV * y;
+        w->rl[nc + i] -= DB * y;
+        w->xg[i] = y;
+      }
+    }
+  }
+#endif
+  status = svbi_gb_factor(w->band, nm, bw, w->piv);
+  if (status) return status;
+  for (i = 0; i < nm; ++i) w->bsol[w->mpos[i]] = w->rl[i];
+  svbi_gb_solve(w->band, nm, bw, w->piv, w->bsol);
+
+  /* back-substitution and updates */
+  span_back(S, w, per_contact, per_contact == 2 ? nc : 0, X);
+  svbi_bridge_update(S, w);
+  for (s = 0; s < S->spans; ++s)
+    for (j = 0; j < ns; ++j)
+      if (!classic) lam_update(S, X->lamG, NS, s * ns + j, w->bsol[w->mpos[per_contact * nc + s * ns + j]]);
+  if (S->moving_load) {
+    for (i = 0; i < nc; ++i) {
+      X->P[i] = S->axle_loads[i];
+      X->PV[i] = S->axle_loads[i];
+    }
+    return ST_OK;
+  }
+#if !SVBI_MOVING_LOAD
+  {
+    int k, d;
+    for (k = 0; k < S->cars; ++k) {
+      double* u = X->uV + (long)k * NV;
+      const double* y = w->xV + (long)k * NV;
+      const double* G = w->G;
+      const double* Pt = w->PVh + (long)k * NV;
+      const double* Qt = w->QVh + (long)k * NV;
+      for (d = 0; d < NV; ++d) {
+        double du = y[d];
+        for (i = 0; i < NW; ++i) {
+          double lam = w->bsol[w->mpos[k * NW + i]];
+          double sb = classic ? S->sC : S->d * S->mV[i];
+          du += sb * G[d * NW + i] * lam;
+        }
+        X->vV[k * NV + d] = S->a1 * du - Qt[d];
+        X->aV[k * NV + d] = S->a0 * du - Pt[d];
+        u[d] += du;
+      }
+    }
+    if (classic) {
+      for (k = 0; k < S->cars; ++k) {
+        for (i = 0; i < NW; ++i) {
+          int c = k * NW + i;
+          X->P[c] = S->sC * w->bsol[w->mpos[c]];
+          X->PV[c] = X->P[c];
+          X->ug[c] = wheel(S, X->uV + (long)k * NV, i);
+          X->vg[c] = wheel(S, X->vV + (long)k * NV, i);
+          X->ag[c] = wheel(S, X->aV + (long)k * NV, i);
+        }
+      }
+    } else {
+      for (i = 0; i < nc; ++i) {
+        int wi = i % NW;
+        double dlamV = w->bsol[w->mpos[i]], dlamB = w->bsol[w->mpos[nc + i]];
+        double DV = S->d * S->mV[wi], DB = w->dV[i];
+        double A = S->a0 * S->m_g[wi];
+        double ug = w->xg[i] - (DV / A) * dlamV + (DB / A) * dlamB;
+        X->ug[i] = ug;
+        X->vg[i] = S->a1 * ug - w->Qg[i];
+        X->ag[i] = S->a0 * ug - w->Pg[i];
+        X->PV[i] = DV * dlamV - w->HV[i];
+        X->P[i] = DB * dlamB - w->HB[i];
+        lam_update(S, X->lamV, nc, i, dlamV);
+        lam_update(S, X->lamB, nc, i, dlamB);
+      }
+    }
+    if (S->creep) svbi_creep_update(S, X, w);
+  }
+#endif
+  return ST_OK;
+}

@@ -1,0 +1,146 @@
+/*
+ * Excitations at every step: contact positions, the rail irregularity under every contact and the
+ * ground motion under the contacts and at the supports, from tables (tables.c) or from the stream
+ * buffers Python fills (docs/c-backend.md, "Excitations: tables or streams").
+ */
+#include "internal.h"
+
+/* Index of the support line nearest to x (ties go to the one ahead), as numpy.searchsorted(mids, x,
+ * side="right"). */
+static int nearest_line(const setup_t* S, const excitation_t* E, double x) {
+  int lo = 0, hi = S->spans;
+  while (lo < hi) {
+    int mid = (lo + hi) / 2;
+    if (E->mids[mid] <= x)
+      lo = mid + 1;
+    else
+      hi = mid;
+  }
+  return lo;
+}
+
+/* q, q', q'' of one ground component (0 vertical, 1 longitudinal) at time t and position x
+ * (partial time derivatives at fixed x). */
+static void ground_at(const setup_t* S, const excitation_t* E, int which, double t, double x, double* out) {
+  int mode = which ? E->gh_mode : E->gv_mode;
+  const svbi_ppoly* p = which ? &E->gh : &E->gv;
+  if (mode == 1) {
+    svbi_ppoly_eval(p, t, out);
+  } else if (mode == 2) {
+    svbi_ppoly_eval(p, t - (x - E->x_ref) / E->apparent_velocity, out);
+  } else if (mode == 4) {
+    svbi_ppoly_eval((which ? E->gh_lines : E->gv_lines) + nearest_line(S, E, x), t, out);
+  } else {
+    out[0] = 0.0;
+    out[1] = 0.0;
+    out[2] = 0.0;
+  }
+}
+
+/* Positions, rail irregularity and ground motion at t = (n + 1) dt. */
+void svbi_excite(const setup_t* S, const excitation_t* E, work_t* w, long n, double t) {
+  int i, j, s;
+  int nc = S->nc, ns = S->ns, NS = S->spans * S->ns;
+  long e = n - E->s_n0;
+  for (i = 0; i < nc; ++i) w->cx[i] = S->start + S->speed * t - S->offsets[i];
+
+  /* rail irregularity under every contact */
+  if (E->irr_mode == 1) {
+    for (i = 0; i < nc; ++i) {
+      double x = w->cx[i], b[3], h[3];
+      if (!(x > E->irr_start)) {
+        w->rail[i] = 0.0;
+        w->rail[nc + i] = 0.0;
+        w->rail[2 * nc + i] = 0.0;
+        continue;
+      }
+      svbi_ppoly_eval(&E->irr_base, x, b);
+      if (E->irr_ramp) {
+        svbi_ppoly_eval(&E->irr_onset, x, h);
+        w->rail[i] = h[0] * b[0];
+        w->rail[nc + i] = h[1] * b[0] + h[0] * b[1];
+        w->rail[2 * nc + i] = h[2] * b[0] + 2.0 * h[1] * b[1] + h[0] * b[2];
+      } else {
+        w->rail[i] = b[0];
+        w->rail[nc + i] = b[1];
+        w->rail[2 * nc + i] = b[2];
+      }
+    }
+  } else if (E->irr_mode == 2) {
+    memcpy(w->rail, E->s_rail + e * 3 * nc, sizeof(double) * 3 * (size_t)nc);
+  } else {
+    memset(w->rail, 0, sizeof(double) * 3 * (size_t)nc);
+  }
+
+  /* ground: under every contact, at every support, and the recorded values */
+  if (E->gv_mode == 3 || E->gh_mode == 3) {
+    memcpy(w->under, E->s_under + e * 4 * nc, sizeof(double) * 3 * (size_t)nc);
+    memcpy(w->ulon, E->s_under + e * 4 * nc + 3 * nc, sizeof(double) * (size_t)nc);
+    memcpy(w->qs, E->s_sup + e * 3 * NS, sizeof(double) * 3 * (size_t)NS);
+    memcpy(w->grec, E->s_rec + e * 2 * n_recorded(S), sizeof(double) * 2 * (size_t)n_recorded(S));
+    return;
+  }
+  if (E->gv_mode == 0 && E->gh_mode == 0) {
+    memset(w->under, 0, sizeof(double) * 3 * (size_t)nc);
+    memset(w->ulon, 0, sizeof(double) * (size_t)nc);
+    memset(w->qs, 0, sizeof(double) * 3 * (size_t)NS);
+    memset(w->grec, 0, sizeof(double) * 2 * (size_t)n_recorded(S));
+    return;
+  }
+  if (E->gv_mode <= 1 && E->gh_mode <= 1) {
+    /* synchronous: one value for every position */
+    double qv[3], qh[3];
+    ground_at(S, E, 0, t, 0.0, qv);
+    ground_at(S, E, 1, t, 0.0, qh);
+    for (i = 0; i < nc; ++i) {
+      w->under[i] = qv[0];
+      w->under[nc + i] = qv[1];
+      w->under[2 * nc + i] = qv[2];
+      w->ulon[i] = qh[1];
+    }
+    for (s = 0; s < S->spans; ++s) {
+      for (j = 0; j < ns; ++j) {
+        const double* q = S->sup_vertical[j] ? qv : qh;
+        int k = s * ns + j;
+        w->qs[k] = q[0];
+        w->qs[NS + k] = q[1];
+        w->qs[2 * NS + k] = q[2];
+      }
+    }
+    w->grec[0] = qv[0];
+    w->grec[1] = qh[0];
+    return;
+  }
+  {
+    /* travelling wave q(t - (x - x_ref) / c), seen by a point moving at v with the factor
+     * (1 - v / c); or one record per support line, a point taking the nearest line */
+    double f = E->apparent_velocity > 0.0 ? 1.0 - S->speed / E->apparent_velocity : 1.0;
+    long nrec = n_recorded(S);
+    for (i = 0; i < nc; ++i) {
+      double q[3];
+      ground_at(S, E, 0, t, w->cx[i], q);
+      w->under[i] = q[0];
+      w->under[nc + i] = E->apparent_velocity > 0.0 ? f * q[1] : q[1];
+      w->under[2 * nc + i] = E->apparent_velocity > 0.0 ? f * f * q[2] : q[2];
+      ground_at(S, E, 1, t, w->cx[i], q);
+      w->ulon[i] = E->apparent_velocity > 0.0 ? f * q[1] : q[1];
+    }
+    for (s = 0; s < S->spans; ++s) {
+      for (j = 0; j < ns; ++j) {
+        int k = s * ns + j;
+        double x = (double)s * S->span_length + S->sup_x[j];
+        double qv[3], qh[3];
+        ground_at(S, E, 0, t, x, qv);
+        ground_at(S, E, 1, t, x, qh);
+        {
+          const double* q = S->sup_vertical[j] ? qv : qh;
+          w->qs[k] = q[0];
+          w->qs[NS + k] = q[1];
+          w->qs[2 * NS + k] = q[2];
+        }
+        w->grec[k] = qv[0];
+        w->grec[nrec + k] = qh[0];
+      }
+    }
+  }
+}

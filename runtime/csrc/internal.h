@@ -1,0 +1,195 @@
+/*
+ * Internal declarations of svbi's C time loop (not part of the public API in solver.h): the
+ * workspace layout, the sizes of the topology and the functions the source files share.
+ *
+ * The topology arrives from two generated headers (svbi generate, committed under generated/):
+ * svbi_topology.h (vehicle DOFs per car SVBI_NV, wheels per car SVBI_NW, SVBI_MOVING_LOAD) and
+ * svbi_contact_rows.h (the contact-row table: degree in xi, columns, structural non-zeros and the
+ * unrolled row evaluation, from the symbolic pipeline). Everything else arrives in the setup struct.
+ */
+#ifndef SVBI_SOLVER_INTERNAL_H
+#define SVBI_SOLVER_INTERNAL_H
+
+#include <math.h>
+#include <string.h>
+
+#include "band.h"
+#include "solver.h"
+#include "svbi_contact_rows.h"
+#include "svbi_topology.h"
+#include "tables.h"
+
+#if !SVBI_MOVING_LOAD
+#include "creep_split.h" /* the generated creep law, split (svbi.runtime.c_loop.creep_split) */
+#define CREEP_NC SVBI_CREEP_SPLIT_COEFFICIENTS_OUT_C_ROWS /* coefficients of the split creep law */
+#define NV SVBI_NV
+#define NW SVBI_NW
+#endif
+
+#define NE 6 /* DOFs of one bridge element (frame2d) */
+
+typedef svbi_solver_setup setup_t;
+typedef svbi_solver_state state_t;
+typedef svbi_solver_excitation excitation_t;
+typedef svbi_solver_outputs outputs_t;
+typedef svbi_solver_info info_t;
+
+enum {
+  ST_OK = SVBI_SOLVER_STATUS_OK,
+  ST_NOT_FINITE = SVBI_SOLVER_STATUS_NOT_FINITE,
+  ST_FORCE_LIMIT = SVBI_SOLVER_STATUS_FORCE_LIMIT,
+  ST_GAP_LIMIT = SVBI_SOLVER_STATUS_GAP_LIMIT,
+  ST_SINGULAR = SVBI_SOLVER_STATUS_SINGULAR,
+  ST_BANDWIDTH = SVBI_SOLVER_STATUS_BANDWIDTH,
+  ST_NOT_SPD = SVBI_SOLVER_STATUS_NOT_SPD,
+  ST_RANGE = SVBI_SOLVER_STATUS_RANGE
+};
+
+/* ============================================================================================== */
+/* Workspace: carved out of the caller's two arrays in a fixed order; with NULL bases it counts.  */
+
+typedef struct {
+  /* contacts */
+  double* cx;    /* nc: x */
+  double* cxi;   /* nc: local coordinate in the element */
+  double* crow;  /* nc x ROW_COLS: contact rows at xi */
+  double* rail;  /* 3 x nc: r, r', r'' */
+  double* under; /* 3 x nc: ground q, q', q'' under the contact */
+  double* ulon;  /* nc: longitudinal ground velocity under the contact (creep off the bridge) */
+  int* con;      /* nc: on the bridge */
+  int* cspan;    /* nc: span */
+  int* cfirst;   /* nc: first span DOF of the element */
+  int* cpos;     /* nc: position in track order */
+  /* supports and recorded ground */
+  double* qs;    /* 3 x spans * ns: support targets q, q', q'' */
+  double* grec;  /* 2 x nrec: ground_uz, ground_ux */
+  double* qhat;  /* spans * ns */
+  /* bridge */
+  double* PB;    /* spans x nd */
+  double* QB;    /* spans x nd */
+  double* fb;    /* nd */
+  double* rf;    /* nd */
+  double* Lff;   /* nfree x (band_pf + 1): factor of K^ on the free DOFs */
+  double* Kb;    /* nd x (band_p + 1): factor of the span block K^_B (coupled, set once) */
+  double* xB;    /* spans x nd: span right-hand sides / solutions (coupled) */
+  int* loaded;   /* spans */
+  /* vehicles and aux points */
+  double* PVh;   /* cars x NV: Newmark history P - a0 u of the vehicle increment */
+  double* QVh;   /* cars x NV */
+  double* dVh;   /* cars x NV: vehicle increment over the step */
+  double* xV;    /* cars x NV (coupled) */
+  double* Kv;    /* NV x NV: Cholesky factor of the car's effective matrix (coupled, set once) */
+  double* G;     /* NV x NW: K^-1 W, the same for every car (coupled, set once) */
+  double* WG;    /* NW x NW: W^T K^-1 W (coupled, set once) */
+  double* Pg;    /* nc */
+  double* Qg;    /* nc */
+  double* pt;    /* nc */
+  double* dV;    /* nc */
+  double* hB;    /* nc */
+  double* rhs;   /* nc */
+  double* mB;    /* nc */
+  double* HB;    /* nc */
+  double* HV;    /* nc */
+  double* xg;    /* nc */
+  /* interface (contact forces, or multipliers) */
+  double* band;  /* nmult x (3 bw_max + 1) */
+  double* bsol;  /* nmult */
+  double* rl;    /* nmult: multiplier right-hand sides */
+  double* HG;    /* spans * ns */
+  double* Z;     /* attachment vectors of the span blocks */
+  int* piv;      /* nmult */
+  int* mpos;     /* nmult: track-order position of each multiplier */
+  int* slist;    /* nc: contacts grouped by span */
+  int* sstart;   /* spans + 1 */
+  /* the bridge state the step works on. coupled methods: the state itself, span after span.
+   * localized-dynamic: blocks of SW spans, [block][DOF][SW], so that one factor solves SW spans at
+   * once with fixed-width (vectorised) inner loops */
+  double* bu;
+  double* bv;
+  double* ba;
+  int blocked;
+  long pad;      /* spans padded to a multiple of SW (localized) */
+  long nb;       /* entries of bu (with the padding) */
+  double* TU;    /* nblk x nd x SW (localized) */
+  double* TV;
+  double* TA;
+  double* qb;    /* 2 x ns x SW: q' and q^ of one block */
+  double* RF;    /* nblk x nfree x SW: free-DOF right-hand sides (localized) */
+  double* dinv;  /* nfree: reciprocal diagonal of the factor on the free DOFs */
+  int* freeidx;  /* nd: index among the free DOFs, -1 for a support DOF */
+  int* lidx;     /* spans: index among the loaded spans, -1 if unloaded */
+  int* lspan;    /* spans: the loaded spans */
+  double* creepc; /* NW x CREEP_NC: coefficients of the creep law of every wheel */
+  double* DG;    /* ns: scale of the support rows */
+  double* ab;    /* (ns + nc) x NE: attachments' B entries */
+  double* ac;    /* (ns + nc) x NE: attachments' C entries */
+  int* aid;      /* ns + nc: attachments' multiplier */
+  int* afirst;   /* ns + nc: first span DOF */
+  int* alen;     /* ns + nc: number of entries */
+} work_t;
+
+/* Element (s, i) of a bridge-state array: span after span, or DOF after DOF over the spans padded
+ * to a multiple of SW (localized). */
+#define BR(b, s, i) ((b)[w->blocked ? (long)(i) * w->pad + (s) : (long)(s) * S->nd + (i)])
+
+/* Unknowns of the interface system (contact forces, or multipliers). */
+static inline long n_multipliers(const setup_t* S) {
+  long NS = (long)S->spans * S->ns;
+  if (S->method == 0) return S->moving_load ? 1 : S->nc;
+  if (S->moving_load) return NS;
+  return (S->method == 1 ? 2L * S->nc : (long)S->nc) + NS;
+}
+
+/* Recorded ground values per output row (per support). */
+static inline long n_recorded(const setup_t* S) { return (long)S->spans * S->ns; }
+
+/* excite.c: positions, rail irregularity and ground motion at t = (n + 1) dt. */
+void svbi_excite(const setup_t* S, const excitation_t* E, work_t* w, long n, double t);
+
+/* bridge.c: contacts on the bridge, Newmark histories, span loads. */
+void svbi_locate(const setup_t* S, work_t* w);
+void svbi_group_by_span(const setup_t* S, work_t* w);
+void svbi_bridge_histories(const setup_t* S, work_t* w);
+void svbi_span_load(const setup_t* S, const work_t* w, int s, double* f);
+void svbi_bridge_update(const setup_t* S, work_t* w);
+
+/* localized.c, coupled.c: one step of each method. */
+int svbi_step_localized(const setup_t* S, state_t* X, work_t* w);
+int svbi_step_coupled(const setup_t* S, state_t* X, work_t* w, int classic);
+
+/* record.c, guard.c: outputs and the divergence guard. */
+int svbi_record(const setup_t* S, const state_t* X, const excitation_t* E, outputs_t* O, const work_t* w,
+                info_t* I);
+int svbi_guard(const setup_t* S, const state_t* X, const work_t* w, info_t* I);
+
+#if !SVBI_MOVING_LOAD
+/* y = x^T A for an NV x NV row-major matrix: the row-vector product of the NumPy backend, summed
+ * over j in the same order, as axpys that vectorise over d. */
+static inline void vec_mat(const double* A, const double* x, double* y) {
+  int j, d;
+  for (d = 0; d < NV; ++d) y[d] = 0.0;
+  for (j = 0; j < NV; ++j) {
+    double xj = x[j];
+    const double* row = A + j * NV;
+    for (d = 0; d < NV; ++d) y[d] += xj * row[d];
+  }
+}
+
+/* W_i^T x: the vertical motion of wheel i (column i of W_N^V, exact zeros dropped). */
+static inline double wheel(const setup_t* S, const double* x, int i) {
+  int k;
+  double s = 0.0;
+  for (k = S->VW_ptr[i]; k < S->VW_ptr[i + 1]; ++k) s += x[S->VW_idx[k]] * S->VW_val[k];
+  return s;
+}
+
+/* vehicle.c: the vehicles, the creep law and the aux-bridge row target. */
+void svbi_vehicle_increment_load(const setup_t* S, const double* u, const double* v, const double* a,
+                                 double* Pt, double* Qt, double* PV, double* QV, double* f);
+void svbi_creep_vehicle_load(const setup_t* S, const double* force, int k, double* f);
+void svbi_creep_update(const setup_t* S, state_t* X, const work_t* w);
+void svbi_creep_bridge_load(const setup_t* S, const double* force, work_t* w);
+double svbi_row_target(const setup_t* S, const work_t* w, int i, double Pg, double Qg);
+#endif
+
+#endif /* SVBI_SOLVER_INTERNAL_H */

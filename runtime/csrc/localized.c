@@ -1,0 +1,243 @@
+/*
+ * localized-dynamic (svbi.runtime.localized): each car's effective matrix and wheel flexibility,
+ * and the factor of the bridge span with its supports held, are constant (one factor serves every
+ * span, SW spans at a time). Each step solves one banded interface system for the contact forces,
+ * in track order (docs/c-backend.md, "Structure exploited").
+ */
+#include "internal.h"
+
+/* Localized: u = S f + R q^ for every span at once: the free DOFs solve K^_ff u_f = f_f - K^_fs q^
+ * with f = M P + C Q + C T q', and the support DOFs take their targets. Rows run over all spans. */
+static void localized_predictor(const setup_t* S, work_t* w, const double* creep) {
+  int i, j, k, l, s, ns = S->ns, NS = S->spans * S->ns;
+  long b, m = w->pad, nblk = m / SW;
+  double* q1 = w->qb;       /* ns x m */
+  double* qh = w->qb + ns * m;
+  for (j = 0; j < ns; ++j) {
+    for (s = 0; s < m; ++s) {
+      q1[j * m + s] = s < S->spans ? w->qs[NS + s * ns + j] : 0.0;
+      qh[j * m + s] = s < S->spans ? w->qhat[s * ns + j] : 0.0;
+    }
+  }
+  for (k = 0; k < S->nfree; ++k) {
+    int row = S->free[k];
+    double* f = w->RF + (long)k * m;
+    for (b = 0; b < nblk; ++b)
+      for (l = 0; l < SW; ++l) f[b * SW + l] = 0.0;
+    /* exact zeros skipped (the sums are unchanged): C T is half empty, K^_fs nearly all */
+    for (j = 0; j < ns; ++j) {
+      double ct = S->CT[row * ns + j];
+      const double* q = q1 + j * m;
+      if (ct == 0.0) continue;
+      for (b = 0; b < nblk; ++b)
+        for (l = 0; l < SW; ++l) f[b * SW + l] += ct * q[b * SW + l];
+    }
+    /* M and C share one pattern (C = alpha M + beta K): one pass over it */
+    for (i = S->MC_ptr[row]; i < S->MC_ptr[row + 1]; ++i) {
+      double vm = S->MC_m[i], vc = S->MC_c[i];
+      const double* p = w->PB + (long)S->MC_idx[i] * m;
+      const double* q = w->QB + (long)S->MC_idx[i] * m;
+      for (b = 0; b < nblk; ++b)
+        for (l = 0; l < SW; ++l) f[b * SW + l] += vm * p[b * SW + l] + vc * q[b * SW + l];
+    }
+    for (j = 0; j < ns; ++j) {
+      double kf = S->Khat_fs[k * ns + j];
+      const double* q = qh + j * m;
+      if (kf == 0.0) continue;
+      for (b = 0; b < nblk; ++b)
+        for (l = 0; l < SW; ++l) f[b * SW + l] -= kf * q[b * SW + l];
+    }
+  }
+#if !SVBI_MOVING_LOAD
+  if (creep) {
+    /* the creep forces of t_n load the rail: -W_T^B F (svbi.runtime.creep_forces) */
+    int c, q;
+    for (c = 0; c < S->nc; ++c) {
+      if (w->con[c] && creep[c] != 0.0) {
+        const double* T0 = w->crow + (long)c * ROW_COLS + COL_T0;
+        for (q = 0; q < NNZ_T0; ++q) {
+          int f = w->freeidx[w->cfirst[c] + nz_T0[q]];
+          if (f >= 0) w->RF[(long)f * m + w->cspan[c]] -= T0[nz_T0[q]] * creep[c];
+        }
+      }
+    }
+  }
+#else
+  (void)creep;
+#endif
+  svbi_band_solve_blocked(w->Lff, w->dinv, S->nfree, S->band_pf, w->RF, nblk);
+  for (k = 0; k < S->nfree; ++k) memcpy(w->bu + (long)S->free[k] * m, w->RF + (long)k * m, sizeof(double) * (size_t)m);
+  for (j = 0; j < ns; ++j) memcpy(w->bu + (long)S->sup[j] * m, qh + j * m, sizeof(double) * (size_t)m);
+}
+
+/* u -= S load for the loads N_i force_i of the contacts on the bridge (loaded spans only). */
+static void localized_correct(const setup_t* S, work_t* w, const double* force) {
+  int s, k, i, c, nl = 0, nf = S->nfree;
+  long m = w->pad, ml;
+  for (s = 0; s < S->spans; ++s) {
+    w->lidx[s] = w->loaded[s] ? nl : -1;
+    if (w->loaded[s]) w->lspan[nl++] = s;
+  }
+  if (!nl) return;
+  ml = (nl + SW - 1) / SW * SW;
+  memset(w->RF, 0, sizeof(double) * (size_t)nf * (size_t)ml);
+  for (c = 0; c < S->nc; ++c) {
+    if (w->con[c]) {
+      const double* N0 = w->crow + (long)c * ROW_COLS + COL_N0;
+      int l = w->lidx[w->cspan[c]];
+      for (i = 0; i < NNZ_N0; ++i) {
+        int f = w->freeidx[w->cfirst[c] + nz_N0[i]];
+        if (f >= 0) w->RF[(long)f * ml + l] += N0[nz_N0[i]] * force[c];
+      }
+    }
+  }
+  svbi_band_solve_blocked(w->Lff, w->dinv, nf, S->band_pf, w->RF, ml / SW);
+  for (k = 0; k < nf; ++k) {
+    double* u = w->bu + (long)S->free[k] * m;
+    const double* r = w->RF + (long)k * ml;
+    for (i = 0; i < nl; ++i) u[w->lspan[i]] -= r[i];
+  }
+}
+
+int svbi_step_localized(const setup_t* S, state_t* X, work_t* w) {
+  int nc = S->nc;
+  svbi_bridge_histories(S, w);
+  svbi_group_by_span(S, w);
+#if SVBI_MOVING_LOAD
+  localized_predictor(S, w, 0);
+#else
+  localized_predictor(S, w, S->creep ? X->creep_force : 0);
+#endif
+#if SVBI_MOVING_LOAD
+  {
+    int i;
+    for (i = 0; i < nc; ++i) w->rhs[i] = w->con[i] ? S->axle_loads[i] : 0.0;
+    localized_correct(S, w, w->rhs);
+    svbi_bridge_update(S, w);
+    for (i = 0; i < nc; ++i) {
+      X->P[i] = S->axle_loads[i];
+      X->PV[i] = S->axle_loads[i];
+    }
+  }
+  return ST_OK;
+#else
+  {
+    int k, i, j, d, m, s, bw, status, nd = S->nd;
+    /* vehicle predictors (all contact forces zero) and the wheel-aux targets. The vehicles solve
+     * for the increment over the step (Newmark.update_increment): PVh, QVh hold its histories. */
+    for (k = 0; k < S->cars; ++k) {
+      const double* u = X->uV + (long)k * NV;
+      const double* v = X->vV + (long)k * NV;
+      const double* a = X->aV + (long)k * NV;
+      double* Pt = w->PVh + (long)k * NV;
+      double* Qt = w->QVh + (long)k * NV;
+      double* du = w->dVh + (long)k * NV;
+      double f[NV], ut[NV], PV[NV], QV[NV];
+      svbi_vehicle_increment_load(S, u, v, a, Pt, Qt, PV, QV, f);
+      if (S->creep) svbi_creep_vehicle_load(S, X->creep_force, k, f);
+      vec_mat(S->V_kinv, f, du); /* du~ = K^-T f */
+      for (d = 0; d < NV; ++d) ut[d] = u[d] + du[d];
+      for (i = 0; i < NW; ++i) {
+        int c = k * NW + i;
+        double wt = wheel(S, ut, i), wp = wheel(S, PV, i), wq = wheel(S, QV, i), hV;
+        w->Pg[c] = S->a0 * X->ug[c] + S->a2 * X->vg[c] + X->ag[c];
+        w->Qg[c] = S->a1 * X->ug[c] + X->vg[c];
+        w->pt[c] = (w->Pg[c] - S->gravity) / S->a0;
+        hV = S->p_P * (wp - w->Pg[c]) + S->p_Q * (wq - w->Qg[c]);
+        w->dV[c] = wt - w->pt[c] - hV;
+      }
+    }
+    /* right-hand side of the interface: h_B - p~ + W_hat^T u~_B - c_g B d_V */
+    for (k = 0; k < S->cars; ++k) {
+      for (i = 0; i < NW; ++i) {
+        int c = k * NW + i;
+        double bd = 0.0, wu = 0.0;
+        for (j = 0; j < NW; ++j) bd += w->dV[k * NW + j] * S->V_B[i * NW + j];
+        if (w->con[c]) {
+          const double* Wh = w->crow + (long)c * ROW_COLS + COL_W_HAT;
+          for (m = 0; m < NNZ_W_HAT; ++m) wu += Wh[nz_W_hat[m]] * BR(w->bu, w->cspan[c], w->cfirst[c] + nz_W_hat[m]);
+        }
+        w->hB[c] = svbi_row_target(S, w, c, w->Pg[c], w->Qg[c]);
+        w->rhs[c] = w->hB[c] - w->pt[c] + wu - S->c_g[i] * bd;
+      }
+    }
+    /* interface matrix F* + F_B, banded in track order */
+    bw = S->bw_car;
+    for (s = 0; s < S->spans; ++s) {
+      int run = w->sstart[s + 1] - w->sstart[s];
+      if (run - 1 > bw) bw = run - 1;
+    }
+    if (bw > S->bw_max) return ST_BANDWIDTH;
+    if (bw > nc - 1) bw = nc - 1;
+    for (k = 0; k < nc; ++k) w->cpos[S->order[k]] = k;
+    svbi_gb_zero(w->band, nc, bw);
+    for (k = 0; k < S->cars; ++k)
+      for (i = 0; i < NW; ++i)
+        for (j = 0; j < NW; ++j)
+          svbi_gb_add(w->band, bw, w->cpos[k * NW + i], w->cpos[k * NW + j], S->V_Fstar[i * NW + j]);
+    for (s = 0; s < S->spans; ++s) {
+      int m1, m2;
+      for (m1 = w->sstart[s]; m1 < w->sstart[s + 1]; ++m1) {
+        int ci = w->slist[m1];
+        const double* Wh = w->crow + (long)ci * ROW_COLS + COL_W_HAT;
+        const double* Srows = S->S + (long)w->cfirst[ci] * nd;
+        for (m2 = w->sstart[s]; m2 < w->sstart[s + 1]; ++m2) {
+          int cj = w->slist[m2], a, b;
+          const double* N0 = w->crow + (long)cj * ROW_COLS + COL_N0;
+          double fij = 0.0;
+          for (a = 0; a < NNZ_W_HAT; ++a) {
+            const double* Sr = Srows + (long)nz_W_hat[a] * nd + w->cfirst[cj];
+            double t = 0.0;
+            for (b = 0; b < NNZ_N0; ++b) t += Sr[nz_N0[b]] * N0[nz_N0[b]];
+            fij += Wh[nz_W_hat[a]] * t;
+          }
+          svbi_gb_add(w->band, bw, w->cpos[ci], w->cpos[cj], fij);
+        }
+      }
+    }
+    status = svbi_gb_factor(w->band, nc, bw, w->piv);
+    if (status) return status;
+    for (i = 0; i < nc; ++i) w->bsol[w->cpos[i]] = w->rhs[i];
+    svbi_gb_solve(w->band, nc, bw, w->piv, w->bsol);
+    for (i = 0; i < nc; ++i) X->P[i] = w->bsol[w->cpos[i]];
+
+    /* back-substitution: wheel-aux forces, aux points, vehicles, bridge */
+    for (k = 0; k < S->cars; ++k) {
+      double* u = X->uV + (long)k * NV;
+      double* du = w->dVh + (long)k * NV;
+      const double* Pt = w->PVh + (long)k * NV;
+      const double* Qt = w->QVh + (long)k * NV;
+      for (i = 0; i < NW; ++i) {
+        int c = k * NW + i;
+        double pv = 0.0;
+        for (j = 0; j < NW; ++j) {
+          int cj = k * NW + j;
+          pv += (S->c_g[j] * X->P[cj] - w->dV[cj]) * S->V_B[i * NW + j];
+        }
+        X->PV[c] = pv;
+      }
+      for (i = 0; i < NW; ++i) {
+        int c = k * NW + i;
+        double ug = w->pt[c] + S->c_g[i] * (X->P[c] - X->PV[c]);
+        X->ug[c] = ug;
+        X->vg[c] = S->a1 * ug - w->Qg[c];
+        X->ag[c] = S->a0 * ug - w->Pg[c];
+      }
+      for (d = 0; d < NV; ++d) {
+        double s2 = 0.0;
+        for (i = 0; i < NW; ++i) s2 += X->PV[k * NW + i] * S->V_A[d * NW + i];
+        du[d] += s2;
+      }
+      for (d = 0; d < NV; ++d) {
+        X->vV[k * NV + d] = S->a1 * du[d] - Qt[d];
+        X->aV[k * NV + d] = S->a0 * du[d] - Pt[d];
+        u[d] += du[d];
+      }
+    }
+    localized_correct(S, w, X->P);
+    svbi_bridge_update(S, w);
+    if (S->creep) svbi_creep_update(S, X, w);
+  }
+  return ST_OK;
+#endif
+}

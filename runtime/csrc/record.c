@@ -1,0 +1,107 @@
+/*
+ * Outputs (svbi.runtime.results.Recorder.record): one row of every recorded variable written
+ * straight into the recorder's arrays, and the gap check of simulate._Guard.check_gaps.
+ */
+#include "internal.h"
+
+static void worst_of(double* worst, double g) {
+  double a = fabs(g);
+  if (*worst != *worst) return; /* NaN stays */
+  if (a != a || a > *worst) *worst = a;
+}
+
+int svbi_record(const setup_t* S, const state_t* X, const excitation_t* E, outputs_t* O, const work_t* w,
+                  info_t* I) {
+  long row = O->row;
+  int s, j, i, ns = S->ns, nc = S->nc, NS = S->spans * S->ns;
+  double worst_s = 0.0, worst_v = 0.0, worst_b = 0.0;
+  O->time[row] = X->t;
+  for (s = 0; s < S->spans; ++s) {
+    double uz = 0.0, ux = 0.0;
+    for (j = 0; j < NE; ++j) uz += BR(w->bu, s, S->mid_first + j) * S->mid_w[j];
+    for (j = 0; j < NE; ++j) ux += BR(w->bu, s, S->mid_first + j) * S->mid_u[j];
+    O->midspan_uz[row * S->spans + s] = uz;
+    O->midspan_ux[row * S->spans + s] = ux;
+  }
+  if (E->ground_per_support) {
+    long nrec = n_recorded(S);
+    for (j = 0; j < nrec; ++j) {
+      O->ground_uz[row * nrec + j] = w->grec[j];
+      O->ground_ux[row * nrec + j] = w->grec[nrec + j];
+    }
+  } else {
+    O->ground_uz[row] = w->grec[0];
+    O->ground_ux[row] = w->grec[1];
+  }
+  for (i = 0; i < nc; ++i) O->contact_force[row * nc + i] = X->P[i];
+  for (i = 0; i < nc; ++i) O->irregularity[row * nc + i] = w->rail[i];
+#if !SVBI_MOVING_LOAD
+  if (S->creep) {
+    for (i = 0; i < nc; ++i) O->creep_force[row * nc + i] = X->creep_force[i];
+    for (i = 0; i < nc; ++i) O->creepage[row * nc + i] = X->creepage[i];
+  }
+#endif
+  for (s = 0; s < S->spans; ++s) {
+    for (j = 0; j < ns; ++j) {
+      int k = s * ns + j;
+      double g = w->qs[k] - BR(w->bu, s, S->sup[j]);
+      O->gap_support[row * NS + k] = g;
+      worst_of(&worst_s, g);
+    }
+  }
+#if SVBI_MOVING_LOAD
+  for (i = 0; i < nc; ++i) {
+    O->gap_vehicle[row * nc + i] = 0.0;
+    O->gap_bridge[row * nc + i] = 0.0;
+  }
+#else
+  {
+    int k;
+    for (k = 0; k < S->cars; ++k) {
+      for (i = 0; i < NW; ++i) {
+        int c = k * NW + i;
+        double whl, aux, rail, gv, gb;
+        const double* N0 = w->crow + (long)c * ROW_COLS + COL_N0;
+        whl = wheel(S, X->uV + (long)k * NV, i);
+        aux = S->method == 2 ? whl : X->ug[c];
+        if (w->con[c]) {
+          rail = 0.0;
+          for (j = 0; j < NNZ_N0; ++j) rail += N0[nz_N0[j]] * BR(w->bu, w->cspan[c], w->cfirst[c] + nz_N0[j]);
+        } else {
+          rail = w->under[c];
+        }
+        rail += w->rail[c];
+        gv = whl - aux;
+        gb = aux - rail;
+        O->gap_vehicle[row * nc + c] = gv;
+        O->gap_bridge[row * nc + c] = gb;
+        worst_of(&worst_v, gv);
+        worst_of(&worst_b, gb);
+      }
+      if (S->carbody_z >= 0) {
+        O->carbody_uz[row * S->cars + k] = X->uV[k * NV + S->carbody_z];
+        O->carbody_az[row * S->cars + k] = X->aV[k * NV + S->carbody_z];
+      }
+      if (S->carbody_theta >= 0) O->carbody_pitch[row * S->cars + k] = X->uV[k * NV + S->carbody_theta];
+    }
+  }
+#endif
+  O->row = row + 1;
+  /* simulate._Guard.check_gaps, in its order: support, vehicle, bridge */
+  if (!(worst_s <= S->gap_limit)) {
+    I->quantity = 1;
+    I->value = worst_s;
+    return ST_GAP_LIMIT;
+  }
+  if (!(worst_v <= S->gap_limit)) {
+    I->quantity = 2;
+    I->value = worst_v;
+    return ST_GAP_LIMIT;
+  }
+  if (!(worst_b <= S->gap_limit)) {
+    I->quantity = 3;
+    I->value = worst_b;
+    return ST_GAP_LIMIT;
+  }
+  return ST_OK;
+}

@@ -1,0 +1,281 @@
+/*
+ * The Newmark (gamma = 1/2, beta = 1/4) time loop of svbi: the entry points of solver.h, the
+ * workspace and the loop driver. It reproduces the NumPy reference backend (svbi.runtime.localized,
+ * .coupled, .classic) step for step; docs/c-backend.md describes the data layout and the structure
+ * it exploits:
+ *
+ *  - localized-dynamic (localized.c): each car's effective matrix and wheel flexibility, and the
+ *    factor of the bridge span with its supports held, are constant (one factor serves every
+ *    span). Each step solves one banded interface system for the contact forces, in track order.
+ *  - coupled-dynamic and coupled-classic (coupled.c): the monolithic system (paper Eq. 36) is
+ *    refactored every step by a block ("arrow") sparse LU: span blocks (banded Cholesky), car blocks
+ *    (dense Cholesky) and aux points first, then the multipliers' Schur complement, banded in track
+ *    order, by LU with partial pivoting.
+ *
+ * Every formula comes from svbi's symbolic pipeline: the contact rows are polynomials in the local
+ * coordinate xi whose coefficients arrive in setup->rows, the point rows as their coefficients, the
+ * creep law from the generated creep_split kernels. Nothing here allocates memory.
+ */
+#include "internal.h"
+
+#if SVBI_MOVING_LOAD
+#define SVBI_CREEP_NC 0
+#else
+#define SVBI_CREEP_NC CREEP_NC
+#endif
+
+/* ============================================================================================== */
+/* Workspace: carved out of the caller's two arrays in a fixed order (work_t in internal.h); with */
+/* NULL bases it counts.                                                                          */
+
+typedef struct {
+  double* d;
+  int* i;
+  long nd;
+  long ni;
+} carver_t;
+
+static double* take_d(carver_t* c, long n) {
+  double* p = c->d ? c->d + c->nd : 0;
+  c->nd += n > 0 ? n : 1;
+  return p;
+}
+
+static int* take_i(carver_t* c, long n) {
+  int* p = c->i ? c->i + c->ni : 0;
+  c->ni += n > 0 ? n : 1;
+  return p;
+}
+
+static void carve(const setup_t* S, carver_t* c, work_t* w) {
+  long nc = S->nc, nd = S->nd, spans = S->spans, NS = (long)S->spans * S->ns;
+  long nm = n_multipliers(S);
+  long nv = SVBI_NV;
+  w->cx = take_d(c, nc);
+  w->cxi = take_d(c, nc);
+  w->crow = take_d(c, nc * ROW_COLS);
+  w->rail = take_d(c, 3 * nc);
+  w->under = take_d(c, 3 * nc);
+  w->ulon = take_d(c, nc);
+  w->con = take_i(c, nc);
+  w->cspan = take_i(c, nc);
+  w->cfirst = take_i(c, nc);
+  w->cpos = take_i(c, nc);
+  w->qs = take_d(c, 3 * NS);
+  w->grec = take_d(c, 2 * n_recorded(S));
+  w->qhat = take_d(c, NS);
+  w->PB = take_d(c, spans * nd);
+  w->QB = take_d(c, spans * nd);
+  w->fb = take_d(c, nd);
+  w->rf = take_d(c, nd);
+  w->Lff = take_d(c, (long)S->nfree * (S->band_pf + 1));
+  w->Kb = take_d(c, nd * (S->band_p + 1));
+  w->xB = take_d(c, spans * nd);
+  w->loaded = take_i(c, spans);
+  w->PVh = take_d(c, S->cars * nv);
+  w->QVh = take_d(c, S->cars * nv);
+  w->dVh = take_d(c, S->cars * nv);
+  w->xV = take_d(c, S->cars * nv);
+  w->Kv = take_d(c, nv * nv);
+  w->G = take_d(c, nv * (nv ? S->nw : 0));
+  w->WG = take_d(c, nv ? S->nw * S->nw : 0);
+  w->Pg = take_d(c, nc);
+  w->Qg = take_d(c, nc);
+  w->pt = take_d(c, nc);
+  w->dV = take_d(c, nc);
+  w->hB = take_d(c, nc);
+  w->rhs = take_d(c, nc);
+  w->mB = take_d(c, nc);
+  w->HB = take_d(c, nc);
+  w->HV = take_d(c, nc);
+  w->xg = take_d(c, nc);
+  w->band = take_d(c, nm * (3L * S->bw_max + 1));
+  w->bsol = take_d(c, nm);
+  w->rl = take_d(c, nm);
+  w->HG = take_d(c, NS);
+  w->Z = take_d(c, S->method == 0 ? 0 : (NS + nc) * nd);
+  w->piv = take_i(c, nm);
+  w->mpos = take_i(c, nm);
+  w->slist = take_i(c, nc);
+  w->sstart = take_i(c, spans + 1);
+  w->DG = take_d(c, S->ns);
+  w->ab = take_d(c, (S->ns + nc) * NE);
+  w->ac = take_d(c, (S->ns + nc) * NE);
+  w->aid = take_i(c, S->ns + nc);
+  w->afirst = take_i(c, S->ns + nc);
+  w->alen = take_i(c, S->ns + nc);
+  {
+    long padded = S->method == 0 ? (spans + SW - 1) / SW * SW : 0;
+    w->TU = take_d(c, padded * nd);
+    w->TV = take_d(c, padded * nd);
+    w->TA = take_d(c, padded * nd);
+    w->qb = take_d(c, 2L * S->ns * (padded > 0 ? padded : SW));
+    w->RF = take_d(c, padded * (long)S->nfree);
+    if (S->method == 0) {
+      /* the Newmark histories of the blocked state */
+      w->PB = take_d(c, padded * nd);
+      w->QB = take_d(c, padded * nd);
+    }
+  }
+  w->dinv = take_d(c, S->nfree);
+  w->freeidx = take_i(c, nd);
+  w->lidx = take_i(c, spans);
+  w->lspan = take_i(c, spans);
+  w->creepc = take_d(c, nv ? S->nw * SVBI_CREEP_NC : 0);
+}
+
+int svbi_solver_workspace(const setup_t* S, long* n_double, long* n_int) {
+  carver_t c = {0, 0, 0, 0};
+  work_t w;
+  carve(S, &c, &w);
+  *n_double = c.nd;
+  *n_int = c.ni;
+  return ST_OK;
+}
+
+static work_t workspace(const setup_t* S, double* work, int* iwork) {
+  carver_t c = {work, iwork, 0, 0};
+  work_t w;
+  carve(S, &c, &w);
+  return w;
+}
+
+int svbi_solver_init(const setup_t* S, double* work, int* iwork) {
+  work_t w = workspace(S, work, iwork);
+  int k, status;
+  for (k = 0; k < S->nd; ++k) w.freeidx[k] = -1;
+  for (k = 0; k < S->nfree; ++k) w.freeidx[S->free[k]] = k;
+#if !SVBI_MOVING_LOAD
+  if (S->creep) {
+    /* the parameter-only part of every wheel's creep law, once */
+    for (k = 0; k < S->nw; ++k) {
+      const casadi_real* arg[SVBI_CREEP_SPLIT_MAX_SZ_ARG] = {0};
+      casadi_real* res[SVBI_CREEP_SPLIT_MAX_SZ_RES] = {0};
+      casadi_int iw[SVBI_CREEP_SPLIT_MAX_SZ_IW] = {0};
+      casadi_real wk[SVBI_CREEP_SPLIT_MAX_SZ_W];
+      arg[0] = S->creep_params + 8 * k;
+      res[0] = w.creepc + CREEP_NC * k;
+      status = svbi_creep_split_coefficients(arg, res, iw, wk, 0);
+      if (status) return ST_NOT_FINITE;
+    }
+  }
+#endif
+  if (S->method != 0) {
+    /* coupled: every span block is the same constant K^_B; factor it once */
+    memcpy(w.Kb, S->Khat_band, sizeof(double) * (size_t)S->nd * (size_t)(S->band_p + 1));
+    status = svbi_band_cholesky(w.Kb, S->nd, S->band_p);
+    if (status) return status;
+  }
+#if !SVBI_MOVING_LOAD
+  if (S->method != 0 && !S->moving_load) {
+    /* coupled: every car's effective matrix is the same constant; factor it and K^-1 W once */
+    int i, a, b, d;
+    memcpy(w.Kv, S->V_khat, sizeof(double) * NV * NV);
+    status = svbi_dense_cholesky(w.Kv, NV);
+    if (status) return status;
+    for (i = 0; i < NW; ++i) {
+      double g[NV];
+      for (d = 0; d < NV; ++d) g[d] = S->V_W[d * NW + i];
+      svbi_dense_solve(w.Kv, NV, g);
+      for (d = 0; d < NV; ++d) w.G[d * NW + i] = g[d];
+    }
+    for (a = 0; a < NW; ++a) {
+      for (b = 0; b < NW; ++b) {
+        double wg = 0.0;
+        for (d = 0; d < NV; ++d) wg += S->V_W[d * NW + a] * w.G[d * NW + b];
+        w.WG[a * NW + b] = wg;
+      }
+    }
+  }
+#endif
+  if (S->method == 0) {
+    memcpy(w.Lff, S->Khat_ff_band, sizeof(double) * (size_t)S->nfree * (size_t)(S->band_pf + 1));
+    status = svbi_band_cholesky(w.Lff, S->nfree, S->band_pf);
+    if (status) return status;
+    for (k = 0; k < S->nfree; ++k) w.dinv[k] = 1.0 / w.Lff[(long)k * (S->band_pf + 1)];
+  }
+  return ST_OK;
+}
+
+/* The bridge state the steps work on: blocked copies for localized-dynamic. */
+static void bridge_view(const setup_t* S, state_t* X, work_t* w) {
+  if (S->method == 0) {
+    long s, i, nd = S->nd;
+    w->pad = (S->spans + SW - 1) / SW * SW;
+    w->nb = w->pad * nd;
+    memset(w->TU, 0, sizeof(double) * (size_t)w->nb);
+    memset(w->TV, 0, sizeof(double) * (size_t)w->nb);
+    memset(w->TA, 0, sizeof(double) * (size_t)w->nb);
+    for (s = 0; s < S->spans; ++s) {
+      for (i = 0; i < nd; ++i) {
+        long k = i * w->pad + s;
+        w->TU[k] = X->uB[s * nd + i];
+        w->TV[k] = X->vB[s * nd + i];
+        w->TA[k] = X->aB[s * nd + i];
+      }
+    }
+    w->bu = w->TU;
+    w->bv = w->TV;
+    w->ba = w->TA;
+    w->blocked = 1;
+  } else {
+    w->bu = X->uB;
+    w->bv = X->vB;
+    w->ba = X->aB;
+    w->blocked = 0;
+    w->nb = (long)S->spans * S->nd;
+  }
+}
+
+static void bridge_store(const setup_t* S, state_t* X, const work_t* w) {
+  if (S->method == 0) {
+    long s, i, nd = S->nd;
+    for (s = 0; s < S->spans; ++s) {
+      for (i = 0; i < nd; ++i) {
+        long k = i * w->pad + s;
+        X->uB[s * nd + i] = w->TU[k];
+        X->vB[s * nd + i] = w->TV[k];
+        X->aB[s * nd + i] = w->TA[k];
+      }
+    }
+  }
+}
+
+int svbi_solver_run(const setup_t* S, state_t* X, const excitation_t* E, outputs_t* O, double* work,
+                    int* iwork, long n0, long count, info_t* I) {
+  work_t w = workspace(S, work, iwork);
+  long n;
+  int status = ST_OK, i;
+  I->status = ST_OK;
+  I->quantity = 0;
+  I->value = 0.0;
+  /* never write past the outputs: steps within the run, rows within the buffers */
+  if (n0 < 0 || count < 0 || n0 + count > S->steps ||
+      O->row + (n0 + count) / S->output_every - n0 / S->output_every > O->nout) {
+    I->status = ST_RANGE;
+    return ST_RANGE;
+  }
+  bridge_view(S, X, &w);
+  for (n = n0; n < n0 + count; ++n) {
+    double t = (double)(n + 1) * S->dt;
+    svbi_excite(S, E, &w, n, t);
+    svbi_locate(S, &w);
+    if (S->method == 0)
+      status = svbi_step_localized(S, X, &w);
+    else
+      status = svbi_step_coupled(S, X, &w, S->method == 2);
+    X->t = t;
+    I->step = n;
+    if (!status) status = svbi_guard(S, X, &w, I);
+    if (status) break;
+    for (i = 0; i < S->nc; ++i) O->forces[(n + 1) * S->nc + i] = X->P[i];
+    I->steps_done = n + 1;
+    if ((n + 1) % S->output_every == 0) {
+      status = svbi_record(S, X, E, O, &w, I);
+      if (status) break;
+    }
+  }
+  bridge_store(S, X, &w);
+  I->status = status;
+  return status;
+}

@@ -1,0 +1,115 @@
+/*
+ * The vehicles' pieces shared by the methods: a car's increment load, the creep forces on the wheel
+ * spins and on the rail, the creep law at the new state, and the aux-bridge row target h_B. Not
+ * compiled in for moving loads (no vehicle DOFs).
+ */
+#include "internal.h"
+
+#if !SVBI_MOVING_LOAD
+/* One car's increment histories P~ = P - a0 u, Q~ = Q - a1 u, the full histories P, Q, and the load
+ * f = F - K^T u + M^T P~ + C^T Q~ of its increment equation (svbi.runtime.train.increment_load). */
+void svbi_vehicle_increment_load(const setup_t* S, const double* u, const double* v, const double* a, double* Pt,
+                                   double* Qt, double* PV, double* QV, double* f) {
+  double sm[NV], sc[NV], sk[NV];
+  int d;
+  for (d = 0; d < NV; ++d) {
+    Pt[d] = S->a2 * v[d] + a[d];
+    Qt[d] = v[d];
+    PV[d] = S->a0 * u[d] + Pt[d];
+    QV[d] = S->a1 * u[d] + Qt[d];
+  }
+  vec_mat(S->V_K, u, sk);
+  vec_mat(S->V_M, Pt, sm);
+  vec_mat(S->V_C, Qt, sc);
+  for (d = 0; d < NV; ++d) f[d] = S->V_F[d] - sk[d] + sm[d] + sc[d];
+}
+
+/* f += W_T^V F: the creep forces of t_n on the wheel spins of car k. */
+void svbi_creep_vehicle_load(const setup_t* S, const double* force, int k, double* f) {
+  int i, j, d;
+  double load[NV];
+  for (d = 0; d < NV; ++d) load[d] = 0.0;
+  for (i = 0; i < NW; ++i)
+    for (j = S->VT_ptr[i]; j < S->VT_ptr[i + 1]; ++j) load[S->VT_idx[j]] += force[k * NW + i] * S->VT_val[j];
+  for (d = 0; d < NV; ++d) f[d] += load[d];
+}
+
+/* Creepage and creep force of every contact at the new state (svbi.runtime.creep_forces): the
+ * creepage (W_T^V' u_V' - rail') / v, rail' following the contact (on the bridge
+ * W_T^B' u_B' + v W_T^B'' u_B, off it the longitudinal ground), and the force from the generated
+ * creep law (Kalker, Shen-Hedrick-Elkins) under the normal load P. It loads the next step. */
+void svbi_creep_update(const setup_t* S, state_t* X, const work_t* w) {
+  int k, i, q;
+  double v = S->speed;
+  for (k = 0; k < S->cars; ++k) {
+    for (i = 0; i < NW; ++i) {
+      int c = k * NW + i;
+      double xi = 0.0, force = 0.0;
+      if (S->creep_rolling[i]) {
+        double wheel = 0.0, rail;
+        for (q = S->VT_ptr[i]; q < S->VT_ptr[i + 1]; ++q) wheel += X->vV[k * NV + S->VT_idx[q]] * S->VT_val[q];
+        if (w->con[c]) {
+          const double* row = w->crow + (long)c * ROW_COLS;
+          int s = w->cspan[c], f = w->cfirst[c];
+          double r0 = 0.0, r1 = 0.0;
+          for (q = 0; q < NNZ_T0; ++q) r0 += row[COL_T0 + nz_T0[q]] * BR(w->bv, s, f + nz_T0[q]);
+          for (q = 0; q < NNZ_T1; ++q) r1 += row[COL_T1 + nz_T1[q]] * BR(w->bu, s, f + nz_T1[q]);
+          rail = r0 + v * r1;
+        } else {
+          rail = S->creep_ground ? w->ulon[c] : 0.0;
+        }
+        xi = (wheel - rail) / v;
+        if (X->P[c] > 0.0) {
+          const casadi_real* arg[SVBI_CREEP_SPLIT_MAX_SZ_ARG] = {0};
+          casadi_real* res[SVBI_CREEP_SPLIT_MAX_SZ_RES] = {0};
+          casadi_int iw[SVBI_CREEP_SPLIT_MAX_SZ_IW] = {0};
+          casadi_real wk[SVBI_CREEP_SPLIT_MAX_SZ_W];
+          casadi_real in_xi = xi, in_n = X->P[c], out_f = 0.0;
+          arg[0] = &in_xi;
+          arg[1] = &in_n;
+          arg[2] = w->creepc + CREEP_NC * i;
+          res[0] = &out_f;
+          svbi_creep_split_force(arg, res, iw, wk, 0);
+          force = out_f;
+        }
+      }
+      X->creepage[c] = xi;
+      X->creep_force[c] = force;
+    }
+  }
+}
+
+/* fB -= W_T^B F at the contacts on the bridge (span after span layout, every element DOF). */
+void svbi_creep_bridge_load(const setup_t* S, const double* force, work_t* w) {
+  int c, q;
+  for (c = 0; c < S->nc; ++c) {
+    if (w->con[c] && force[c] != 0.0) {
+      const double* T0 = w->crow + (long)c * ROW_COLS + COL_T0;
+      double* f = w->xB + (long)w->cspan[c] * S->nd + w->cfirst[c];
+      for (q = 0; q < NE; ++q) f[q] -= T0[q] * force[c];
+    }
+  }
+}
+
+/* The aux-bridge row target h_B of contact i (on the bridge: the discrete row; off: the ground). */
+double svbi_row_target(const setup_t* S, const work_t* w, int i, double Pg, double Qg) {
+  int nc = S->nc, k;
+  const double* row = w->crow + (long)i * ROW_COLS;
+  double r = w->rail[i], r1 = w->rail[nc + i], r2 = w->rail[2 * nc + i];
+  if (w->con[i]) {
+    int s = w->cspan[i], f = w->cfirst[i];
+    double sp = 0.0, sq = 0.0;
+    for (k = 0; k < NNZ_C_P_UE; ++k) sp += row[COL_C_P_UE + nz_c_P_ue[k]] * BR(w->PB, s, f + nz_c_P_ue[k]);
+    for (k = 0; k < NNZ_C_Q_UE; ++k) sq += row[COL_C_Q_UE + nz_c_Q_ue[k]] * BR(w->QB, s, f + nz_c_Q_ue[k]);
+    return row[COL_C_P_UG] * Pg + row[COL_C_Q_UG] * Qg + sp + sq + row[COL_C_R] * r +
+           row[COL_C_R_X] * r1 + row[COL_C_R_XX] * r2;
+  } else {
+    double v = S->speed;
+    double q = w->under[i], q1 = w->under[nc + i], q2 = w->under[2 * nc + i];
+    return S->p_P * Pg + S->p_Q * Qg + S->p_q2 * (q2 + v * v * r2) + S->p_q1 * (q1 + v * r1) +
+           S->p_q * (q + r);
+  }
+}
+#else
+typedef int svbi_no_vehicle; /* ISO C wants a declaration in every translation unit */
+#endif
