@@ -4,8 +4,10 @@ The scenario is assembled exactly as the C backend does for ``svbi run`` (the sa
 :class:`~svbi.runtime.c_backend.CStepper`), and every number the loop receives is written into a
 generated ``scenario_data.c`` with ``repr`` (which reads back to the same bits): the setup, the
 initial state, the excitation tables, the output buffers (with the initial row 0) and a static
-workspace of the size the loop asks for. ``main.c`` runs it and writes a CSV; the Makefile builds
-it with the kernels' warning policy (``-std=c99 -Wall -Wextra -Werror``).
+workspace of the size the loop asks for. The loop's own files are those the C backend compiles: the
+static C of ``runtime/csrc/`` and the generated glue of the model (``c_loop.render_sources``).
+``main.c`` runs it and writes a CSV; the Makefile builds it with the kernels' warning policy
+(``-std=c99 -Wall -Wextra -Werror``).
 """
 
 from __future__ import annotations
@@ -209,7 +211,7 @@ def scenario_files(
     stepper.library.workspace(ctypes.byref(stepper.setup), ctypes.byref(n_double), ctypes.byref(n_int))
     s = model.settings
     c = spec.c_name
-    header = f"svbi_{c}_solver.h"
+    header = "solver.h"
     context = {
         "generator": GENERATOR,
         "model": spec.model,
@@ -235,7 +237,9 @@ def scenario_files(
     }
     if spec.model != model_name and Path(spec.model).name != model_name:
         raise ValueError(f"the scenario's vehicle is {spec.model!r}, not the exported model {model_name!r}")
-    env = c_loop._environment()
+    from svbi.runtime.c_glue import environment
+
+    env = environment()
     files = {**(extra or {}), **c_loop.render_sources(spec, embedded=embedded)}
     for template, name in (
         ("solver/scenario_data.c.j2", "scenario_data.c"),

@@ -24,21 +24,40 @@ from typing import Any
 
 import jinja2
 import sympy as sp
+from svbi.runtime.c_loop import (
+    BRIDGE_FOLDER,
+    CREEP_FILES,
+    GLUE_NAMES,
+    MOVING_LOAD_FOLDER,
+    ROWS_HEADER,
+    SOLVER_FOLDER,
+    TOPOLOGY_HEADER,
+    TYPES_HEADER,
+)
 
 GENERATOR = "svbi.runtime.c_glue"
-TYPES_HEADER = "svbi_solver_types.h"
-ROWS_HEADER = "svbi_contact_rows.h"
-TOPOLOGY_HEADER = "svbi_topology.h"
-SOLVER_FOLDER = "solver"
-"""``generated/solver/``: the glue that depends on neither the topology nor the bridge element."""
-BRIDGE_FOLDER = "frame2d"
-MOVING_LOAD_FOLDER = "moving-load"
-CREEP_FILES = ("creep_split_kernels.c", "creep_split_kernels.h", "creep_split.h")
-GLUE_NAMES = frozenset({TYPES_HEADER, ROWS_HEADER, TOPOLOGY_HEADER, *CREEP_FILES})
-"""File names of the loop's glue inside model folders (not part of a kernels-only export)."""
+__all__ = [
+    "BRIDGE_FOLDER",
+    "CREEP_FILES",
+    "GLUE_NAMES",
+    "MOVING_LOAD_FOLDER",
+    "ROWS_HEADER",
+    "SOLVER_FOLDER",
+    "TOPOLOGY_HEADER",
+    "TYPES_HEADER",
+    "bridge_glue",
+    "contact_rows",
+    "creep_split_sources",
+    "environment",
+    "extra_folders",
+    "model_glue",
+    "solver_types",
+    "topology",
+]
 
 
-def _environment() -> jinja2.Environment:
+def environment() -> jinja2.Environment:
+    """The Jinja2 environment of the templates in ``templates/`` (strict, no autoescape)."""
     return jinja2.Environment(
         loader=jinja2.PackageLoader("svbi.templates", "."),
         undefined=jinja2.StrictUndefined,
@@ -52,7 +71,7 @@ def _environment() -> jinja2.Environment:
 def _render(template: str, context: dict[str, Any]) -> bytes:
     full = f"solver/{template}"
     return (
-        _environment()
+        environment()
         .get_template(full)
         .render({"generator": GENERATOR, "template": f"templates/{full}", **context})
         .encode()

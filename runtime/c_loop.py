@@ -471,6 +471,17 @@ def row_coefficients(
 
 CSRC = "csrc"
 """Package-data folder of :mod:`svbi.runtime` holding the static C of the loop."""
+TYPES_HEADER = "svbi_solver_types.h"
+ROWS_HEADER = "svbi_contact_rows.h"
+TOPOLOGY_HEADER = "svbi_topology.h"
+SOLVER_FOLDER = "solver"
+"""``generated/solver/``: the glue that depends on neither the topology nor the bridge element."""
+BRIDGE_FOLDER = "frame2d"
+"""``generated/frame2d/``: the glue of the bridge element (contact rows, the split creep law)."""
+MOVING_LOAD_FOLDER = "moving-load"
+CREEP_FILES = ("creep_split_kernels.c", "creep_split_kernels.h", "creep_split.h")
+GLUE_NAMES = frozenset({TYPES_HEADER, ROWS_HEADER, TOPOLOGY_HEADER, *CREEP_FILES})
+"""File names of the loop's glue inside generated model folders (not part of a kernels-only export)."""
 
 
 @dataclass(frozen=True)
@@ -529,22 +540,28 @@ def _topology_matches(header: bytes, spec: LoopSpec) -> bool:
 
 def glue_sources(spec: LoopSpec, embedded: bool = False) -> dict[str, bytes]:
     """The generated glue of one topology: the committed files for built-in models (no Jinja2 or
-    CasADi import); for a topology file, its ``svbi_topology.h`` rendered now. ``embedded``: the
-    embedded-target variant of the CasADi creep law (rendered now)."""
-    from svbi.runtime import c_glue
+    CasADi import); for a topology file, its ``svbi_topology.h`` rendered now by
+    :mod:`svbi.runtime.c_glue`. ``embedded``: the embedded-target variant of the CasADi creep law
+    (rendered now)."""
+    files = _committed(SOLVER_FOLDER, (TYPES_HEADER,))
+    if files is None:
+        from svbi.runtime import c_glue
 
-    files = _committed(c_glue.SOLVER_FOLDER, (c_glue.TYPES_HEADER,)) or c_glue.solver_types()
-    bridge_names = (c_glue.ROWS_HEADER,) if spec.moving_load else (c_glue.ROWS_HEADER, *c_glue.CREEP_FILES)
-    bridge = None if embedded and not spec.moving_load else _committed(c_glue.BRIDGE_FOLDER, bridge_names)
+        files = c_glue.solver_types()
+    bridge_names = (ROWS_HEADER,) if spec.moving_load else (ROWS_HEADER, *CREEP_FILES)
+    bridge = None if embedded and not spec.moving_load else _committed(BRIDGE_FOLDER, bridge_names)
     if bridge is None:
-        glue = c_glue.contact_rows()
+        from svbi.runtime import c_glue
+
+        bridge = c_glue.contact_rows()
         if not spec.moving_load:
-            glue.update(c_glue.creep_split_sources(embedded))
-        bridge = glue
+            bridge.update(c_glue.creep_split_sources(embedded))
     files.update(bridge)
-    folder = c_glue.MOVING_LOAD_FOLDER if spec.moving_load else spec.model
-    topology = _committed(folder, (c_glue.TOPOLOGY_HEADER,)) if "/" not in folder else None
-    if topology is None or not _topology_matches(topology[c_glue.TOPOLOGY_HEADER], spec):
+    folder = MOVING_LOAD_FOLDER if spec.moving_load else spec.model
+    topology = _committed(folder, (TOPOLOGY_HEADER,)) if "/" not in folder else None
+    if topology is None or not _topology_matches(topology[TOPOLOGY_HEADER], spec):
+        from svbi.runtime import c_glue
+
         topology = c_glue.topology(spec.model, spec.nv, spec.nw)
     files.update(topology)
     return files

@@ -26,6 +26,7 @@ from __future__ import annotations
 import math
 import shutil
 import subprocess
+import sys
 import warnings
 from functools import cache
 from pathlib import Path
@@ -289,25 +290,56 @@ def test_no_compiler_falls_back_to_numpy(monkeypatch, tmp_path):
 
 
 # --------------------------------------------------------------------------------------------------
-# the generated source itself
+# the loop's sources: static C (runtime/csrc) and the generated glue
 
 
 @pytest.mark.parametrize("spec", [c_loop.LoopSpec("pioneer-2d", 14, 4), c_loop.LoopSpec("moving-load", 0, 0)])
 def test_loop_source_builds_with_the_strict_warning_set(spec, tmp_path):
-    """The kernels' warning policy: -std=c99 -Wall -Wextra -Werror (and -pedantic) on the loop."""
+    """The kernels' warning policy: -std=c99 -Wall -Wextra -Werror (and -pedantic) on the loop's
+    static sources and glue (CasADi's creep-law file has its one documented exception)."""
     files = c_loop.render_sources(spec)
     for name, data in files.items():
         (tmp_path / name).write_bytes(data)
-    source = next(n for n in files if n.endswith("_solver.c"))
+    sources = sorted(n for n in files if n.endswith(".c") and not n.endswith("_kernels.c"))
+    assert {"solver.c", "band.c", "tables.c", "localized.c", "coupled.c", "record.c"} <= set(sources)
     cc = compiled.compiler_command()
     done = subprocess.run(
-        [*cc, "-std=c99", "-Wall", "-Wextra", "-Werror", "-pedantic", "-c", source, "-o", "loop.o"],
+        [*cc, "-std=c99", "-Wall", "-Wextra", "-Werror", "-pedantic", "-c", *sources],
         cwd=tmp_path,
         capture_output=True,
         text=True,
         check=False,
     )
     assert done.returncode == 0, done.stderr
+
+
+def test_builtin_loop_imports_neither_jinja2_nor_casadi():
+    """A built-in model's loop is the static C plus committed glue: building and loading it
+    imports no template engine and no CasADi (svbi.runtime.c_glue is for generation only)."""
+    code = (
+        "import sys\n"
+        "from svbi.runtime import c_loop\n"
+        "c_loop.load_loop(c_loop.LoopSpec('pioneer-2d', 14, 4))\n"
+        "c_loop.load_loop(c_loop.LoopSpec('moving-load', 0, 0))\n"
+        "print(sorted(m for m in ('jinja2', 'casadi', 'svbi.runtime.c_glue') if m in sys.modules))\n"
+    )
+    done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
+    assert done.stdout.strip() == "[]", done.stdout + done.stderr
+
+
+def test_committed_glue_is_what_a_topology_file_gets():
+    """A topology file has its svbi_topology.h rendered at run time; for a built-in topology that
+    is byte for byte the committed header, and the rest of the glue is the committed files."""
+    from svbi.runtime import c_glue
+
+    spec = c_loop.LoopSpec("pioneer-2d", 14, 4)
+    committed = c_loop.glue_sources(spec)
+    assert committed[c_glue.TOPOLOGY_HEADER] == c_glue.topology("pioneer-2d", 14, 4)[c_glue.TOPOLOGY_HEADER]
+    assert committed[c_glue.TYPES_HEADER] == c_glue.solver_types()[c_glue.TYPES_HEADER]
+    assert committed[c_glue.ROWS_HEADER] == c_glue.contact_rows()[c_glue.ROWS_HEADER]
+    # a topology that is not built in (or disagrees with the committed header) gets its own
+    other = c_loop.glue_sources(c_loop.LoopSpec("pioneer-2d", 12, 2))[c_glue.TOPOLOGY_HEADER].decode()
+    assert "#define SVBI_NV 12 " in other and "#define SVBI_NW 2 " in other
 
 
 def test_workspace_is_sized_up_front():

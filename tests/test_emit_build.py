@@ -233,7 +233,7 @@ def test_export_solver_flag_adds_the_time_loop(tmp_path: Path) -> None:
     result = CliRunner().invoke(_app(), ["export", "sprung-mass", str(tmp_path / "x"), "--solver"])
     assert result.exit_code == 0, result.output
     names = {p.name for p in (tmp_path / "x").iterdir()}
-    assert {"svbi_sprung_mass_solver.c", "scenario_data.c", "main.c", "Makefile"} <= names
+    assert {"solver.c", "solver.h", "svbi_topology.h", "scenario_data.c", "main.c", "Makefile"} <= names
     assert "sprung_mass_kernels.c" in names  # the kernels are still exported
 
 
