@@ -1,0 +1,314 @@
+"""The C loop's numerical building blocks, function by function, against SciPy and NumPy.
+
+``runtime/csrc/band.c`` (banded Cholesky and its solves, banded LU with partial pivoting, dense
+Cholesky) and ``runtime/csrc/tables.c`` (piecewise-polynomial tables) depend on no topology: they
+are compiled here on their own, with the generated ``svbi_solver_types.h``, into a small library
+and called through ctypes. The same library carries a helper that reports ``sizeof`` and
+``offsetof`` of every generated struct, which must equal the ctypes mirrors of
+``svbi.runtime.c_loop`` (both come from its field lists).
+
+Truth: ``scipy.linalg.cholesky_banded`` / ``cho_solve_banded`` / ``solve_banded``,
+``numpy.linalg.solve`` and ``scipy.interpolate.PPoly``. Tolerances are round-off of the condition
+numbers involved (the random matrices are kept well conditioned).
+"""
+
+from __future__ import annotations
+
+import ctypes
+from functools import cache
+
+import numpy as np
+import pytest
+import scipy.interpolate
+import scipy.linalg
+from svbi.runtime import c_loop, compiled
+
+SW = 4  # spans per block of band_solve_blocked (runtime/csrc/band.h)
+STRUCTS = {
+    "svbi_ppoly": ("ppoly", c_loop.PPoly),
+    "svbi_solver_setup": ("setup", c_loop.Setup),
+    "svbi_solver_state": ("state", c_loop.State),
+    "svbi_solver_excitation": ("excitation", c_loop.Excitation),
+    "svbi_solver_outputs": ("outputs", c_loop.Outputs),
+    "svbi_solver_info": ("info", c_loop.Info),
+}
+
+DP = ctypes.POINTER(ctypes.c_double)
+IP = ctypes.POINTER(ctypes.c_int)
+
+
+def _layout_source() -> bytes:
+    """C that reports sizeof and offsetof of every struct member of svbi_solver_types.h."""
+    lines = ["#include <stddef.h>", '#include "svbi_solver_types.h"', ""]
+    for ctype, (key, _) in STRUCTS.items():
+        fields = c_loop.STRUCTS[key]
+        values = [f"(long)sizeof({ctype})"] + [f"(long)offsetof({ctype}, {f.name})" for f in fields]
+        lines.append(f"const long svbi_layout_{key}[{len(values)}] = {{{', '.join(values)}}};")
+    return ("\n".join(lines) + "\n").encode()
+
+
+@cache
+def library() -> ctypes.CDLL:
+    static = c_loop.static_sources()
+    sources = {n: static[n] for n in ("band.c", "band.h", "tables.c", "tables.h")}
+    types = c_loop.glue_sources(c_loop.LoopSpec("moving-load", 0, 0))[c_loop.TYPES_HEADER]
+    sources[c_loop.TYPES_HEADER] = types
+    sources["layout.c"] = _layout_source()
+    lib = compiled.load_library(sources, "svbi_test_c_numerics", flags=c_loop.LOOP_FLAGS)
+    lib.svbi_band_cholesky.argtypes = [DP, ctypes.c_int, ctypes.c_int]
+    lib.svbi_band_solve.argtypes = [DP, ctypes.c_int, ctypes.c_int, DP]
+    lib.svbi_band_solve_blocked.argtypes = [DP, DP, ctypes.c_int, ctypes.c_int, DP, ctypes.c_long]
+    lib.svbi_dense_cholesky.argtypes = [DP, ctypes.c_int]
+    lib.svbi_dense_solve.argtypes = [DP, ctypes.c_int, DP]
+    lib.svbi_gb_factor.argtypes = [DP, ctypes.c_int, ctypes.c_int, IP]
+    lib.svbi_gb_solve.argtypes = [DP, ctypes.c_int, ctypes.c_int, IP, DP]
+    lib.svbi_ppoly_eval.argtypes = [ctypes.POINTER(c_loop.PPoly), ctypes.c_double, DP]
+    for name in ("svbi_band_solve", "svbi_band_solve_blocked", "svbi_dense_solve", "svbi_gb_solve"):
+        lib[name].restype = None
+    lib.svbi_ppoly_eval.restype = None
+    return lib
+
+
+def _compiler_works() -> bool:
+    try:
+        library()
+    except compiled.CompilerError:
+        return False
+    return True
+
+
+pytestmark = pytest.mark.skipif(not _compiler_works(), reason="no working C compiler")
+
+
+def dp(a: np.ndarray) -> ctypes._Pointer:
+    assert a.dtype == np.float64 and a.flags.c_contiguous
+    return a.ctypes.data_as(DP)
+
+
+def ip(a: np.ndarray) -> ctypes._Pointer:
+    assert a.dtype == np.int32 and a.flags.c_contiguous
+    return a.ctypes.data_as(IP)
+
+
+def spd_band(rng: np.random.Generator, n: int, p: int) -> np.ndarray:
+    """A random symmetric positive definite matrix of half bandwidth p (dense)."""
+    a = np.zeros((n, n))
+    for k in range(1, p + 1):
+        d = rng.uniform(-1.0, 1.0, n - k)
+        a += np.diag(d, k) + np.diag(d, -k)
+    return a + np.diag(2.0 * p + 1.0 + rng.uniform(0.0, 1.0, n))
+
+
+def lower_band(a: np.ndarray, p: int) -> np.ndarray:
+    """SciPy's lower band form: ab[r, j] = A[j + r, j]."""
+    n = a.shape[0]
+    ab = np.zeros((p + 1, n))
+    for r in range(p + 1):
+        ab[r, : n - r] = np.diag(a, -r)
+    return ab
+
+
+# --------------------------------------------------------------------------------------------------
+# struct layouts
+
+
+@pytest.mark.parametrize("ctype", sorted(STRUCTS))
+def test_generated_structs_match_the_ctypes_mirrors(ctype: str) -> None:
+    key, mirror = STRUCTS[ctype]
+    fields = c_loop.STRUCTS[key]
+    values = (ctypes.c_long * (len(fields) + 1)).in_dll(library(), f"svbi_layout_{key}")
+    assert values[0] == ctypes.sizeof(mirror)
+    for i, f in enumerate(fields):
+        assert values[i + 1] == getattr(mirror, f.name).offset, f.name
+
+
+# --------------------------------------------------------------------------------------------------
+# banded Cholesky
+
+
+@pytest.mark.parametrize(("n", "p"), [(1, 0), (7, 1), (30, 3), (41, 8), (12, 11)])
+def test_band_cholesky_and_solve_match_scipy(n: int, p: int) -> None:
+    rng = np.random.default_rng(100 * n + p)
+    a = spd_band(rng, n, p)
+    ab = lower_band(a, p)
+    factor = np.array(ab.T, order="C")  # band.h: L[j * (p + 1) + (i - j)] = column j, row i
+    assert library().svbi_band_cholesky(dp(factor), n, p) == c_loop.STATUS_OK
+    np.testing.assert_allclose(factor.T, scipy.linalg.cholesky_banded(ab, lower=True), rtol=1e-13, atol=1e-14)
+    b = rng.standard_normal(n)
+    x = b.copy()
+    library().svbi_band_solve(dp(factor), n, p, dp(x))
+    expected = scipy.linalg.cho_solve_banded((scipy.linalg.cholesky_banded(ab, lower=True), True), b)
+    np.testing.assert_allclose(x, expected, rtol=1e-12, atol=1e-13)
+    np.testing.assert_allclose(a @ x, b, rtol=1e-12, atol=1e-12)
+
+
+@pytest.mark.parametrize("nblk", [1, 3])
+def test_band_solve_blocked_solves_every_right_hand_side(nblk: int) -> None:
+    """B[j * m + s], m = nblk * SW: every column s is one solve (the localized layout)."""
+    rng = np.random.default_rng(nblk)
+    n, p, m = 25, 4, nblk * SW
+    a = spd_band(rng, n, p)
+    ab = lower_band(a, p)
+    factor = np.array(ab.T, order="C")
+    assert library().svbi_band_cholesky(dp(factor), n, p) == c_loop.STATUS_OK
+    dinv = np.ascontiguousarray(1.0 / factor[:, 0])
+    b = rng.standard_normal((n, m))
+    x = b.copy()
+    library().svbi_band_solve_blocked(dp(factor), dp(dinv), n, p, dp(x), nblk)
+    expected = scipy.linalg.cho_solve_banded((scipy.linalg.cholesky_banded(ab, lower=True), True), b)
+    np.testing.assert_allclose(x, expected, rtol=1e-12, atol=1e-13)
+
+
+def test_band_cholesky_reports_a_matrix_that_is_not_positive_definite() -> None:
+    a = spd_band(np.random.default_rng(5), 10, 2)
+    a[6, 6] = -1.0
+    factor = np.array(lower_band(a, 2).T, order="C")
+    assert library().svbi_band_cholesky(dp(factor), 10, 2) == c_loop.STATUS_NOT_SPD
+
+
+# --------------------------------------------------------------------------------------------------
+# banded LU with partial pivoting
+
+
+def general_band(rng: np.random.Generator, n: int, bw: int) -> np.ndarray:
+    """A random general band matrix whose diagonal is small: partial pivoting has to swap rows."""
+    a = np.zeros((n, n))
+    for k in range(-bw, bw + 1):
+        a += np.diag(rng.uniform(-1.0, 1.0, n - abs(k)), k)
+    a[np.arange(n), np.arange(n)] *= 1e-3
+    return a
+
+
+def lapack_band(a: np.ndarray, bw: int) -> np.ndarray:
+    """band.h's general layout: row c of the result holds column c, A(r, c) at 2 bw + r - c."""
+    n = a.shape[0]
+    out = np.zeros((n, 3 * bw + 1))
+    for c in range(n):
+        for r in range(max(0, c - bw), min(n, c + bw + 1)):
+            out[c, 2 * bw + r - c] = a[r, c]
+    return out
+
+
+@pytest.mark.parametrize(("n", "bw"), [(1, 0), (6, 1), (40, 3), (33, 7)])
+def test_banded_lu_matches_scipy_solve_banded(n: int, bw: int) -> None:
+    rng = np.random.default_rng(10 * n + bw)
+    a = general_band(rng, n, bw)
+    if n == 1:
+        a[0, 0] = 0.7
+    ab = lapack_band(a, bw)
+    piv = np.zeros(n, dtype=np.int32)
+    assert library().svbi_gb_factor(dp(ab), n, bw, ip(piv)) == c_loop.STATUS_OK
+    if n > 1:
+        assert np.any(piv != np.arange(n))  # it did pivot
+    b = rng.standard_normal(n)
+    x = b.copy()
+    library().svbi_gb_solve(dp(ab), n, bw, ip(piv), dp(x))
+    scipy_ab = np.zeros((2 * bw + 1, n))
+    for c in range(n):
+        for r in range(max(0, c - bw), min(n, c + bw + 1)):
+            scipy_ab[bw + r - c, c] = a[r, c]
+    expected = scipy.linalg.solve_banded((bw, bw), scipy_ab, b)
+    cond = np.linalg.cond(a)
+    np.testing.assert_allclose(x, expected, rtol=1e-14 * cond, atol=1e-14 * cond * np.abs(expected).max())
+    np.testing.assert_allclose(x, np.linalg.solve(a, b), rtol=1e-14 * cond, atol=1e-14 * cond)
+
+
+def test_banded_lu_reports_a_singular_matrix() -> None:
+    a = general_band(np.random.default_rng(3), 8, 2)
+    a[:, 4] = 0.0
+    ab = lapack_band(a, 2)
+    piv = np.zeros(8, dtype=np.int32)
+    assert library().svbi_gb_factor(dp(ab), 8, 2, ip(piv)) == c_loop.STATUS_SINGULAR
+
+
+# --------------------------------------------------------------------------------------------------
+# dense Cholesky (the car blocks of the coupled methods)
+
+
+@pytest.mark.parametrize("n", [1, 2, 14])
+def test_dense_cholesky_solve_matches_numpy(n: int) -> None:
+    rng = np.random.default_rng(n)
+    m = rng.standard_normal((n, n))
+    a = m @ m.T + n * np.eye(n)
+    factor = np.array(a, order="C")
+    assert library().svbi_dense_cholesky(dp(factor), n) == c_loop.STATUS_OK
+    np.testing.assert_allclose(np.tril(factor), np.linalg.cholesky(a), rtol=1e-13, atol=1e-14)
+    b = rng.standard_normal(n)
+    x = b.copy()
+    library().svbi_dense_solve(dp(factor), n, dp(x))
+    np.testing.assert_allclose(x, np.linalg.solve(a, b), rtol=1e-12, atol=1e-14)
+    a[0, 0] = -1.0
+    assert library().svbi_dense_cholesky(dp(np.ascontiguousarray(a)), n) == c_loop.STATUS_NOT_SPD
+
+
+# --------------------------------------------------------------------------------------------------
+# piecewise-polynomial tables
+
+
+def table(pp: scipy.interpolate.PPoly, uniform: bool, keep: list) -> c_loop.PPoly:
+    """The C table of ``pp`` (tables.h: c[i][m] = PPoly.c[m, i]), constant beyond both ends."""
+    x = np.ascontiguousarray(pp.x, dtype=float)
+    c = np.ascontiguousarray(pp.c.T, dtype=float)
+    keep += [x, c]
+    left = [float(pp(x[0], nu)) for nu in range(3)]
+    right = [float(pp(x[-1], nu)) for nu in range(3)]
+    return c_loop.PPoly(
+        n=len(x) - 1,
+        k=pp.c.shape[0] - 1,
+        uniform=int(uniform),
+        h=float((x[-1] - x[0]) / (len(x) - 1)),
+        x=x.ctypes.data,
+        c=c.ctypes.data,
+        left0=left[0],
+        left1=left[1],
+        left2=left[2],
+        right0=right[0],
+        right1=right[1],
+        right2=right[2],
+    )
+
+
+def evaluate(p: c_loop.PPoly, x: float) -> np.ndarray:
+    out = np.zeros(3)
+    library().svbi_ppoly_eval(ctypes.byref(p), x, dp(out))
+    return out
+
+
+@pytest.mark.parametrize(
+    ("k", "breaks"), [(1, "uniform"), (3, "uniform"), (5, "nearly-uniform"), (3, "random"), (5, "random")]
+)
+def test_ppoly_eval_matches_scipy_ppoly(k: int, breaks: str) -> None:
+    rng = np.random.default_rng(k)
+    n = 37
+    if breaks == "random":
+        x = np.cumsum(rng.uniform(0.1, 2.0, n + 1))
+    else:
+        x = 0.5 + 0.25 * np.arange(n + 1)
+        if breaks == "nearly-uniform":  # the O(1) guess, then the exact interval
+            x[1:-1] += rng.uniform(-1e-7, 1e-7, n - 1)
+    pp = scipy.interpolate.PPoly(rng.standard_normal((k + 1, n)), x)
+    keep: list = []
+    p = table(pp, breaks != "random", keep)
+    points = np.concatenate([rng.uniform(x[0], x[-1], 300), x[:-1], x[1:-1] - 1e-12])
+    for xv in points:
+        got = evaluate(p, float(xv))
+        want = np.array([pp(xv, nu) for nu in range(3)])
+        scale = 1.0 + np.abs(want)
+        # measured: 1.4e-15 of (1 + |value|) at worst over these cases
+        assert np.all(np.abs(got - want) <= 1e-13 * scale), (xv, got, want)
+    # beyond the ends: the end values (the C tables clamp; NumPy's callers stop earlier)
+    np.testing.assert_array_equal(evaluate(p, x[0] - 3.0), [p.left0, p.left1, p.left2])
+    np.testing.assert_array_equal(evaluate(p, x[0]), [p.left0, p.left1, p.left2])
+    np.testing.assert_array_equal(evaluate(p, x[-1]), [p.right0, p.right1, p.right2])
+    np.testing.assert_array_equal(evaluate(p, x[-1] + 5.0), [p.right0, p.right1, p.right2])
+
+
+def test_ppoly_without_intervals_is_a_step() -> None:
+    """n = 0: a step at x[0] from the left values to the right values."""
+    x = np.array([2.0])
+    c = np.zeros(1)
+    p = c_loop.PPoly(n=0, k=0, uniform=0, h=0.0, x=x.ctypes.data, c=c.ctypes.data)
+    p.left0, p.left1, p.left2, p.right0, p.right1, p.right2 = 1.0, 2.0, 3.0, 4.0, 5.0, 6.0
+    np.testing.assert_array_equal(evaluate(p, 1.0), [1.0, 2.0, 3.0])
+    np.testing.assert_array_equal(evaluate(p, 2.0), [1.0, 2.0, 3.0])
+    np.testing.assert_array_equal(evaluate(p, 2.5), [4.0, 5.0, 6.0])
