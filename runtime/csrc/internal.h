@@ -46,7 +46,7 @@ enum {
 };
 
 /* ============================================================================================== */
-/* Workspace: carved out of the caller's two arrays in a fixed order; with NULL bases it counts.  */
+/* Workspace: carved out of the caller's two arrays in a fixed order (solver.c, carve).           */
 
 typedef struct {
   /* contacts */

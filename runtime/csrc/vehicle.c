@@ -8,8 +8,8 @@
 #if !SVBI_MOVING_LOAD
 /* One car's increment histories P~ = P - a0 u, Q~ = Q - a1 u, the full histories P, Q, and the load
  * f = F - K^T u + M^T P~ + C^T Q~ of its increment equation (svbi.runtime.train.increment_load). */
-void svbi_vehicle_increment_load(const setup_t* S, const double* u, const double* v, const double* a, double* Pt,
-                                   double* Qt, double* PV, double* QV, double* f) {
+void svbi_vehicle_increment_load(const setup_t* S, const double* u, const double* v, const double* a,
+                                 double* Pt, double* Qt, double* PV, double* QV, double* f) {
   double sm[NV], sc[NV], sk[NV];
   int d;
   for (d = 0; d < NV; ++d) {
