@@ -14,6 +14,11 @@ The wheelset spin DOFs have no stiffness and no load: they are rigid modes of th
 which is singular. We find such free modes (the null space of ``[K; W^T]``), check that gravity does
 no work on them, and hold them at zero with extra constraints; the bordered systems are regular and
 solved by LU with one step of iterative refinement.
+
+The full-system problems (static start, consistent accelerations) are assembled as sparse matrices
+from their blocks, one car, one span, one contact or one support at a time, and factored by SuperLU:
+set-up memory and work grow linearly with cars and spans (a dense matrix of 100 cars on 1000 spans
+would take 23 GB). Only one car's bordered block is ever dense.
 """
 
 from __future__ import annotations
