@@ -217,8 +217,9 @@ def _assemble(
     """The bordered matrix of the static problem and of the consistent accelerations.
 
     Sparse, from the blocks (never a dense full-system matrix): per car ``vehicle_block u_V - W P +
-    Z mu``, per span ``span_block u_B + N P - E R``; constraint rows ``W^T u_V - N^T u_B`` (without
-    ``N^T u_B`` off the bridge), ``E^T u_B`` and ``Z^T u_V``. Every block row touches one car, one
+    Z mu``, per span ``span_block u_B + N P - E R``; constraint rows ``W^T u_V - N^T u_B`` (the
+    wheel on the rail, Eqs. 18 and 20-21 with the aux point on its wheel; without ``N^T u_B`` off
+    the bridge), ``E^T u_B`` (the supports, Eqs. 22-24) and ``Z^T u_V``. Every block row touches one car, one
     span or one element, so the entries, and the sparse LU's fill along the track, grow linearly
     with cars and spans.
     """
