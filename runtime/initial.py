@@ -14,13 +14,23 @@ The wheelset spin DOFs have no stiffness and no load: they are rigid modes of th
 which is singular. We find such free modes (the null space of ``[K; W^T]``), check that gravity does
 no work on them, and hold them at zero with extra constraints; the bordered systems are regular and
 solved by LU with one step of iterative refinement.
+
+The full-system problems (static start, consistent accelerations) are assembled as sparse matrices
+from their blocks, one car, one span, one contact or one support at a time, and factored by SuperLU:
+set-up memory and work grow linearly with cars and spans (a dense matrix of 100 cars on 1000 spans
+would take 23 GB). Only one car's bordered block is ever dense.
 """
 
 from __future__ import annotations
 
+from dataclasses import dataclass
+
 import numpy as np
 import scipy.linalg as sla
+import scipy.sparse as sps
+import scipy.sparse.linalg as spla
 from svbi.codegen.vehicle import GRAVITY
+from svbi.runtime.coupled import Triplets
 from svbi.runtime.model import Model, State
 from svbi.runtime.numeric import ShapeKernel
 from svbi.runtime.train import Train
@@ -46,8 +56,15 @@ def free_modes(train: Train) -> np.ndarray:
     return Z
 
 
-def _solve(A: np.ndarray, b: np.ndarray) -> np.ndarray:
-    """LU solve with one step of iterative refinement (the blocks span ~12 orders of magnitude)."""
+def _solve(A: np.ndarray | sps.spmatrix, b: np.ndarray) -> np.ndarray:
+    """LU solve with one step of iterative refinement (the blocks span ~12 orders of magnitude).
+
+    A sparse ``A`` (the full system) goes to SuperLU, a dense one (one car's block) to LAPACK.
+    """
+    if sps.issparse(A):
+        lu = spla.splu(sps.csc_matrix(A))
+        x = lu.solve(b)
+        return x + lu.solve(b - A @ x)
     lu = sla.lu_factor(A)
     x = sla.lu_solve(lu, b)
     return x + sla.lu_solve(lu, b - A @ x)
@@ -101,7 +118,7 @@ def initial_state(model: Model, start: str = "rigid-track") -> State:
         P = tr.axle_loads.copy()
     else:
         if start == "static":
-            uV, uB, P = _static_on_bridge(model, N0, idx, q)
+            uV, uB, P = static_on_bridge(model)
         else:
             uV, Pc = vehicle_static_on_rigid_track(tr, rail.reshape(tr.cars, tr.wheels))
             P = Pc.reshape(-1)
@@ -126,109 +143,185 @@ def initial_state(model: Model, start: str = "rigid-track") -> State:
     return state
 
 
-def _static_on_bridge(model: Model, N0: np.ndarray, idx: np.ndarray, q: np.ndarray):  # noqa: ANN202
-    """Static equilibrium of the whole system: vehicles on the deflected bridge (dense, once)."""
+@dataclass(frozen=True)
+class Layout:
+    """Numbering of the unknowns of the full-system problems, block by block::
+
+        [car displacements | span displacements | contact forces | support reactions | free modes]
+
+    with the equations in the same order (cars, spans, contact rows, support rows, free-mode rows).
+    """
+
+    cars: int
+    spans: int
+    nV: int
+    """DOFs per car (0 for moving loads)."""
+    nd: int
+    ns: int
+    nc: int
+    """Contact forces among the unknowns (0 for moving loads, whose forces are known)."""
+    nz: int
+    """Free modes held per car."""
+
+    @property
+    def oB(self) -> int:
+        return self.cars * self.nV
+
+    @property
+    def oP(self) -> int:
+        return self.oB + self.spans * self.nd
+
+    @property
+    def oS(self) -> int:
+        return self.oP + self.nc
+
+    @property
+    def oZ(self) -> int:
+        return self.oS + self.spans * self.ns
+
+    @property
+    def n(self) -> int:
+        return self.oZ + self.cars * self.nz
+
+
+@dataclass(frozen=True)
+class LinearSystem:
+    """A full-system problem ``A x = rhs`` (``A`` sparse CSC) and the numbering of its unknowns."""
+
+    A: sps.csc_matrix
+    rhs: np.ndarray
+    layout: Layout
+
+    def solve(self) -> np.ndarray:
+        return _solve(self.A, self.rhs)
+
+
+def _layout(model: Model, nV: int, nc: int, nz: int) -> Layout:
+    b, tr = model.bridge, model.train
+    return Layout(tr.cars, b.spans, nV, b.ndof, b.nsupport, nc, nz)
+
+
+def _repeated(
+    T: Triplets, row0: int, rstride: int, col0: int, cstride: int, block: np.ndarray, count: int
+) -> None:
+    """``count`` copies of ``block`` at rows ``row0 + k rstride``, columns ``col0 + k cstride``."""
+    r, c = np.nonzero(block)
+    k = np.arange(count)[:, None]
+    vals = np.broadcast_to(block[r, c], (count, r.size))
+    T.add(row0 + rstride * k + r[None, :], col0 + cstride * k + c[None, :], vals)
+
+
+def _assemble(
+    model: Model, lay: Layout, vehicle_block: np.ndarray | None, span_block: np.ndarray, Z: np.ndarray
+) -> sps.csc_matrix:
+    """The bordered matrix of the static problem and of the consistent accelerations.
+
+    Sparse, from the blocks (never a dense full-system matrix): per car ``vehicle_block u_V - W P +
+    Z mu``, per span ``span_block u_B + N P - E R``; constraint rows ``W^T u_V - N^T u_B`` (the
+    wheel on the rail, Eqs. 18 and 20-21 with the aux point on its wheel; without ``N^T u_B`` off
+    the bridge), ``E^T u_B`` (the supports, Eqs. 22-24) and ``Z^T u_V``. Every block row touches one car, one
+    span or one element, so the entries, and the sparse LU's fill along the track, grow linearly
+    with cars and spans.
+    """
+    b, tr = model.bridge, model.train
+    T = Triplets()
+    _repeated(T, lay.oB, lay.nd, lay.oB, lay.nd, span_block, lay.spans)
+    # supports: -E R in the span rows, E^T u_B in the support rows
+    sup = lay.oB + lay.nd * np.arange(lay.spans)[:, None] + b.support_dofs[None, :]
+    rct = lay.oS + np.arange(lay.spans * lay.ns).reshape(lay.spans, lay.ns)
+    T.add(sup, rct, np.full(sup.shape, -1.0))
+    T.add(rct, sup, np.full(sup.shape, 1.0))
+    if vehicle_block is not None:
+        nV, nw = lay.nV, tr.wheels
+        _repeated(T, 0, nV, 0, nV, vehicle_block, lay.cars)
+        _repeated(T, 0, nV, lay.oZ, lay.nz, Z, lay.cars)
+        _repeated(T, lay.oZ, lay.nz, 0, nV, Z.T, lay.cars)
+        _repeated(T, 0, nV, lay.oP, nw, -tr.W, lay.cars)  # -W P
+        _repeated(T, lay.oP, nw, 0, nV, tr.W.T, lay.cars)  # W^T u_V
+        c = model.contacts(0.0)
+        (N0,) = ShapeKernel(b.element_length)(c.loc.xi)
+        on = np.flatnonzero(c.on)
+        dofs = lay.oB + lay.nd * c.loc.span[on, None] + c.element_dofs()[on]
+        cols = np.broadcast_to(lay.oP + on[:, None], dofs.shape)
+        T.add(dofs, cols, N0[on])  # + N P on the bridge
+        T.add(cols, dofs, -N0[on])  # ... - N^T u_B
+    rows, cols_, vals = T.arrays()
+    return sps.csc_matrix((vals, (rows, cols_)), shape=(lay.n, lay.n))
+
+
+def static_system(model: Model) -> LinearSystem:
+    """Static equilibrium of the whole system at t = 0: vehicles on the deflected bridge.
+
+    Unknowns: car displacements from static equilibrium on level track, span displacements, contact
+    forces, support reactions and the multipliers holding each car's free modes.
+    """
     b, tr = model.bridge, model.train
     c = model.contacts(0.0)
-    nV, nd, ns = tr.ndof, b.ndof, b.nsupport
-    NV, NB = tr.cars * nV, b.spans * nd
-    nc, NS = tr.contacts, b.spans * ns
+    q, _, _ = model.supports(0.0)
     Z = free_modes(tr)
-    nz = Z.shape[1]
-    n = NV + NB + nc + NS + tr.cars * nz
-    A = np.zeros((n, n))
-    rhs = np.zeros(n)
-    for k in range(tr.cars):
-        sl = slice(k * nV, (k + 1) * nV)
-        A[sl, sl] = tr.vehicle.K
-        rhs[sl] = tr.F_full  # unknowns: displacements from static equilibrium on level track
-        zs = slice(NV + NB + nc + NS + k * nz, NV + NB + nc + NS + (k + 1) * nz)
-        A[sl, zs] = Z
-        A[zs, sl] = Z.T
-    for s in range(b.spans):
-        sl = slice(NV + s * nd, NV + (s + 1) * nd)
-        A[sl, sl] = b.K
-        rows = NV + s * nd + b.support_dofs
-        cols = NV + NB + nc + s * ns + np.arange(ns)
-        A[rows, cols] = -1.0  # -E R
-        A[cols, rows] = 1.0  # E^T u = q
-        rhs[cols] = q[s]
-    for i in range(nc):
-        car, w = divmod(i, tr.wheels)
-        col = NV + NB + i
-        A[car * nV : (car + 1) * nV, col] = -tr.W[:, w]  # -W P
-        A[col, car * nV : (car + 1) * nV] = tr.W[:, w]  # W^T u ...
-        rhs[col] = c.r[i]
-        if c.on[i]:
-            dofs = NV + c.loc.span[i] * nd + idx[i]
-            A[dofs, col] += N0[i]  # + N P on the bridge
-            A[col, dofs] -= N0[i]  # ... - N^T u_B = r
-        else:
-            rhs[col] += c.q[i]
-    sol = _solve(A, rhs)
-    uV = sol[:NV].reshape(tr.cars, nV)
-    uB = sol[NV : NV + NB].reshape(b.spans, nd)
-    P = sol[NV + NB : NV + NB + nc]
-    return uV, uB, P
+    lay = _layout(model, tr.ndof, tr.contacts, Z.shape[1])
+    rhs = np.zeros(lay.n)
+    rhs[: lay.oB] = np.tile(tr.F_full, tr.cars)
+    rhs[lay.oP : lay.oS] = c.r + np.where(c.on, 0.0, c.q)
+    rhs[lay.oS : lay.oZ] = q.reshape(-1)
+    return LinearSystem(_assemble(model, lay, tr.vehicle.K, b.K, Z), rhs, lay)
+
+
+def static_on_bridge(model: Model) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """``uV, uB, P`` of the static equilibrium of the whole system (:func:`static_system`)."""
+    system = static_system(model)
+    lay, sol = system.layout, system.solve()
+    uV = sol[: lay.oB].reshape(lay.cars, lay.nV)
+    uB = sol[lay.oB : lay.oP].reshape(lay.spans, lay.nd)
+    return uV, uB, sol[lay.oP : lay.oS]
+
+
+def acceleration_system(
+    model: Model, uV: np.ndarray, vV: np.ndarray, uB: np.ndarray, vB: np.ndarray, P: np.ndarray
+) -> LinearSystem:
+    """The equations of motion at t = 0 with ``g'' = 0`` on every constraint, full wheel masses.
+
+    Unknowns: car and span accelerations, contact forces (none for moving loads, whose ``P`` loads
+    the bridge) and support reactions. The contact rows carry the convective terms of the moving
+    contact, ``2 v N' u_B' + v^2 N'' u_B`` and ``v^2 r''``.
+    """
+    b, tr = model.bridge, model.train
+    v = model.speed
+    c = model.contacts(0.0)
+    _, q1, q2 = model.supports(0.0)
+    N0, N1, N2 = ShapeKernel(b.element_length, (0, 1, 2))(c.loc.xi)
+    idx = c.element_dofs()
+    span = c.loc.span
+    nV = 0 if tr.moving_load else tr.ndof
+    lay = _layout(model, nV, 0 if tr.moving_load else tr.contacts, 0)
+    rhs = np.zeros(lay.n)
+    fB = -(vB - q1 @ b.T.T) @ b.C - uB @ b.K
+    if tr.moving_load:
+        on = np.flatnonzero(c.on)
+        np.add.at(fB, (span[on, None], idx[on]), -N0[on] * P[on, None])
+        A = _assemble(model, lay, None, b.M, np.zeros((0, 0)))
+    else:
+        rhs[: lay.oB] = (tr.F_full[None, :] - vV @ tr.vehicle.C.T - uV @ tr.vehicle.K.T).reshape(-1)
+        conv = 2 * v * np.einsum("ij,ij->i", N1, vB[span[:, None], idx]) + v * v * np.einsum(
+            "ij,ij->i", N2, uB[span[:, None], idx]
+        )
+        rhs[lay.oP : lay.oS] = v * v * c.r2 + np.where(c.on, conv, c.q2)
+        A = _assemble(model, lay, tr.vehicle.M, b.M, np.zeros((nV, 0)))
+    rhs[lay.oB : lay.oP] = fB.reshape(-1)
+    rhs[lay.oS : lay.oZ] = q2.reshape(-1)
+    return LinearSystem(A, rhs, lay)
 
 
 def consistent_accelerations(
     model: Model, uV: np.ndarray, vV: np.ndarray, uB: np.ndarray, vB: np.ndarray, P: np.ndarray
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """Accelerations and contact forces at t = 0 from the equations of motion and ``g'' = 0``.
-
-    Full wheel masses (an aux point moves with its wheel); ``uV`` from static equilibrium.
-    Returns ``aV, aB, P``.
-    """
-    b, tr = model.bridge, model.train
-    v = model.speed
-    c = model.contacts(0.0)
-    q, q1, q2 = model.supports(0.0)
-    N0, N1, N2 = ShapeKernel(b.element_length, (0, 1, 2))(c.loc.xi)
-    idx = c.element_dofs()
-    nd, ns = b.ndof, b.nsupport
-    NB, NS = b.spans * nd, b.spans * ns
-    nV = 0 if tr.moving_load else tr.ndof
-    NV = tr.cars * nV
-    nc = 0 if tr.moving_load else tr.contacts
-    n = NV + NB + nc + NS
-    A = np.zeros((n, n))
-    rhs = np.zeros(n)
-    fB = -(vB - q1 @ b.T.T) @ b.C - uB @ b.K
-    for k in range(tr.cars if nV else 0):
-        sl = slice(k * nV, (k + 1) * nV)
-        A[sl, sl] = tr.vehicle.M
-        rhs[sl] = tr.F_full - tr.vehicle.C @ vV[k] - tr.vehicle.K @ uV[k]
-    for s in range(b.spans):
-        sl = slice(NV + s * nd, NV + (s + 1) * nd)
-        A[sl, sl] = b.M
-        rhs[sl] = fB[s]
-        rows = NV + s * nd + b.support_dofs
-        cols = NV + NB + nc + s * ns + np.arange(ns)
-        A[rows, cols] = -1.0
-        A[cols, rows] = 1.0
-        rhs[cols] = q2[s]
-    if tr.moving_load:
-        for i in np.flatnonzero(c.on):
-            rhs[NV + c.loc.span[i] * nd + idx[i]] -= N0[i] * P[i]
-    else:
-        for i in range(nc):
-            car, w = divmod(i, tr.wheels)
-            col = NV + NB + i
-            A[car * nV : (car + 1) * nV, col] = -tr.W[:, w]
-            A[col, car * nV : (car + 1) * nV] = tr.W[:, w]
-            rhs[col] = v * v * c.r2[i]
-            if c.on[i]:
-                dofs = NV + c.loc.span[i] * nd + idx[i]
-                s = c.loc.span[i]
-                A[dofs, col] += N0[i]
-                A[col, dofs] -= N0[i]
-                rhs[col] += 2 * v * N1[i] @ vB[s, idx[i]] + v * v * N2[i] @ uB[s, idx[i]]
-            else:
-                rhs[col] += c.q2[i]
-    sol = _solve(A, rhs)
-    aV = sol[:NV].reshape(tr.cars, nV)
-    aB = sol[NV : NV + NB].reshape(b.spans, nd)
+    """Accelerations and contact forces at t = 0 from the equations of motion and ``g'' = 0``
+    (:func:`acceleration_system`). ``uV`` from static equilibrium. Returns ``aV, aB, P``."""
+    tr = model.train
+    system = acceleration_system(model, uV, vV, uB, vB, P)
+    lay, sol = system.layout, system.solve()
+    aV = sol[: lay.oB].reshape(lay.cars, lay.nV)
+    aB = sol[lay.oB : lay.oP].reshape(lay.spans, lay.nd)
     if not tr.moving_load:
-        P = sol[NV + NB : NV + NB + nc].copy()
+        P = sol[lay.oP : lay.oS].copy()
     return aV, aB, P
