@@ -16,6 +16,7 @@ import subprocess
 import sys
 from pathlib import Path
 
+import pytest
 import xarray as xr
 from typer.testing import CliRunner
 
@@ -59,6 +60,7 @@ time_step = 1.0e-3
 duration = 0.05
 """
 
+METHODS = ("localized-dynamic", "coupled-dynamic", "coupled-classic")
 HEAVY = ("matplotlib", "scipy.signal", "dask", "xarray")
 
 
@@ -110,3 +112,14 @@ def test_cli_and_run_path_defer_heavy_imports():
     # installed (the optional [sweep] extra), so only matplotlib is checked over a whole run
     whole = _fresh(f"import svbi\nsvbi.simulate({SCENARIO!r})\n")
     assert not whole["matplotlib"], whole
+
+
+def test_demo_summary_compares_methods_by_loop_time():
+    from svbi.runtime.plots import summary_text
+
+    runs = [svbi.simulate({**SCENARIO, "solver": {**SCENARIO["solver"], "method": m}}) for m in METHODS]
+    lines = {line.split("  ")[0].strip(): line.split()[-3:] for line in summary_text(runs).splitlines()}
+    row = "loop time / localized-dynamic"
+    assert row in lines and "set-up time (s)" in lines and "wall time (s)" in lines
+    loops = [r.attrs["loop_time_s"] for r in runs]
+    assert [float(x) for x in lines[row]] == pytest.approx([x / loops[0] for x in loops], rel=1e-5)
