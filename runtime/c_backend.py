@@ -292,7 +292,7 @@ class ExcitationInput:
                 under[j, :3] = np.stack(m.ground.under(float(tj), x, tr.speed))
                 if creep:
                     under[j, 3] = m.ground.under_longitudinal(float(tj), x, tr.speed)[1]
-                sup[j] = np.stack([a.reshape(-1) for a in m.ground.supports(float(tj), b)])
+                sup[j] = np.stack([a.reshape(-1) for a in m.supports(float(tj))])  # Newmark targets
                 qz, qx = m.ground.recorded(float(tj), b)
                 if per_support:
                     rec[j, 0], rec[j, 1] = qz, qx

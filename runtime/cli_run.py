@@ -6,6 +6,7 @@ results are still written, marked ``complete = 0``).
 
 from __future__ import annotations
 
+import time
 import warnings
 from pathlib import Path
 from typing import Annotated
@@ -30,6 +31,7 @@ def run(
     quiet: Annotated[bool, typer.Option("--quiet", "-q", help="No progress bar.")] = False,
 ) -> None:
     """Run a scenario and write its results atomically to a NetCDF file."""
+    started = time.perf_counter()  # set-up counts from here: the scenario load is part of it
     from svbi.runtime.results import write_netcdf
     from svbi.runtime.scenario import ScenarioError, ScenarioWarning, load_scenario
     from svbi.runtime.simulate import SimulationIncomplete, simulate
@@ -48,7 +50,7 @@ def run(
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always")
         try:
-            ds = simulate(sc, progress=not quiet)
+            ds = simulate(sc, progress=not quiet, clock_start=started)
         except (ValueError, NotImplementedError, FileNotFoundError) as exc:
             typer.echo(f"error: {exc}", err=True)
             raise typer.Exit(EXIT_INVALID) from None
@@ -65,8 +67,17 @@ def run(
     if not quiet:
         typer.echo(
             f"wrote {path}: {attrs['steps']} steps of {attrs['time_step']:g} s, {attrs['method']} "
-            f"({attrs['backend']}), {attrs['wall_time_s']:.1f} s"
+            f"({attrs['backend']})"
         )
+        typer.echo(timing_line(attrs))
+
+
+def timing_line(attrs: dict) -> str:
+    """One short line: set-up, loop and total seconds of a run (results attributes)."""
+    return (
+        f"time: set-up {attrs['setup_time_s']:.2f} s, loop {attrs['loop_time_s']:.2f} s, "
+        f"total {attrs['wall_time_s']:.2f} s"
+    )
 
 
 def register(app: typer.Typer) -> None:

@@ -251,6 +251,7 @@ class Model:
         self.creep_parameters = creep
         """Wheel-rail creep (``[contact]``); None: no creep forces."""
         self._creep: Any = None
+        self._targets: dict[str, Any] = {}
 
     @property
     def creep(self) -> Any:
@@ -278,7 +279,51 @@ class Model:
         return Contacts(t, loc, r, r1, r2, q, q1, q2)
 
     def supports(self, t: float) -> Triple:
-        return self.ground.supports(t, self.bridge)
+        """Newmark-consistent targets ``Q, Q', Q''`` of every support constraint at ``t``, shape
+        ``(spans, nsupport)``: :func:`newmark_targets` of the ground motion (see its doc)."""
+        ground = self.ground
+        if isinstance(ground, GroundAtRest):
+            return ground.supports(t, self.bridge)
+        dt = self.dt
+        cache = self._targets
+        if cache.get("ground") is not ground or cache.get("dt") != dt:
+            cache.clear()
+            cache.update(ground=ground, dt=dt, hat={})
+        n = round(t / dt)
+        if abs(t - n * dt) > 1e-9 * dt:  # off the step grid: nothing to share with other calls
+            return newmark_targets(*(self._support_hat(t + k * dt) for k in (-1, 0, 1)), dt)
+        hat: dict[int, np.ndarray] = cache["hat"]
+        for k in (n - 1, n, n + 1):
+            if k not in hat:
+                hat[k] = self._support_hat(k * dt)
+        for k in [k for k in hat if abs(k - n) > 1]:  # the loop asks at t_1, t_2, ... in order
+            del hat[k]
+        return newmark_targets(hat[n - 1], hat[n], hat[n + 1], dt)
+
+    def _support_hat(self, t: float) -> np.ndarray:
+        """``q - dt^2/4 q''`` of the ground at every support constraint at ``t``."""
+        q, _, q2 = self.ground.supports(t, self.bridge)
+        return support_hat(q, q2, self.dt)
+
+
+def support_hat(q: np.ndarray, q2: np.ndarray, dt: float) -> np.ndarray:
+    """``h = q - dt^2/4 q''``: the sequence whose three-point combination is the support target
+    (:func:`newmark_targets`). The C loop evaluates the same expression (``support_target``)."""
+    return q - (0.25 * dt * dt) * q2
+
+
+def newmark_targets(h0: np.ndarray, h1: np.ndarray, h2: np.ndarray, dt: float) -> Triple:
+    """Newmark-consistent support targets at t_n from ``h = q - dt^2/4 q''`` at t_{n-1}, t_n, t_{n+1}.
+
+    ``Q = (h0 + 2 h1 + h2) / 4``, ``Q' = (h2 - h0) / (2 dt)``, ``Q'' = (h2 - 2 h1 + h0) / dt^2``.
+    Whatever the sequence h, these satisfy Newmark's two relations (gamma = 1/2, beta = 1/4) between
+    consecutive steps exactly, so the stabilised gap equation of the supports (Eq. 22) has no
+    forcing left and a support that starts on its target follows it to round-off. With
+    ``h = q - dt^2/4 q''`` the targets differ from the ground's q, q', q'' only by Newmark's own
+    truncation: O(dt^4 q'''') where q is smooth, O(dt^3) times the jump of q''' next to a record
+    sample (docs/method.md, "Support targets").
+    """
+    return 0.25 * (h0 + 2.0 * h1 + h2), (h2 - h0) / (2.0 * dt), (h2 - 2.0 * h1 + h0) / (dt * dt)
 
 
 def crossing_duration(bridge: Bridge, train: Train) -> float:

@@ -11,15 +11,16 @@ peaks scale as 1/dt (DESIGN.md section 5), and subsampling them first would alia
 from __future__ import annotations
 
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
-import scipy.signal as sig
-import xarray as xr
 from svbi.runtime.atomic import write_atomic
 from svbi.runtime.bridge import SUPPORT_COMPONENTS
 from svbi.runtime.model import Contacts, Model, State
 from svbi.runtime.numeric import AxialShapeKernel, ShapeKernel
+
+if TYPE_CHECKING:
+    import xarray as xr
 
 FILTER_ORDER = 4
 
@@ -188,6 +189,8 @@ class Recorder:
             "support_span": ("support", np.repeat(np.arange(1, b.spans + 1), b.nsupport)),
             "support_component": ("support", np.array(list(SUPPORT_COMPONENTS) * b.spans, dtype=object)),
         }
+        import xarray as xr  # with pandas, 0.4 s of imports: needed only once the run is done
+
         return xr.Dataset(data_vars=data_vars, coords=coords, attrs=attrs)
 
     def _filtered(self, k: int) -> np.ndarray:
@@ -201,6 +204,8 @@ class Recorder:
         if n < 2 or fc >= 0.5 * fs:
             out = raw
         else:
+            import scipy.signal as sig  # 1 s of imports (scipy.stats): only once the run is done
+
             sos = sig.butter(FILTER_ORDER, fc, btype="low", fs=fs, output="sos")
             padlen = min(3 * (2 * len(sos) + 1), n - 1)
             out = sig.sosfiltfilt(sos, raw, axis=0, padlen=padlen)

@@ -37,6 +37,22 @@ static void ground_at(const setup_t* S, const excitation_t* E, int which, double
   }
 }
 
+/* Newmark-consistent target q, q', q'' of one support at x (svbi.runtime.model.newmark_targets,
+ * docs/method.md "Support targets"): h = q - dt^2/4 q'' at t - dt, t, t + dt, combined so that the
+ * targets of consecutive steps satisfy Newmark's relations exactly. */
+static void support_target(const setup_t* S, const excitation_t* E, int which, double t, double x,
+                           double* out) {
+  double g[3], h[3], dt = S->dt;
+  int k;
+  for (k = 0; k < 3; ++k) {
+    ground_at(S, E, which, t + (double)(k - 1) * dt, x, g);
+    h[k] = g[0] - (0.25 * dt * dt) * g[2];
+  }
+  out[0] = 0.25 * (h[0] + 2.0 * h[1] + h[2]);
+  out[1] = (h[2] - h[0]) / (2.0 * dt);
+  out[2] = (h[2] - 2.0 * h[1] + h[0]) / (dt * dt);
+}
+
 /* Positions, rail irregularity and ground motion at t = (n + 1) dt. */
 void svbi_excite(const setup_t* S, const excitation_t* E, work_t* w, long n, double t) {
   int i, j, s;
@@ -89,9 +105,11 @@ void svbi_excite(const setup_t* S, const excitation_t* E, work_t* w, long n, dou
   }
   if (E->gv_mode <= 1 && E->gh_mode <= 1) {
     /* synchronous: one value for every position */
-    double qv[3], qh[3];
+    double qv[3], qh[3], tv[3], th[3];
     ground_at(S, E, 0, t, 0.0, qv);
     ground_at(S, E, 1, t, 0.0, qh);
+    support_target(S, E, 0, t, 0.0, tv);
+    support_target(S, E, 1, t, 0.0, th);
     for (i = 0; i < nc; ++i) {
       w->under[i] = qv[0];
       w->under[nc + i] = qv[1];
@@ -100,7 +118,7 @@ void svbi_excite(const setup_t* S, const excitation_t* E, work_t* w, long n, dou
     }
     for (s = 0; s < S->spans; ++s) {
       for (j = 0; j < ns; ++j) {
-        const double* q = S->sup_vertical[j] ? qv : qh;
+        const double* q = S->sup_vertical[j] ? tv : th;
         int k = s * ns + j;
         w->qs[k] = q[0];
         w->qs[NS + k] = q[1];
@@ -129,11 +147,11 @@ void svbi_excite(const setup_t* S, const excitation_t* E, work_t* w, long n, dou
       for (j = 0; j < ns; ++j) {
         int k = s * ns + j;
         double x = (double)s * S->span_length + S->sup_x[j];
-        double qv[3], qh[3];
+        double qv[3], qh[3], q[3];
         ground_at(S, E, 0, t, x, qv);
         ground_at(S, E, 1, t, x, qh);
+        support_target(S, E, S->sup_vertical[j] ? 0 : 1, t, x, q);
         {
-          const double* q = S->sup_vertical[j] ? qv : qh;
           w->qs[k] = q[0];
           w->qs[NS + k] = q[1];
           w->qs[2 * NS + k] = q[2];

@@ -1,0 +1,125 @@
+"""Honest timings (DESIGN.md section 4) and deferred heavy imports.
+
+* results carry ``setup_time_s`` (everything before the first step), ``loop_time_s`` (the time loop)
+  and ``wall_time_s`` (all of it): positive, and set-up plus loop within the wall time;
+* ``svbi run`` prints the three on one line, the same numbers as in the file;
+* the command line and the run path up to the first step import neither matplotlib, scipy.signal,
+  dask nor xarray (checked in a fresh interpreter: ``sys.modules``); a whole run never imports
+  matplotlib (xarray loads dask.array when it builds the results, if dask is installed).
+"""
+
+from __future__ import annotations
+
+import json
+import re
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+import xarray as xr
+from typer.testing import CliRunner
+
+import svbi
+
+SCENARIO = {
+    "bridge": dict(
+        spans=1,
+        span_length=20.0,
+        mass_per_length=1.0e4,
+        youngs_modulus=3.0e10,
+        area=5.0,
+        second_moment=2.0,
+        damping_ratio=0.02,
+        elements_per_span=4,
+    ),
+    "train": dict(vehicle="moving-load", speed=20.0, start_position=-1.0),
+    "earthquake": dict(vertical="synthetic", arrival=0.0),
+    "solver": dict(backend="numpy", time_step=1e-3, duration=0.05),
+}
+
+TOML = """
+[bridge]
+spans = 1
+span_length = 20.0
+mass_per_length = 1.0e4
+youngs_modulus = 3.0e10
+area = 5.0
+second_moment = 2.0
+damping_ratio = 0.02
+elements_per_span = 4
+
+[train]
+vehicle = "moving-load"
+speed = 20.0
+start_position = -1.0
+
+[solver]
+backend = "numpy"
+time_step = 1.0e-3
+duration = 0.05
+"""
+
+METHODS = ("localized-dynamic", "coupled-dynamic", "coupled-classic")
+HEAVY = ("matplotlib", "scipy.signal", "dask", "xarray")
+
+
+def test_results_carry_setup_loop_and_wall_time():
+    ds = svbi.simulate(SCENARIO)
+    setup, loop, wall = (float(ds.attrs[k]) for k in ("setup_time_s", "loop_time_s", "wall_time_s"))
+    assert setup > 0 and loop > 0 and wall > 0
+    assert setup + loop <= wall
+
+
+def test_svbi_run_prints_the_timings(tmp_path: Path):
+    from svbi.runtime.cli import _register, app
+
+    _register()
+    scenario = tmp_path / "s.toml"
+    scenario.write_text(TOML)
+    out = tmp_path / "r.nc"
+    result = CliRunner().invoke(app, ["run", str(scenario), "-o", str(out)])
+    assert result.exit_code == 0, result.output
+    line = re.search(r"set-up ([0-9.]+) s, loop ([0-9.]+) s, total ([0-9.]+) s", result.output)
+    assert line is not None, result.output
+    with xr.open_dataset(out, engine="h5netcdf") as ds:
+        for value, key in zip(line.groups(), ("setup_time_s", "loop_time_s", "wall_time_s"), strict=True):
+            assert abs(float(value) - ds.attrs[key]) <= 0.005 + 1e-9
+        assert ds.attrs["setup_time_s"] + ds.attrs["loop_time_s"] <= ds.attrs["wall_time_s"]
+
+
+def _fresh(code: str) -> dict[str, bool]:
+    """Run ``code`` in a fresh interpreter; which HEAVY modules it left in ``sys.modules``."""
+    probe = f"import json, sys\n{code}\nprint(json.dumps({{m: m in sys.modules for m in {HEAVY!r}}}))"
+    done = subprocess.run([sys.executable, "-c", probe], capture_output=True, text=True, check=True)
+    return json.loads(done.stdout.strip().splitlines()[-1])
+
+
+def test_cli_and_run_path_defer_heavy_imports():
+    before_loop = _fresh(
+        "import svbi.runtime.cli as cli\n"
+        "cli._register()\n"
+        "from svbi.runtime import cli_run, results\n"
+        "from svbi.runtime.initial import initial_state\n"
+        "from svbi.runtime.simulate import build_model, stepper_class, validate_scenario\n"
+        f"model = build_model(validate_scenario({SCENARIO!r}))\n"
+        "_, cls = stepper_class('numpy', model.settings.method)\n"
+        "cls(model, initial_state(model))\n"
+        "results.Recorder(model)\n"
+    )
+    assert not any(before_loop.values()), before_loop
+    # xarray imports dask.array itself when it builds a Dataset (duck-array detection) if dask is
+    # installed (the optional [sweep] extra), so only matplotlib is checked over a whole run
+    whole = _fresh(f"import svbi\nsvbi.simulate({SCENARIO!r})\n")
+    assert not whole["matplotlib"], whole
+
+
+def test_demo_summary_compares_methods_by_loop_time():
+    from svbi.runtime.plots import summary_text
+
+    runs = [svbi.simulate({**SCENARIO, "solver": {**SCENARIO["solver"], "method": m}}) for m in METHODS]
+    lines = {line.split("  ")[0].strip(): line.split()[-3:] for line in summary_text(runs).splitlines()}
+    row = "loop time / localized-dynamic"
+    assert row in lines and "set-up time (s)" in lines and "wall time (s)" in lines
+    loops = [r.attrs["loop_time_s"] for r in runs]
+    assert [float(x) for x in lines[row]] == pytest.approx([x / loops[0] for x in loops], rel=1e-5)
