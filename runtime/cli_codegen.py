@@ -22,12 +22,37 @@ def _is_file_target(target: str) -> bool:
 
 
 def _render(target: str, embedded: bool = False) -> tuple[str, dict[str, bytes]]:
-    from svbi.codegen import c_emit
-    from svbi.codegen.kernels import model_spec
+    """Every generated file of a model: the C kernels, build files and CasADi Functions
+    (``c_emit``) and the NumPy module (``python_emit``) that the runtime calls. A moving-load vehicle
+    has only the NumPy module (its data)."""
+    from svbi.codegen import c_emit, python_emit
+    from svbi.codegen.kernels import FRAME2D, frame2d_model_spec, skip_reason, vehicle_model_spec
 
-    spec = model_spec(target)
+    if skip_reason(target) is not None:
+        name, source = python_emit.render_target(target)
+        return name, {python_emit.FILENAME: source}
     options = c_emit.EmitOptions.embedded() if embedded else c_emit.EmitOptions()
-    return spec.name, c_emit.render_model(spec, options)
+    if target == FRAME2D:
+        spec = frame2d_model_spec()
+        _, source = python_emit.render_target(target)
+    else:
+        from svbi.codegen.vehicle import derive_vehicle
+
+        vehicle = derive_vehicle(target)
+        spec = vehicle_model_spec(vehicle)
+        source = python_emit.render_vehicle(vehicle, spec)
+    files = c_emit.render_model(spec, options)
+    files[python_emit.FILENAME] = source
+    return spec.name, files
+
+
+def _targets() -> list[str]:
+    """Every built-in model with generated files: the vehicles (moving loads: the NumPy module
+    only) and ``frame2d``."""
+    from svbi.codegen.kernels import FRAME2D
+    from svbi.codegen.topology import builtin_topologies
+
+    return [*builtin_topologies(), FRAME2D]
 
 
 def _tree(folder: Path) -> dict[str, bytes]:
@@ -36,7 +61,7 @@ def _tree(folder: Path) -> dict[str, bytes]:
     if folder.is_dir():
         for path in sorted(folder.rglob("*")):
             rel = path.relative_to(folder)
-            if not path.is_file() or rel.parts[0] in ("__init__.py", "__pycache__"):
+            if not path.is_file() or rel.parts[0] == "__init__.py" or "__pycache__" in rel.parts:
                 continue
             files[rel.as_posix()] = path.read_bytes()
     return files
@@ -62,10 +87,9 @@ def check_tree(committed: Path) -> list[str]:
     Returns the unified diff lines (empty when the trees match).
     """
     from svbi.codegen import c_emit
-    from svbi.codegen.kernels import builtin_models
 
     with tempfile.TemporaryDirectory(prefix="svbi-check-") as tmp:
-        for model in builtin_models():
+        for model in _targets():
             name, files = _render(model)
             c_emit.write_files(files, Path(tmp) / name)
         fresh = _tree(Path(tmp))
@@ -92,9 +116,10 @@ def generate(
         False, "--check", help="Regenerate every built-in model into a temporary folder and diff."
     ),
 ) -> None:
-    """Generate CasADi Functions (.casadi), C kernels, headers and build files for models."""
+    """Generate CasADi Functions (.casadi), C kernels, headers, build files and the NumPy module
+    (numpy_kernels.py) for models."""
     from svbi.codegen import c_emit
-    from svbi.codegen.kernels import builtin_models, skip_reason
+    from svbi.codegen.kernels import skip_reason
 
     if check:
         committed = out or _generated_root()
@@ -115,23 +140,25 @@ def generate(
 
     targets = list(models or [])
     if all_:
-        targets = builtin_models() + [t for t in targets if t not in builtin_models()]
+        targets = _targets() + [t for t in targets if t not in _targets()]
     if not targets:
         typer.echo("Name one or more models (or topology files), or pass --all.", err=True)
         raise typer.Exit(2)
     for target in targets:
         reason = skip_reason(target)
         if reason:
-            typer.echo(f"skipped {reason}")
-            continue
+            typer.echo(f"no C kernels: {reason}; only the NumPy module (its data)")
         base = out or (Path.cwd() / "svbi-generated" if _is_file_target(target) else _generated_root())
         name, files = _render(target)
         folder = c_emit.write_files(files, base / name)
         typer.echo(f"generated {name}: {len(files)} files in {folder}")
     if all_ and out is None:
         # Remove folders of models that are no longer built in, so --check stays clean.
+        from svbi.codegen.python_emit import FILENAME
+
         for folder in _generated_root().iterdir():
-            if (folder / "manifest.json").is_file() and folder.name not in builtin_models():
+            generated = (folder / "manifest.json").is_file() or (folder / FILENAME).is_file()
+            if generated and folder.name not in _targets():
                 import shutil
 
                 shutil.rmtree(folder)
