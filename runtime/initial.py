@@ -20,7 +20,7 @@ from __future__ import annotations
 
 import numpy as np
 import scipy.linalg as sla
-from svbi.codegen.vehicle import GRAVITY
+from svbi.codegen.plain_types import GRAVITY
 from svbi.runtime.model import Model, State
 from svbi.runtime.numeric import ShapeKernel
 from svbi.runtime.train import Train

@@ -23,7 +23,7 @@ from __future__ import annotations
 
 import numpy as np
 import scipy.linalg as sla
-from svbi.codegen.vehicle import GRAVITY
+from svbi.codegen.plain_types import GRAVITY
 from svbi.runtime.model import Contacts, Model, State
 from svbi.runtime.newmark import Newmark
 from svbi.runtime.numeric import ContactRowKernel, ContactRows, point_row
