@@ -176,6 +176,19 @@ class PointRow:
     ) -> np.ndarray:
         return self.c_P * P + self.c_Q * Q + self.c_q2 * q2 + self.c_q1 * q1 + self.c_q * q
 
+    def off_bridge_target(self, P: np.ndarray, Q: np.ndarray, contacts: Any, speed: float) -> np.ndarray:
+        """Target of a contact off the bridge: the rail on the rigid ground, ``Z = q + r`` with its
+        time derivatives following the contact (``r' = v r_x``, ``r'' = v^2 r_xx``)."""
+        c, v = contacts, speed
+        return self.target(P, Q, c.q + c.r, c.q1 + v * c.r1, c.q2 + v * v * c.r2)
+
+    def wheel_target(
+        self, P_wheel: np.ndarray, Q_wheel: np.ndarray, P_aux: np.ndarray, Q_aux: np.ndarray
+    ) -> np.ndarray:
+        """``h_V`` of the wheel-aux rows: the target of the gap ``W^T u^V - u^g`` at t_{n+1} from the
+        Newmark histories of the wheel (``W^T P^V``, ``W^T Q^V``) and of its aux point."""
+        return self.c_P * (P_wheel - P_aux) + self.c_Q * (Q_wheel - Q_aux)
+
 
 def point_row(dt: float, kappa: float, zeta: float) -> PointRow:
     """The generated ``point_row_coefficients`` (``constraints.discrete_point_row()``, method-notes

@@ -198,10 +198,10 @@ def test_numpy_run_imports_no_sympy_casadi_or_jinja2(vehicle: str, method: str) 
 
 @pytest.mark.xfail(
     strict=True,
-    reason="C backend: runtime/c_loop.py imports jinja2 and sympy at module level (render_sources renders "
-    "templates/solver/solver.c.j2 per run) and creep_split_sources runs the CasADi emitter "
-    "(svbi.codegen.c_emit imports casadi and jinja2); being replaced by committed C sources in another "
-    "branch (issue 11 item 2)",
+    reason="C backend: runtime/c_loop.py imports sympy and jinja2 at module level (it renders "
+    "templates/solver/solver.c.j2 per run) and imports svbi.codegen.c_emit, which imports casadi "
+    "(creep_split_sources runs the CasADi emitter per run); another branch replaces these with "
+    "committed C sources (issue 11 item 2)",
 )
 def test_c_run_imports_no_sympy_casadi_or_jinja2() -> None:
     if shutil.which(os.environ.get("CC", "cc")) is None:
