@@ -787,9 +787,15 @@ def _k_kalker_f33() -> KernelSpec:
 
     return KernelSpec(
         "kalker_f33",
-        "Kalker's longitudinal creep coefficient f33 = G a b C11 under the normal load N (Section 2.4).",
+        "Kalker's longitudinal creep coefficient f33 = G a b C11 under the normal load N (Section 2.4); "
+        "0 out of contact (N <= 0).",
         [("N", column([creep.normal_load])), ("creep", column(creep.PARAMETERS))],
-        [("f33", sp.Matrix([[creep.kalker_f33()]]))],
+        [
+            (
+                "f33",
+                sp.Matrix([[sp.Piecewise((sp.S.Zero, creep.normal_load <= 0), (creep.kalker_f33(), True))]]),
+            )
+        ],
         {k: v for k, v in CREEP_SAMPLE.items() if k != "xi_x"},
     )
 
