@@ -164,3 +164,33 @@ def saturation_coefficient() -> sp.Expr:
     f33 = kalker_f33()
     beta = f33 * sp.Abs(xi) / (friction * normal_load)
     return sp.Piecewise((1 - beta / 3 + beta**2 / 27, beta < 3), (1 / beta, True))
+
+
+@cache
+def split_creep_force() -> tuple[tuple[sp.Expr, ...], sp.Expr, tuple[sp.Symbol, ...]]:
+    """The creep law split for the time loop: per-run coefficients and a per-step remainder.
+
+    The law's parameters are fixed for a run, so every subexpression that depends on them only
+    (``E^(1/3)``, ``(1/(2 R_wheel) + 1/(2 R_rail))^(-2/3)``, ...) becomes a coefficient ``c_k``,
+    computed once per wheel; what is left depends on the creepage, the normal load and the
+    ``c_k``. Powers of products are separated first (``(N (1 - nu^2))^(2/3)`` ->
+    ``N^(2/3) (1 - nu^2)^(2/3)``: N > 0 wherever the law is used, and the parameters are
+    positive), so that only the powers of N remain per step. Returns the coefficient expressions,
+    the reduced law and the coefficient symbols.
+    """
+    params = set(PARAMETERS)
+    expanded = sp.expand_power_base(creep_force(), force=True)
+    coefs: dict[sp.Expr, sp.Symbol] = {}
+
+    def split(e: sp.Expr) -> sp.Expr:
+        free = e.free_symbols
+        if free and free <= params and not e.is_Number:  # a parameter itself is a coefficient too
+            if e not in coefs:
+                coefs[e] = sp.Symbol(f"creep_c{len(coefs)}", real=True)
+            return coefs[e]
+        if not e.args or e.is_Symbol:
+            return e
+        return e.func(*[split(a) for a in e.args])
+
+    reduced = split(expanded)
+    return tuple(coefs), reduced, tuple(coefs.values())

@@ -636,6 +636,226 @@ def _k_creep_force() -> KernelSpec:
     )
 
 
+# Per-run tables: coefficients of the polynomials in xi, as functions of the run constants. Within
+# one run the element length, speed, time step and constraint coefficients are fixed, so every
+# contact row is a polynomial in the local coordinate xi of the contact; the runtime evaluates
+# ``[1, xi, xi^2, ...] @ coefficients`` for all contacts at once.
+
+XI_DEGREE = 3
+"""Degree in xi of every contact row (Hermite cubics); the coefficient tables have 4 rows."""
+
+BRIDGE_HISTORY = ("P_ug", "Q_ug", "r", "r_x", "r_xx")
+"""Scalar histories of ``h_B`` (columns of ``c_scalars`` of ``bridge_row_coefficients``)."""
+
+
+def xi_coefficients(exprs: Sequence[sp.Expr], degree: int | None = XI_DEGREE) -> sp.Matrix:
+    """``(degree + 1, len(exprs))`` matrix: entry (k, j) is the coefficient of xi^k in exprs[j]
+    (``degree`` None: the highest degree of the expressions)."""
+    from svbi.codegen import beam
+
+    values = [sp.expand(sp.sympify(e)) for e in exprs]
+    polys = [sp.Poly(v, beam.xi) if v != 0 else None for v in values]
+    if degree is None:
+        degree = max((p.degree() for p in polys if p is not None), default=0)
+    out = sp.zeros(degree + 1, len(exprs))
+    for j, poly in enumerate(polys):
+        if poly is None:
+            continue
+        if poly.degree() > degree:
+            raise KernelError(f"expression {j} has degree {poly.degree()} in xi > {degree}")
+        for (power,), c in poly.terms():
+            out[power, j] = sp.factor_terms(sp.cancel(c))
+    return out
+
+
+@cache
+def discrete_bridge_row_parts() -> tuple[sp.Expr, list[sp.Expr], dict[str, list[sp.Expr]]]:
+    """The discrete aux-bridge row (``constraints.discrete_bridge_row``) split into ``d``, ``W_hat``
+    and the coefficients of ``h_B`` in each history and the irregularity (``P_ue``, ``Q_ue``: six
+    each; ``BRIDGE_HISTORY``: one each).
+
+    ``h_B`` is linear in those; the coefficients are taken by differentiation and the remainder is
+    checked to vanish.
+    """
+    from svbi.codegen import beam, constraints
+
+    row, names = constraints.discrete_bridge_row()
+    rhs = row.rhs
+    scalars = dict(zip(BRIDGE_HISTORY, (names["P_ug"], names["Q_ug"], *constraints_track()), strict=True))
+    coefs: dict[str, list[sp.Expr]] = {}
+    rest = rhs
+    for key, sym in scalars.items():
+        c = sp.diff(rhs, sym)
+        coefs[key] = [c]
+        rest = rest - c * sym
+    for key in ("P_ue", "Q_ue"):
+        vec = names[key]
+        cs = [sp.diff(rhs, vec[i]) for i in range(beam.NDOF)]
+        coefs[key] = cs
+        rest = rest - sum(c * vec[i] for i, c in enumerate(cs))
+    if sp.simplify(sp.expand(rest)) != 0:
+        raise AssertionError("h_B of the discrete bridge row is not linear in its histories")
+    return row.d, list(row.row), coefs
+
+
+def constraints_track() -> tuple[sp.Symbol, sp.Symbol, sp.Symbol]:
+    """Irregularity r and its x-derivatives (symbols of ``constraints``)."""
+    from svbi.codegen import constraints
+
+    return constraints.r, constraints.r1, constraints.r2
+
+
+@beam_kernel
+def _k_shape_coefficients() -> KernelSpec:
+    from svbi.codegen import beam
+
+    return _beam_spec(
+        "shape_coefficients",
+        "Coefficients in ascending powers of xi of the contact rows of one element: W_N^B and its "
+        "x-derivatives N0, N1, N2 (Eq. 10), W_T^B = u - h dw/dx and its x-derivative T0, T1 "
+        "(Eqs. 10, 16), and the axial shape functions; each (4 x 6) over the element DOFs.",
+        [("le", column([beam.le])), ("h", column([beam.h]))],
+        [
+            ("N0", xi_coefficients(list(beam.normal_row(0)))),
+            ("N1", xi_coefficients(list(beam.normal_row(1)))),
+            ("N2", xi_coefficients(list(beam.normal_row(2)))),
+            ("T0", xi_coefficients(list(beam.tangential_row(0)))),
+            ("T1", xi_coefficients(list(beam.tangential_row(1)))),
+            ("axial", xi_coefficients(list(beam.axial_shape()))),
+        ],
+    )
+
+
+@beam_kernel
+def _k_bridge_row_coefficients() -> KernelSpec:
+    from svbi.codegen import beam, constraints
+
+    d, w_hat, coefs = discrete_bridge_row_parts()
+    return _beam_spec(
+        "bridge_row_coefficients",
+        "The discrete aux-bridge row u^g - W_hat u_e = h_B at t_{n+1} (method notes section 2b) as "
+        "coefficients in ascending powers of xi: W_hat, and h_B = c_P_ue.P_ue + c_Q_ue.Q_ue + "
+        "c_scalars.[P_ug, Q_ug, r, r', r''] (each 4 x 6, c_scalars 4 x 5); d is the position "
+        "coefficient of the discrete constraint ODE. newmark = [dt, kappa, zeta].",
+        [("le", column([beam.le])), ("v", column([constraints.v])), _newmark_input()],
+        [
+            ("W_hat", xi_coefficients(w_hat)),
+            ("c_P_ue", xi_coefficients(coefs["P_ue"])),
+            ("c_Q_ue", xi_coefficients(coefs["Q_ue"])),
+            ("c_scalars", xi_coefficients([coefs[k][0] for k in BRIDGE_HISTORY])),
+            ("d", sp.Matrix([[d]])),
+        ],
+    )
+
+
+@beam_kernel
+def _k_point_row_coefficients() -> KernelSpec:
+    from svbi.codegen import constraints
+
+    row, names = constraints.discrete_point_row()
+    syms = (names["P_y"], names["Q_y"], constraints.q2, constraints.q1, constraints.q)
+    return _beam_spec(
+        "point_row_coefficients",
+        "Prescribed-motion row y_{n+1} = c.[P_y, Q_y, q'', q', q] (supports, Eqs. 22-24; wheels off "
+        "the bridge; method notes section 2c) and its position coefficient d. newmark = [dt, kappa, "
+        "zeta].",
+        [_newmark_input()],
+        [("d", sp.Matrix([[row.d]])), ("c", _row_matrix([sp.diff(row.rhs, s) for s in syms]))],
+    )
+
+
+@beam_kernel
+def _k_bridge_constraint_mass_coefficients() -> KernelSpec:
+    from svbi.codegen import beam, constraints
+
+    m_aux = sp.Symbol("m_aux", positive=True)
+    num, den = sp.fraction(sp.together(constraints.mass_bridge_constraint(m_aux)))
+    degree = max(sp.Poly(sp.expand(e), beam.xi).degree() for e in (num, den))
+    return _beam_spec(
+        "bridge_constraint_mass_coefficients",
+        "Constraint mass m_N,ii^B(xi) of Eq. (31) as the ratio of two polynomials in xi: "
+        "coefficients in ascending powers of the numerator and the denominator.",
+        [("le", column([beam.le])), ("mu", column([beam.mu])), ("m_aux", column([m_aux]))],
+        [("num", xi_coefficients([num], degree)), ("den", xi_coefficients([den], degree))],
+        {"m_aux": 950.0},
+    )
+
+
+@beam_kernel
+def _k_kalker_f33() -> KernelSpec:
+    from svbi.codegen import creep
+
+    return KernelSpec(
+        "kalker_f33",
+        "Kalker's longitudinal creep coefficient f33 = G a b C11 under the normal load N (Section 2.4); "
+        "0 out of contact (N <= 0).",
+        [("N", column([creep.normal_load])), ("creep", column(creep.PARAMETERS))],
+        [
+            (
+                "f33",
+                sp.Matrix([[sp.Piecewise((sp.S.Zero, creep.normal_load <= 0), (creep.kalker_f33(), True))]]),
+            )
+        ],
+        {k: v for k, v in CREEP_SAMPLE.items() if k != "xi_x"},
+    )
+
+
+@beam_kernel
+def _k_creep_split_coefficients() -> KernelSpec:
+    from svbi.codegen import creep
+
+    coefs, _, _ = creep.split_creep_force()
+    return KernelSpec(
+        "creep_split_coefficients",
+        "Parameter-only subexpressions c of the creep law (Eqs. 15-16), computed once per run.",
+        [("creep", column(creep.PARAMETERS))],
+        [("c", _row_matrix(list(coefs)))],
+        {k: v for k, v in CREEP_SAMPLE.items() if k not in ("xi_x", "N_c")},
+    )
+
+
+@beam_kernel
+def _k_creep_split_force() -> KernelSpec:
+    from svbi.codegen import creep
+
+    coefs, reduced, symbols = creep.split_creep_force()
+    return KernelSpec(
+        "creep_split_force",
+        "Creep force F_x(creepage, N) (Eq. 15 with saturation) from the coefficients c of "
+        "creep_split_coefficients.",
+        [("creepage", column([creep.xi])), ("N", column([creep.normal_load])), ("c", column(symbols))],
+        [("F_x", sp.Matrix([[reduced]]))],
+        {"xi_x": 5e-3, "N_c": 8.5e4},
+    )
+
+
+def vehicle_role_spec(model: Any) -> KernelSpec:
+    """Masses and inertias of the bodies and the wheel radii (the values that parameter validation
+    checks, ``topology._check_positive_roles``), in :func:`vehicle_roles` order."""
+    return _vehicle_spec(
+        model,
+        "roles",
+        "Body masses and pitch inertias, then wheel radii, at the parameter vector p.",
+        [("values", _row_matrix([e for _, _, _, e in vehicle_roles(model.topology)] or [sp.S.Zero]))],
+    )
+
+
+def vehicle_roles(topology: Any) -> list[tuple[str, str, str, sp.Expr]]:
+    """``(key, check, message, expression)`` of every value checked on a parameter set: body masses
+    and inertias must be positive, wheel radii not negative (same keys and messages as
+    ``topology._check_positive_roles``)."""
+    out = []
+    for i, body in enumerate(topology.bodies):
+        for role, e in (("mass", body.mass), ("inertia", body.inertia)):
+            if e is not None:
+                out.append(
+                    (f"bodies[{i}].{role}", "positive", f"{role} of body {body.name!r} must be positive", e)
+                )
+    for i, wheel in enumerate(topology.wheels):
+        out.append((f"wheels[{i}].radius", "nonnegative", "radius must not be negative", wheel.radius))
+    return out
+
+
 # ---------------------------------------------------------------------------------------------
 # Models
 # ---------------------------------------------------------------------------------------------

@@ -46,7 +46,6 @@ the front end rises, points ahead of the reference (smaller ``p``) go up.
 
 from __future__ import annotations
 
-import math
 import re
 import tomllib
 from collections.abc import Mapping
@@ -56,19 +55,12 @@ from pathlib import Path
 from typing import Any
 
 import sympy as sp
+from svbi.codegen.plain_types import TopologyError, builtin_topologies, check_value
 
 DOF_KINDS = ("z", "theta")
 KINDS = ("rigid-body", "moving-load")
 _NAME = re.compile(r"^[A-Za-z][A-Za-z0-9_]*$")
 _RESERVED = {"g", "t", "xi", "le", "E", "A", "I", "mu", "h", "v", "a"}
-
-
-class TopologyError(ValueError):
-    """A topology file or a parameter override is invalid. The message names file, key and problem."""
-
-    def __init__(self, source: str, key: str, problem: str) -> None:
-        self.source, self.key, self.problem = source, key, problem
-        super().__init__(f"{source}: {key}: {problem}")
 
 
 @dataclass(frozen=True)
@@ -144,7 +136,7 @@ class Topology:
                 known = ", ".join(sorted(self.parameters))
                 raise TopologyError(self.name, f"{where}.{name}", f"unknown parameter (known: {known})")
             param = self.parameters[name]
-            values[name] = _check_value(self.name, f"{where}.{name}", raw, param.signed, param.value)
+            values[name] = check_value(self.name, f"{where}.{name}", raw, param.signed, param.value)
         _check_positive_roles(self, values, where)
         return values
 
@@ -152,12 +144,6 @@ class Topology:
     def symbols(self) -> list[sp.Symbol]:
         """Scalar parameter symbols, sorted by name (the order of kernel parameter vectors)."""
         return [p.symbol for name, p in sorted(self.parameters.items()) if not isinstance(p.value, tuple)]
-
-
-def builtin_topologies() -> list[str]:
-    """Names of the topologies that ship with svbi."""
-    folder = resources.files("svbi.codegen.vehicles")
-    return sorted(p.name[: -len(".toml")] for p in folder.iterdir() if p.name.endswith(".toml"))
 
 
 def load_topology(name_or_path: str | Path) -> Topology:
@@ -340,21 +326,6 @@ def _table_list(source: str, key: str, raw: Any) -> list[dict[str, Any]]:
     return raw
 
 
-def _check_value(source: str, key: str, raw: Any, signed: bool, like: Any) -> float | tuple[float, ...]:
-    if isinstance(like, tuple) or isinstance(raw, list | tuple):
-        if not isinstance(raw, list | tuple) or not raw:
-            raise TopologyError(source, key, "must be a non-empty list of numbers")
-        return tuple(_check_value(source, f"{key}[{i}]", v, signed, 0.0) for i, v in enumerate(raw))
-    if isinstance(raw, bool) or not isinstance(raw, int | float):
-        raise TopologyError(source, key, f"must be a number, got {raw!r}")
-    value = float(raw)
-    if not math.isfinite(value):
-        raise TopologyError(source, key, "must be finite")
-    if value < 0 and not signed:
-        raise TopologyError(source, key, f"must not be negative, got {value:g}")
-    return value
-
-
 def _parse_parameters(source: str, raw: Any) -> dict[str, Parameter]:
     if not isinstance(raw, dict) or not raw:
         raise TopologyError(source, "parameters", "missing or empty")
@@ -367,7 +338,7 @@ def _parse_parameters(source: str, raw: Any) -> dict[str, Parameter]:
         if "value" not in spec:
             raise TopologyError(source, f"{key}.value", "missing")
         signed = bool(spec.get("signed", False))
-        value = _check_value(source, f"{key}.value", spec["value"], signed, None)
+        value = check_value(source, f"{key}.value", spec["value"], signed, None)
         params[name] = Parameter(
             name,
             value,

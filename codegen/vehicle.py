@@ -17,57 +17,19 @@ The auxiliary contact points of Section 2.3 take the share ``a`` of each wheel m
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 from functools import cached_property
 from typing import Any
 
 import numpy as np
 import sympy as sp
+from svbi.codegen.plain_types import GRAVITY, NumericVehicle, validate_split
 from svbi.codegen.topology import Topology, load_topology
 
 g = sp.Symbol("g", positive=True)
 """Gravitational acceleration (m/s^2); 9.81 in the runtime (DESIGN.md section 2)."""
 a_split = sp.Symbol("a", positive=True)
 """Split coefficient: share of each wheel mass given to its auxiliary contact point, 0 < a < 1."""
-GRAVITY = 9.81
-
-
-def validate_split(a: float, where: str = "solver.contact_split") -> float:
-    """Check the split coefficient: 0 < a < 1 keeps both wheel and aux masses positive (Section 2.3)."""
-    if isinstance(a, bool) or not isinstance(a, int | float) or not 0.0 < float(a) < 1.0:
-        raise ValueError(f"{where}: the split coefficient a must lie strictly between 0 and 1, got {a!r}")
-    return float(a)
-
-
-@dataclass(frozen=True)
-class NumericVehicle:
-    """One vehicle's matrices evaluated at a parameter set (NumPy arrays, SI units)."""
-
-    name: str
-    kind: str
-    dof_names: tuple[str, ...]
-    M: np.ndarray
-    C: np.ndarray
-    K: np.ndarray
-    F_gravity: np.ndarray
-    W_N: np.ndarray
-    W_T: np.ndarray
-    wheel_offsets: np.ndarray
-    wheel_masses: np.ndarray
-    wheel_radii: np.ndarray
-    car_length: float
-    carbody_z: int | None
-    carbody_theta: int | None
-    axle_loads: np.ndarray = field(default_factory=lambda: np.zeros(0))
-    axle_offsets: np.ndarray = field(default_factory=lambda: np.zeros(0))
-
-    @property
-    def ndof(self) -> int:
-        return len(self.dof_names)
-
-    @property
-    def nwheels(self) -> int:
-        return len(self.wheel_offsets)
 
 
 @dataclass

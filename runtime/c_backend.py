@@ -34,7 +34,7 @@ from typing import Any
 
 import numpy as np
 from scipy.interpolate import PPoly
-from svbi.codegen.vehicle import GRAVITY
+from svbi.codegen.plain_types import GRAVITY
 from svbi.runtime import c_loop
 from svbi.runtime.model import FlatTrack, GroundAtRest, Model, State
 from svbi.runtime.newmark import Newmark

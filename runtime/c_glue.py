@@ -49,7 +49,6 @@ __all__ = [
     "contact_rows",
     "creep_split_sources",
     "environment",
-    "extra_folders",
     "model_glue",
     "solver_types",
     "topology",
@@ -159,8 +158,3 @@ def model_glue(spec: Any) -> dict[str, bytes]:
     if spec.name == FRAME2D:
         return bridge_glue()
     return topology(spec.name, int(spec.sizes["n_dofs"]), int(spec.sizes["n_wheels"]))
-
-
-def extra_folders() -> dict[str, dict[str, bytes]]:
-    """Generated folders of the loop that belong to no kernel model: ``solver/``, ``moving-load/``."""
-    return {SOLVER_FOLDER: solver_types(), MOVING_LOAD_FOLDER: topology(MOVING_LOAD_FOLDER, 0, 0)}

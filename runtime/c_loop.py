@@ -381,30 +381,33 @@ Info = _structure("Info", INFO_FIELDS)
 def row_expressions() -> tuple[sp.Expr, ...]:
     """The contact-row columns of the C table, in ``ROW_BLOCKS`` then ``ROW_SCALARS`` order.
 
-    The same symbolic rows as ``svbi.runtime.numeric.ContactRowKernel``: ``W_N^B`` and the discrete
-    aux-bridge row of ``svbi.codegen.constraints`` split into ``W_hat`` and the coefficients of
-    ``h_B`` in the histories and the irregularity.
+    The symbolic rows behind the generated tables of :func:`row_coefficients` (SymPy; for tests and
+    derivations, not for a run): ``W_N^B`` and the discrete aux-bridge row of
+    ``svbi.codegen.constraints`` split into ``W_hat`` and the coefficients of ``h_B`` in the
+    histories and the irregularity (``svbi.codegen.kernels.discrete_bridge_row_parts``).
     """
-    from svbi.runtime.numeric import BRIDGE_HISTORY, _bridge_row_symbolic
+    from svbi.codegen.kernels import BRIDGE_HISTORY, discrete_bridge_row_parts
 
-    _, w_hat, coefs = _bridge_row_symbolic()
+    _, w_hat, coefs = discrete_bridge_row_parts()
     exprs: list[sp.Expr] = list(beam.normal_row(0)) + list(w_hat) + coefs["P_ue"] + coefs["Q_ue"]
     exprs += list(beam.tangential_row(0)) + list(beam.tangential_row(1))
     exprs += [coefs[k][0] for k in BRIDGE_HISTORY]
     return tuple(exprs)
 
 
+_ROW_TABLES = ("N0", "W_hat", "c_P_ue", "c_Q_ue", "T0", "T1", "c_scalars")
+"""Generated tables (``svbi.runtime.numeric``) of the ``ROW_BLOCKS`` and ``ROW_SCALARS`` columns."""
+
+
 @cache
 def row_structure() -> tuple[int, tuple[bool, ...]]:
-    """Polynomial degree in xi and the structurally non-zero columns of the row table."""
-    degree = 0
-    nonzero = []
-    for e in row_expressions():
-        value = sp.expand(e)
-        nonzero.append(value != 0)
-        if value != 0:
-            degree = max(degree, sp.Poly(value, beam.xi).degree())
-    return degree, tuple(nonzero)
+    """Polynomial degree in xi and the structurally non-zero columns of the row table (plain data
+    of the generated bridge module)."""
+    from svbi.runtime.kernel_modules import frame2d
+
+    data = frame2d().DATA
+    nonzero = tuple(flag for name in _ROW_TABLES for flag in data["nonzero_columns"][name])
+    return int(data["xi_degree"]), nonzero
 
 
 CREEP_MODEL = "creep_split"
@@ -423,45 +426,22 @@ def creep_split() -> tuple[tuple[sp.Expr, ...], sp.Expr, tuple[sp.Symbol, ...]]:
     positive), so that only the powers of N remain per step. Returns the coefficient expressions,
     the reduced law and the coefficient symbols.
     """
-    from svbi.codegen import creep as law
+    from svbi.codegen.creep import split_creep_force
 
-    params = set(law.PARAMETERS)
-    expanded = sp.expand_power_base(law.creep_force(), force=True)
-    coefs: dict[sp.Expr, sp.Symbol] = {}
-
-    def split(e: sp.Expr) -> sp.Expr:
-        free = e.free_symbols
-        if free and free <= params and not e.is_Number:  # a parameter itself is a coefficient too
-            if e not in coefs:
-                coefs[e] = sp.Symbol(f"creep_c{len(coefs)}", real=True)
-            return coefs[e]
-        if not e.args or e.is_Symbol:
-            return e
-        return e.func(*[split(a) for a in e.args])
-
-    reduced = split(expanded)
-    return tuple(coefs), reduced, tuple(coefs.values())
+    return split_creep_force()
 
 
 def row_coefficients(
     le: float, speed: float, dt: float, kappa: float, zeta: float, rail_height: float = 0.0
 ) -> np.ndarray:
-    """``(degree + 1, ROW_COLUMNS)`` coefficients of every column in ascending powers of xi."""
-    from svbi.codegen import constraints
-    from svbi.runtime.numeric import XiPolynomials
+    """``(degree + 1, ROW_COLUMNS)`` coefficients of every column in ascending powers of xi, from
+    the generated tables of the bridge element (``svbi.runtime.numeric``)."""
+    from svbi.runtime.numeric import bridge_row_tables, shape_tables
 
-    subs = {
-        beam.le: le,
-        constraints.v: speed,
-        constraints.dt: dt,
-        constraints.kappa: kappa,
-        constraints.zeta: zeta,
-        beam.h: rail_height,
-    }
-    poly = XiPolynomials(list(row_expressions()), subs)
-    degree, _ = row_structure()
-    out = np.zeros((degree + 1, ROW_COLUMNS))
-    out[: poly.coefficients.shape[0]] = poly.coefficients
+    _, rows = bridge_row_tables(le, speed, dt, kappa, zeta)
+    tables = {**shape_tables(le, rail_height), **rows}
+    out = np.hstack([tables[name] for name in _ROW_TABLES])
+    assert out.shape == (row_structure()[0] + 1, ROW_COLUMNS)
     return out
 
 

@@ -61,7 +61,7 @@ class CoupledClassic:
         m, nm = self.model, self.nm
         b, tr = m.bridge, m.train
         T = Triplets()
-        k_hat_B = b.K + nm.a1 * b.C + nm.a0 * b.M
+        k_hat_B = nm.effective(b.K, b.C, b.M)
         nd, ns = b.ndof, b.nsupport
         for s in range(b.spans):
             o = self.oB + s * nd
@@ -73,7 +73,7 @@ class CoupledClassic:
             T.add(cols, rows, sG)
         if not self.moving_load:
             v = tr.vehicle
-            k_hat_V = v.K + nm.a1 * v.C + nm.a0 * v.M
+            k_hat_V = nm.effective(v.K, v.C, v.M)
             nV, nw = self.nV, tr.wheels
             for k in range(tr.cars):
                 o = k * nV
@@ -119,7 +119,7 @@ class CoupledClassic:
 
         # vehicle unknowns are the increments over the step (Newmark.update_increment)
         PtV, QtV = nm.increment_history(st.vV, st.aV)
-        PV_, QV_ = nm.a0 * st.uV + PtV, nm.a1 * st.uV + QtV
+        PV_, QV_ = nm.total_history(st.uV, PtV, QtV)
         fV = tr.increment_load(st.uV, PtV, QtV, full_mass=True)
         creep = m.creep
         if creep is not None:  # explicit: the creep force of t_n loads this step (docs/method.md)
@@ -135,8 +135,7 @@ class CoupledClassic:
         Pe = PB[span[:, None], idx]
         Qe = QB[span[:, None], idx]
         h_on = rows.h_bridge(Pw, Qw, Pe, Qe, c)
-        v = m.speed
-        h_off = self.point.target(Pw, Qw, c.q + c.r, c.q1 + v * c.r1, c.q2 + v * v * c.r2)
+        h_off = self.point.off_bridge_target(Pw, Qw, c, m.speed)
         wheel_n = (st.uV @ tr.W).reshape(-1)
         rhs[self.oP : self.oP + self.nc] = self.sC * (np.where(on, h_on, h_off) - wheel_n)
         T.add(np.repeat(self.oP + sel, 6), gdofs[sel], -self.sC * rows.W_hat[sel])

@@ -22,27 +22,48 @@ def _is_file_target(target: str) -> bool:
 
 
 def _render(target: str, embedded: bool = False) -> tuple[str, dict[str, bytes]]:
-    """Every file of a model folder: the kernels, and the C time loop's glue of the model
-    (svbi.runtime.c_glue: the topology header of a vehicle, the contact rows and creep law of
-    frame2d)."""
-    from svbi.codegen import c_emit
-    from svbi.codegen.kernels import model_spec
+    """Every generated file of a model folder: the C kernels, build files and CasADi Functions
+    (``c_emit``), the NumPy module (``python_emit``) that the runtime calls, and the C time loop's
+    glue of the model (``svbi.runtime.c_glue``: the topology header of a vehicle, the contact rows
+    and creep law of frame2d). A moving-load vehicle has only its NumPy module (its data) and its
+    topology header."""
+    from svbi.codegen import c_emit, python_emit
+    from svbi.codegen.kernels import FRAME2D, frame2d_model_spec, skip_reason, vehicle_model_spec
     from svbi.runtime import c_glue
 
-    spec = model_spec(target)
+    if skip_reason(target) is not None:
+        name, source = python_emit.render_target(target)
+        return name, dict(sorted({python_emit.FILENAME: source, **c_glue.topology(name, 0, 0)}.items()))
     options = c_emit.EmitOptions.embedded() if embedded else c_emit.EmitOptions()
-    files = {**c_emit.render_model(spec, options), **c_glue.model_glue(spec)}
+    if target == FRAME2D:
+        spec = frame2d_model_spec()
+        _, source = python_emit.render_target(target)
+    else:
+        from svbi.codegen.vehicle import derive_vehicle
+
+        vehicle = derive_vehicle(target)
+        spec = vehicle_model_spec(vehicle)
+        source = python_emit.render_vehicle(vehicle, spec)
+    files = {**c_emit.render_model(spec, options), **c_glue.model_glue(spec), python_emit.FILENAME: source}
     return spec.name, dict(sorted(files.items()))
 
 
+def _targets() -> list[str]:
+    """Every built-in model with generated files: the vehicles (moving loads: the NumPy module
+    only) and ``frame2d``."""
+    from svbi.codegen.kernels import FRAME2D
+    from svbi.codegen.topology import builtin_topologies
+
+    return [*builtin_topologies(), FRAME2D]
+
+
 def _builtin_tree() -> dict[str, dict[str, bytes]]:
-    """``{folder: files}`` of the whole committed tree: every built-in model and the loop's folders
-    that belong to no kernel model (``solver/``, ``moving-load/``)."""
-    from svbi.codegen.kernels import builtin_models
+    """``{folder: files}`` of the whole committed tree: every built-in model and the loop's
+    ``solver/`` folder, which belongs to no model."""
     from svbi.runtime import c_glue
 
-    tree = dict(_render(model) for model in builtin_models())
-    tree.update(c_glue.extra_folders())
+    tree = dict(_render(model) for model in _targets())
+    tree[c_glue.SOLVER_FOLDER] = c_glue.solver_types()
     return tree
 
 
@@ -52,7 +73,7 @@ def _tree(folder: Path) -> dict[str, bytes]:
     if folder.is_dir():
         for path in sorted(folder.rglob("*")):
             rel = path.relative_to(folder)
-            if not path.is_file() or rel.parts[0] in ("__init__.py", "__pycache__"):
+            if not path.is_file() or rel.parts[0] == "__init__.py" or "__pycache__" in rel.parts:
                 continue
             files[rel.as_posix()] = path.read_bytes()
     return files
@@ -106,9 +127,10 @@ def generate(
         False, "--check", help="Regenerate every built-in model into a temporary folder and diff."
     ),
 ) -> None:
-    """Generate CasADi Functions (.casadi), C kernels, headers and build files for models."""
+    """Generate CasADi Functions (.casadi), C kernels, headers, build files and the NumPy module
+    (numpy_kernels.py) for models."""
     from svbi.codegen import c_emit
-    from svbi.codegen.kernels import builtin_models, skip_reason
+    from svbi.codegen.kernels import skip_reason
 
     if check:
         committed = out or _generated_root()
@@ -129,7 +151,7 @@ def generate(
 
     targets = list(models or [])
     if all_:
-        targets = [t for t in targets if t not in builtin_models()]
+        targets = [t for t in targets if t not in _targets()]
         for name, files in _builtin_tree().items():
             folder = c_emit.write_files(files, (out or _generated_root()) / name)
             typer.echo(f"generated {name}: {len(files)} files in {folder}")
@@ -139,16 +161,18 @@ def generate(
     for target in targets:
         reason = skip_reason(target)
         if reason:
-            typer.echo(f"skipped {reason}")
-            continue
+            typer.echo(f"no C kernels: {reason}; only the NumPy module (its data)")
         base = out or (Path.cwd() / "svbi-generated" if _is_file_target(target) else _generated_root())
         name, files = _render(target)
         folder = c_emit.write_files(files, base / name)
         typer.echo(f"generated {name}: {len(files)} files in {folder}")
     if all_ and out is None:
         # Remove folders of models that are no longer built in, so --check stays clean.
+        from svbi.codegen.python_emit import FILENAME
+
         for folder in _generated_root().iterdir():
-            if (folder / "manifest.json").is_file() and folder.name not in builtin_models():
+            generated = (folder / "manifest.json").is_file() or (folder / FILENAME).is_file()
+            if generated and folder.name not in _targets():
                 import shutil
 
                 shutil.rmtree(folder)

@@ -28,7 +28,7 @@ from __future__ import annotations
 import numpy as np
 import scipy.sparse as sps
 import scipy.sparse.linalg as spla
-from svbi.codegen.vehicle import GRAVITY
+from svbi.codegen.plain_types import GRAVITY
 from svbi.runtime.model import Contacts, Model, State
 from svbi.runtime.newmark import Newmark
 from svbi.runtime.numeric import (
@@ -178,7 +178,7 @@ class CoupledDynamic:
         m, nm = self.model, self.nm
         b, tr = m.bridge, m.train
         T = Triplets()
-        k_hat_B = b.K + nm.a1 * b.C + nm.a0 * b.M
+        k_hat_B = nm.effective(b.K, b.C, b.M)
         nd, ns = b.ndof, b.nsupport
         for s in range(b.spans):
             o = self.oB + s * nd
@@ -189,7 +189,7 @@ class CoupledDynamic:
             T.add(cols, rows, self.DG[s * ns : (s + 1) * ns])
         if not self.moving_load:
             v = tr.vehicle
-            k_hat_V = v.K + nm.a1 * v.C + nm.a0 * tr.M_active
+            k_hat_V = nm.effective(v.K, v.C, tr.M_active)
             nV, nw = self.nV, tr.wheels
             for k in range(tr.cars):
                 o = k * nV
@@ -245,7 +245,7 @@ class CoupledDynamic:
 
         # vehicle unknowns are the increments over the step (Newmark.update_increment)
         PtV, QtV = nm.increment_history(st.vV, st.aV)
-        PV_, QV_ = nm.a0 * st.uV + PtV, nm.a1 * st.uV + QtV
+        PV_, QV_ = nm.total_history(st.uV, PtV, QtV)
         Pg, Qg = nm.history(st.ug, st.vg, st.ag)
         mB = self._mB(c)
         DB = self.d * mB
@@ -265,16 +265,13 @@ class CoupledDynamic:
         rhs[self.oB : self.oB + self.NB] = fB.reshape(-1)
         T.add(gdofs[sel], np.repeat(self.oLB + sel, 6), rows.N0[sel] * DB[sel, None])
         # wheel-aux rows
-        h_V = self.point.c_P * ((PV_ @ tr.W).reshape(-1) - Pg) + self.point.c_Q * (
-            (QV_ @ tr.W).reshape(-1) - Qg
-        )
+        h_V = self.point.wheel_target((PV_ @ tr.W).reshape(-1), (QV_ @ tr.W).reshape(-1), Pg, Qg)
         rhs[self.oLV : self.oLV + self.nc] = self.DV * (h_V - (st.uV @ tr.W).reshape(-1))
         # aux-bridge rows
         Pe = PB[span[:, None], idx]
         Qe = QB[span[:, None], idx]
         h_on = rows.h_bridge(Pg, Qg, Pe, Qe, c)
-        v = m.speed
-        h_off = self.point.target(Pg, Qg, c.q + c.r, c.q1 + v * c.r1, c.q2 + v * v * c.r2)
+        h_off = self.point.off_bridge_target(Pg, Qg, c, m.speed)
         h_B = np.where(on, h_on, h_off)
         lb = self.oLB + np.arange(self.nc)
         T.add(lb, self.oG + np.arange(self.nc), DB)

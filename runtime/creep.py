@@ -1,7 +1,9 @@
 """Numeric creep forces for the NumPy backend (paper Eqs. 15-16), vectorised over wheels.
 
-The law is the SymPy expression of :mod:`svbi.codegen.creep`, turned into NumPy functions with
-``sympy.lambdify`` (once, cached); nothing is re-typed here. This module adds the numbers: the
+The law is the SymPy expression of :mod:`svbi.codegen.creep`, evaluated through its generated NumPy
+kernels (``generated/frame2d/numpy_kernels.py``: ``creep_force``, ``kalker_f33`` and the split
+``creep_split_coefficients`` / ``creep_split_force`` that the C loop links too); nothing is re-typed
+here. This module adds the numbers: the
 default material and geometry (:class:`CreepParameters`) and the two geometry-dependent
 coefficients the symbolic law takes as parameters, computed rather than looked up by hand:
 
@@ -18,14 +20,13 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
-from functools import cache
+from typing import Any
 
 import numpy as np
-import sympy as sp
 from numpy.typing import ArrayLike, NDArray
 from scipy.optimize import brentq
 from scipy.special import ellipe, ellipk
-from svbi.codegen import creep as law
+from svbi.runtime.kernel_modules import frame2d
 
 # Kalker (1990), Table E.3, column C11 for ν = 0, 0.25, 0.5. Rows: g = 0.1, 0.2, ..., 1.0, where
 # g = a/b for a <= b (first block) and g = b/a for a > b (second block); a is along the rolling
@@ -144,34 +145,32 @@ class CreepParameters:
         m, n = self.hertz
         return kalker_c11(m / n, self.poisson_ratio)
 
-    def values(self) -> dict[sp.Symbol, float]:
-        """Numeric values of the symbolic law's parameters (``svbi.codegen.creep.PARAMETERS``)."""
+    def named_values(self) -> dict[str, float]:
+        """Numeric values of the law's parameters by symbol name (``svbi.codegen.creep.PARAMETERS``)."""
         m, n = self.hertz
         return {
-            law.youngs_modulus: self.youngs_modulus,
-            law.poisson_ratio: self.poisson_ratio,
-            law.wheel_radius: self.wheel_radius,
-            law.rail_radius: self.rail_head_radius,
-            law.hertz_m: m,
-            law.hertz_n: n,
-            law.kalker_c11: self.c11,
-            law.friction: self.friction,
+            "E_wr": self.youngs_modulus,
+            "nu_wr": self.poisson_ratio,
+            "R_wheel": self.wheel_radius,
+            "R_rail": self.rail_head_radius,
+            "hertz_m": m,
+            "hertz_n": n,
+            "kalker_c11": self.c11,
+            "mu_f": self.friction,
         }
 
+    def values(self) -> dict[Any, float]:
+        """Numeric values keyed by the symbols of ``svbi.codegen.creep`` (imports SymPy: for tests
+        and derivations, not for a run)."""
+        from svbi.codegen import creep as law
+
+        named = self.named_values()
+        return {s: named[s.name] for s in law.PARAMETERS}
+
     def vector(self) -> tuple[float, ...]:
-        """The parameter values in ``PARAMETERS`` order."""
-        values = self.values()
-        return tuple(values[s] for s in law.PARAMETERS)
-
-
-@cache
-def _compiled(name: str):  # noqa: ANN202 - a lambdified NumPy function
-    expr = {
-        "force": law.creep_force,
-        "slope": law.creep_force_derivative,
-        "f33": law.kalker_f33,
-    }[name]()
-    return sp.lambdify((law.xi, law.normal_load, *law.PARAMETERS), expr, modules="numpy")
+        """The parameter values in the kernels' ``creep`` input order (``PARAMETERS``)."""
+        named = self.named_values()
+        return tuple(named[name] for name in frame2d().DATA["creep_parameters"])
 
 
 def _evaluate(name: str, creepage: ArrayLike, normal_load: ArrayLike, params: CreepParameters) -> NDArray:
@@ -181,8 +180,13 @@ def _evaluate(name: str, creepage: ArrayLike, normal_load: ArrayLike, params: Cr
     loaded = n > 0.0
     # The unloaded branch is 0, but NumPy evaluates every branch: keep N^(1/3) real there.
     safe_n = np.where(loaded, n, 1.0)
+    kernels = frame2d()
     with np.errstate(divide="ignore", invalid="ignore"):
-        out = _compiled(name)(xi, safe_n, *params.vector())
+        if name == "f33":
+            out = kernels.kalker_f33(safe_n, params.vector())
+        else:
+            force, slope = kernels.creep_force(xi, safe_n, params.vector())
+            out = force if name == "force" else slope
     return np.where(loaded, np.broadcast_to(out, xi.shape), 0.0)
 
 
@@ -207,31 +211,32 @@ def kalker_coefficient(normal_load: ArrayLike, params: CreepParameters | None = 
 
 
 class CreepLaw:
-    """The creep law with one parameter set substituted, for the time loop (one call per step).
+    """The creep law with one parameter set, for the time loop (one call per step).
 
-    The same SymPy expression as :func:`creep_force` (``svbi.codegen.creep.creep_force``), with the
-    parameter values substituted before ``lambdify`` (common subexpressions eliminated), so a step
-    evaluates only ``F_x(ξ, N)``; the Hertz and Kalker coefficients are computed once.
+    The law is split (``svbi.codegen.creep.split_creep_force``) into coefficients that depend on the
+    parameters only, computed once here by the generated ``creep_split_coefficients``, and the
+    per-step ``creep_split_force(ξ, N, c)``: the same two generated functions as the C loop's; the
+    Hertz and Kalker coefficients are computed once.
     """
 
     def __init__(self, params: CreepParameters | None = None) -> None:
         self.params = params or CreepParameters()
-        values = {k: sp.Float(v, 17) for k, v in self.params.values().items()}
-        self._force = sp.lambdify(
-            (law.xi, law.normal_load), law.creep_force().xreplace(values), modules="numpy", cse=True
-        )
-        self._f33 = sp.lambdify((law.normal_load,), law.kalker_f33().xreplace(values), modules="numpy")
+        kernels = frame2d()
+        self._vector = self.params.vector()
+        self.coefficients = np.asarray(kernels.creep_split_coefficients(self._vector), dtype=np.float64)
+        self._force = kernels.creep_split_force
+        self._f33 = kernels.kalker_f33
 
     def force(self, creepage: NDArray[np.float64], normal_load: NDArray[np.float64]) -> NDArray[np.float64]:
         """F_x (N), the force on the wheel (opposite to the slip): 0 where N <= 0."""
         loaded = normal_load > 0.0
         safe_n = np.where(loaded, normal_load, 1.0)  # every branch is evaluated: keep N^(1/3) real
         with np.errstate(divide="ignore", invalid="ignore"):
-            out = self._force(creepage, safe_n)
+            out = self._force(creepage, safe_n, self.coefficients)
         return np.where(loaded, out, 0.0)
 
     def f33(self, normal_load: ArrayLike) -> NDArray[np.float64]:
         """Kalker's f33 (N) under each load (0 where N <= 0)."""
         n = np.asarray(normal_load, dtype=float)
         loaded = n > 0.0
-        return np.where(loaded, self._f33(np.where(loaded, n, 1.0)), 0.0)
+        return np.where(loaded, self._f33(np.where(loaded, n, 1.0), self._vector), 0.0)

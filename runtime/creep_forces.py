@@ -33,10 +33,9 @@ from __future__ import annotations
 from dataclasses import replace
 
 import numpy as np
-from svbi.codegen import beam
 from svbi.runtime.creep import CreepLaw, CreepParameters
 from svbi.runtime.model import Contacts, Model, State
-from svbi.runtime.numeric import XiPolynomials
+from svbi.runtime.numeric import TangentialKernel
 
 STABILITY_LIMIT = 1.0
 """Largest ``k dt`` (creep damping rate of a wheelset spin times the time step, at the static wheel
@@ -60,10 +59,7 @@ class CreepForces:
         for radius in np.unique(radii[rolling]):
             mask = np.tile(rolling & (radii == radius), tr.cars)
             self.laws.append((CreepLaw(replace(params, wheel_radius=float(radius))), mask))
-        self.rows = XiPolynomials(
-            [*beam.tangential_row(0), *beam.tangential_row(1)],
-            {beam.le: b.element_length, beam.h: b.rail_height},
-        )
+        self.rows = TangentialKernel(b.element_length, b.rail_height)
         self.longitudinal_ground = not _at_rest(model.ground, "longitudinal")
         self._rows_cache: tuple[Contacts, np.ndarray, np.ndarray] | None = None
         self.check_stability(model.settings.time_step)

@@ -29,7 +29,7 @@ import numpy as np
 import scipy.linalg as sla
 import scipy.sparse as sps
 import scipy.sparse.linalg as spla
-from svbi.codegen.vehicle import GRAVITY
+from svbi.codegen.plain_types import GRAVITY
 from svbi.runtime.coupled import Triplets
 from svbi.runtime.model import Model, State
 from svbi.runtime.numeric import ShapeKernel

@@ -23,7 +23,7 @@ from __future__ import annotations
 
 import numpy as np
 import scipy.linalg as sla
-from svbi.codegen.vehicle import GRAVITY
+from svbi.codegen.plain_types import GRAVITY
 from svbi.runtime.model import Contacts, Model, State
 from svbi.runtime.newmark import Newmark
 from svbi.runtime.numeric import ContactRowKernel, ContactRows, point_row
@@ -45,7 +45,7 @@ class BridgeCompliance:
 
     def __init__(self, model: Model, nm: Newmark) -> None:
         b = model.bridge
-        k_hat = b.K + nm.a1 * b.C + nm.a0 * b.M
+        k_hat = nm.effective(b.K, b.C, b.M)
         k_inv = sla.cho_solve(sla.cho_factor(k_hat), np.eye(b.ndof))
         k_inv = 0.5 * (k_inv + k_inv.T)
         ke = k_inv @ b.E
@@ -77,7 +77,7 @@ class LocalizedDynamic:
     def _vehicle_setup(self) -> None:
         tr, nm = self.model.train, self.nm
         v = tr.vehicle
-        k_hat = v.K + nm.a1 * v.C + nm.a0 * tr.M_active
+        k_hat = nm.effective(v.K, v.C, tr.M_active)
         self.k_inv = np.linalg.inv(k_hat)
         self.A = self.k_inv @ tr.W  # ndof x nw
         F_V = tr.W.T @ self.A
@@ -125,7 +125,7 @@ class LocalizedDynamic:
         # The vehicles solve for the increment over the step (Newmark.update_increment): the
         # car-body acceleration is a plotted result and the total form rounds it to a0 eps |u|.
         PtV, QtV = nm.increment_history(st.vV, st.aV)
-        PV_, QV_ = nm.a0 * st.uV + PtV, nm.a1 * st.uV + QtV
+        PV_, QV_ = nm.total_history(st.uV, PtV, QtV)
         Pg, Qg = nm.history(st.ug, st.vg, st.ag)
         fV = tr.increment_load(st.uV, PtV, QtV)
         if creep is not None:
@@ -134,9 +134,7 @@ class LocalizedDynamic:
         uV_t = st.uV + duV_t
         wheel_t = (uV_t @ tr.W).reshape(-1)
         p_t = (Pg - GRAVITY) / nm.a0
-        h_V = self.point.c_P * ((PV_ @ tr.W).reshape(-1) - Pg) + self.point.c_Q * (
-            (QV_ @ tr.W).reshape(-1) - Qg
-        )
+        h_V = self.point.wheel_target((PV_ @ tr.W).reshape(-1), (QV_ @ tr.W).reshape(-1), Pg, Qg)
         d_V = wheel_t - p_t - h_V
 
         # aux-bridge rows: W_hat, h_B (on the bridge), or the ground target (off)
@@ -146,8 +144,7 @@ class LocalizedDynamic:
         if on.all():
             h_B = h_on
         else:
-            v = m.speed
-            h_off = self.point.target(Pg, Qg, c.q + c.r, c.q1 + v * c.r1, c.q2 + v * v * c.r2)
+            h_off = self.point.off_bridge_target(Pg, Qg, c, m.speed)
             h_B = np.where(on, h_on, h_off)
 
         # interface: (F_B + F*) P = rhs

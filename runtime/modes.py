@@ -1,19 +1,18 @@
 """Natural frequencies: a vehicle on rigid track, and one simply supported span.
 
-Both come from the symbolically derived matrices (``svbi.codegen.vehicle`` and
-``svbi.codegen.beam``); nothing here is typed in by hand.
+Both come from the generated kernels of the symbolically derived matrices (the vehicle's
+``NumericVehicle`` and the element matrices of ``generated/frame2d``); nothing here is typed in by
+hand.
 """
 
 from __future__ import annotations
 
 from dataclasses import dataclass
-from functools import cache
 
 import numpy as np
 import scipy.linalg as sla
-import sympy as sp
-from svbi.codegen import beam
-from svbi.codegen.vehicle import NumericVehicle
+from svbi.codegen.plain_types import NumericVehicle
+from svbi.runtime.kernel_modules import frame2d
 
 
 @dataclass(frozen=True)
@@ -40,15 +39,6 @@ def vehicle_modes(vehicle: NumericVehicle, rtol: float = 1e-9) -> VehicleModes:
     return VehicleModes(np.sort(elastic), rigid)
 
 
-@cache
-def _element_functions() -> tuple:
-    args = (beam.E, beam.A, beam.I, beam.mu, beam.le)
-    return (
-        sp.lambdify(args, beam.element_mass(), "numpy"),
-        sp.lambdify(args, beam.element_stiffness(), "numpy"),
-    )
-
-
 def span_matrices(
     span_length: float,
     elements: int,
@@ -58,10 +48,11 @@ def span_matrices(
     mass_per_length: float,
 ) -> tuple[np.ndarray, np.ndarray]:
     """Assembled mass and stiffness of one span, 3 DOFs per node ``(u, w, theta)``, no supports."""
-    mass_fn, stiff_fn = _element_functions()
+    kernels = frame2d()
     le = span_length / elements
-    me = np.asarray(mass_fn(youngs_modulus, area, second_moment, mass_per_length, le), dtype=float)
-    ke = np.asarray(stiff_fn(youngs_modulus, area, second_moment, mass_per_length, le), dtype=float)
+    section = (youngs_modulus, area, second_moment, mass_per_length)
+    me = np.asarray(kernels.element_mass(section, le), dtype=float)
+    ke = np.asarray(kernels.element_stiffness(section, le), dtype=float)
     n = 3 * (elements + 1)
     m, k = np.zeros((n, n)), np.zeros((n, n))
     for e in range(elements):

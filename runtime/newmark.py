@@ -35,6 +35,15 @@ class Newmark:
     def a2(self) -> float:
         return 4.0 / self.dt
 
+    def effective(self, K: np.ndarray, C: np.ndarray, M: np.ndarray) -> np.ndarray:
+        """Effective stiffness ``K^ = K + a1 C + a0 M`` of the step's linear system."""
+        return K + self.a1 * C + self.a0 * M
+
+    def total_history(self, u: np.ndarray, Pt: np.ndarray, Qt: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """``P[y]`` and ``Q[y]`` from the position and the increment histories of
+        :meth:`increment_history` (``P = a0 y_n + Pt``, ``Q = a1 y_n + Qt``)."""
+        return self.a0 * u + Pt, self.a1 * u + Qt
+
     def history(self, u: np.ndarray, v: np.ndarray, a: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """``P[y]`` and ``Q[y]`` from the state at t_n."""
         return self.a0 * u + self.a2 * v + a, self.a1 * u + v

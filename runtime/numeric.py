@@ -1,52 +1,37 @@
-"""Numeric evaluation of the symbolic core (``svbi.codegen``) for the NumPy backend.
+"""Numeric contact rows, point rows and constraint masses for the time loop, from generated kernels.
 
-Nothing here is typed in by hand: every row and coefficient comes from ``svbi.codegen.beam`` and
-``svbi.codegen.constraints``. Within one run the element length, the speed, the time step and the
-constraint coefficients are fixed, so after substituting them every contact row is a polynomial in
-the local coordinate ``xi`` of the contact. We extract the polynomial coefficients once and evaluate
-all rows of all contacts with one small matrix product per step::
+Nothing here is typed in by hand or derived at run time: every row and coefficient comes from the
+generated module of the bridge element (``generated/frame2d/numpy_kernels.py``, emitted by
+``svbi.codegen.python_emit`` from ``svbi.codegen.beam`` and ``svbi.codegen.constraints``). Within
+one run the element length, the speed, the time step and the constraint coefficients are fixed, so
+every contact row is a polynomial in the local coordinate ``xi`` of the contact; its coefficients
+are generated functions of those run constants, evaluated once, and all rows of all contacts are
+evaluated with one small matrix product per step::
 
     rows(xi) = [1, xi, xi^2, xi^3, ...] @ coefficients
-
-This is exact (the shape functions are polynomials) and avoids both the cost of ``lambdify`` calls in
-the time loop and its broadcasting trap (a constant entry of a lambdified matrix does not broadcast
-over an array argument).
 """
 
 from __future__ import annotations
 
 from dataclasses import dataclass
-from functools import cache
 from typing import Any
 
 import numpy as np
-import sympy as sp
-from svbi.codegen import beam, constraints
+from svbi.runtime.kernel_modules import frame2d
 
 
 class XiPolynomials:
-    """A list of expressions polynomial in ``beam.xi``, evaluated for many ``xi`` at once."""
+    """Polynomials in ``xi`` given by their coefficients, evaluated for many ``xi`` at once."""
 
-    def __init__(self, exprs: list[sp.Expr], subs: dict[sp.Symbol, float]) -> None:
-        polys = []
-        for k, e in enumerate(exprs):
-            value = sp.expand(sp.sympify(e).xreplace(subs))
-            extra = value.free_symbols - {beam.xi}
-            if extra:
-                names = ", ".join(sorted(map(str, extra)))
-                raise ValueError(f"expression {k} still depends on {names} after substitution")
-            polys.append(sp.Poly(value, beam.xi))
-        degree = max((p.degree() for p in polys), default=0)
-        degree = max(degree, 0)
-        coef = np.zeros((degree + 1, len(exprs)))
-        for k, p in enumerate(polys):
-            for (power,), c in p.terms():
-                coef[power, k] = float(c)
-        self.degree = degree
-        self.coefficients = coef
+    def __init__(self, coefficients: np.ndarray) -> None:
+        """``coefficients`` is ``(degree + 1, ncols)`` in ascending powers of xi (one column per
+        polynomial), or ``(degree + 1,)`` for one polynomial."""
+        coef = np.asarray(coefficients, dtype=np.float64)
+        self.coefficients = coef.reshape(coef.shape[0], -1)
+        self.degree = self.coefficients.shape[0] - 1
 
     def __call__(self, xi: np.ndarray) -> np.ndarray:
-        """Values, shape ``(len(xi), len(exprs))``."""
+        """Values, shape ``(len(xi), ncols)``."""
         xi = np.asarray(xi, dtype=float)
         powers = xi[:, None] ** np.arange(self.degree + 1)[None, :]
         return powers @ self.coefficients
@@ -55,39 +40,24 @@ class XiPolynomials:
 # --------------------------------------------------------------------------------------------------
 # contact rows on the bridge (Eqs. 10, 20-21 and their Newmark discretisation)
 
-BRIDGE_HISTORY = ("P_ug", "Q_ug", "r", "r_x", "r_xx")
+BRIDGE_HISTORY: tuple[str, ...] = tuple(frame2d().DATA["bridge_history"])
+"""Scalar histories of ``h_B``, in the column order of the generated ``c_scalars``."""
 
 
-@cache
-def _bridge_row_symbolic() -> tuple[sp.Expr, list[sp.Expr], dict[str, list[sp.Expr]]]:
-    """The codegen discrete row, split into ``W_hat`` and the coefficients of ``h_B``.
+def shape_tables(le: float, rail_height: float = 0.0) -> dict[str, np.ndarray]:
+    """Coefficient tables ``(4, 6)`` of ``N0, N1, N2`` (``W_N^B`` and its x-derivatives), ``T0, T1``
+    (``W_T^B`` and its x-derivative) and ``axial`` for elements of length ``le``."""
+    names = ("N0", "N1", "N2", "T0", "T1", "axial")
+    return dict(zip(names, frame2d().shape_coefficients(le, rail_height), strict=True))
 
-    ``h_B`` is linear in the Newmark histories and the irregularity; we take its coefficients by
-    differentiation and check that nothing is left over.
-    """
-    row, names = constraints.discrete_bridge_row()
-    rhs = row.rhs
-    scalars = {
-        "P_ug": names["P_ug"],
-        "Q_ug": names["Q_ug"],
-        "r": constraints.r,
-        "r_x": constraints.r1,
-        "r_xx": constraints.r2,
-    }
-    coefs: dict[str, list[sp.Expr]] = {}
-    rest = rhs
-    for key, sym in scalars.items():
-        c = sp.diff(rhs, sym)
-        coefs[key] = [c]
-        rest = rest - c * sym
-    for key in ("P_ue", "Q_ue"):
-        vec = names[key]
-        cs = [sp.diff(rhs, vec[i]) for i in range(beam.NDOF)]
-        coefs[key] = cs
-        rest = rest - sum(c * vec[i] for i, c in enumerate(cs))
-    if sp.simplify(sp.expand(rest)) != 0:
-        raise AssertionError("h_B of the discrete bridge row is not linear in its histories")
-    return row.d, list(row.row), coefs
+
+def bridge_row_tables(
+    le: float, speed: float, dt: float, kappa: float, zeta: float
+) -> tuple[float, dict[str, np.ndarray]]:
+    """``d`` and the coefficient tables of the discrete aux-bridge row: ``W_hat``, ``c_P_ue``,
+    ``c_Q_ue`` (4 x 6) and ``c_scalars`` (4 x 5, columns ``BRIDGE_HISTORY``)."""
+    w_hat, c_p, c_q, c_s, d = frame2d().bridge_row_coefficients(le, speed, (dt, kappa, zeta))
+    return float(d), {"W_hat": w_hat, "c_P_ue": c_p, "c_Q_ue": c_q, "c_scalars": c_s}
 
 
 @dataclass(frozen=True)
@@ -138,25 +108,12 @@ class ContactRowKernel:
     """
 
     def __init__(self, le: float, speed: float, dt: float, kappa: float, zeta: float) -> None:
-        d, w_hat, coefs = _bridge_row_symbolic()
-        subs = {
-            beam.le: le,
-            constraints.v: speed,
-            constraints.dt: dt,
-            constraints.kappa: kappa,
-            constraints.zeta: zeta,
-        }
-        # v = 0 (a held train) is a valid substitution; SymPy's positive assumption on v only
-        # matters for simplification, not for xreplace.
-        exprs: list[sp.Expr] = []
-        exprs += list(beam.normal_row(0))
-        exprs += list(beam.normal_row(1))
-        exprs += list(beam.normal_row(2))
-        exprs += w_hat
-        exprs += coefs["P_ue"] + coefs["Q_ue"]
-        exprs += [coefs[k][0] for k in BRIDGE_HISTORY]
-        self._poly = XiPolynomials(exprs, subs)
-        self.d = float(d.xreplace(subs))
+        # v = 0 (a held train) is a valid value: the tables are polynomials in v.
+        shapes = shape_tables(le)
+        d, rows = bridge_row_tables(le, speed, dt, kappa, zeta)
+        blocks = [shapes["N0"], shapes["N1"], shapes["N2"], rows["W_hat"], rows["c_P_ue"], rows["c_Q_ue"]]
+        self._poly = XiPolynomials(np.hstack([*blocks, rows["c_scalars"]]))
+        self.d = d
 
     def __call__(self, xi: np.ndarray) -> ContactRows:
         vals = self._poly(xi)
@@ -169,10 +126,8 @@ class ShapeKernel:
     """``W_N^B`` (and optionally its x-derivatives) at local coordinates ``xi`` of one element size."""
 
     def __init__(self, le: float, orders: tuple[int, ...] = (0,)) -> None:
-        exprs: list[sp.Expr] = []
-        for order in orders:
-            exprs += list(beam.normal_row(order))
-        self._poly = XiPolynomials(exprs, {beam.le: le})
+        shapes = shape_tables(le)
+        self._poly = XiPolynomials(np.hstack([shapes[f"N{order}"] for order in orders]))
         self.orders = orders
 
     def __call__(self, xi: np.ndarray) -> tuple[np.ndarray, ...]:
@@ -184,7 +139,18 @@ class AxialShapeKernel:
     """Axial displacement of the neutral axis (linear shape functions) at ``xi``."""
 
     def __init__(self) -> None:
-        self._poly = XiPolynomials(list(beam.axial_shape()), {})
+        self._poly = XiPolynomials(shape_tables(1.0)["axial"])
+
+    def __call__(self, xi: np.ndarray) -> np.ndarray:
+        return self._poly(xi)
+
+
+class TangentialKernel:
+    """``W_T^B = u - h dw/dx`` and its x-derivative (Eqs. 10, 16) at ``xi``: ``(n, 12)``."""
+
+    def __init__(self, le: float, rail_height: float) -> None:
+        shapes = shape_tables(le, rail_height)
+        self._poly = XiPolynomials(np.hstack([shapes["T0"], shapes["T1"]]))
 
     def __call__(self, xi: np.ndarray) -> np.ndarray:
         return self._poly(xi)
@@ -210,20 +176,25 @@ class PointRow:
     ) -> np.ndarray:
         return self.c_P * P + self.c_Q * Q + self.c_q2 * q2 + self.c_q1 * q1 + self.c_q * q
 
+    def off_bridge_target(self, P: np.ndarray, Q: np.ndarray, contacts: Any, speed: float) -> np.ndarray:
+        """Target of a contact off the bridge: the rail on the rigid ground, ``Z = q + r`` with its
+        time derivatives following the contact (``r' = v r_x``, ``r'' = v^2 r_xx``)."""
+        c, v = contacts, speed
+        return self.target(P, Q, c.q + c.r, c.q1 + v * c.r1, c.q2 + v * v * c.r2)
 
-@cache
-def _point_row_symbolic() -> tuple[sp.Expr, sp.Expr, dict[str, sp.Symbol]]:
-    row, names = constraints.discrete_point_row()
-    return row.d, row.rhs, names
+    def wheel_target(
+        self, P_wheel: np.ndarray, Q_wheel: np.ndarray, P_aux: np.ndarray, Q_aux: np.ndarray
+    ) -> np.ndarray:
+        """``h_V`` of the wheel-aux rows: the target of the gap ``W^T u^V - u^g`` at t_{n+1} from the
+        Newmark histories of the wheel (``W^T P^V``, ``W^T Q^V``) and of its aux point."""
+        return self.c_P * (P_wheel - P_aux) + self.c_Q * (Q_wheel - Q_aux)
 
 
 def point_row(dt: float, kappa: float, zeta: float) -> PointRow:
-    """Numeric ``constraints.discrete_point_row()`` (method-notes section 2c)."""
-    d, rhs, names = _point_row_symbolic()
-    subs = {constraints.dt: dt, constraints.kappa: kappa, constraints.zeta: zeta}
-    syms = (names["P_y"], names["Q_y"], constraints.q2, constraints.q1, constraints.q)
-    coefs = [float(sp.diff(rhs, s).xreplace(subs)) for s in syms]
-    return PointRow(float(d.xreplace(subs)), *coefs)
+    """The generated ``point_row_coefficients`` (``constraints.discrete_point_row()``, method-notes
+    section 2c)."""
+    d, c = frame2d().point_row_coefficients((dt, kappa, zeta))
+    return PointRow(float(d), *(float(x) for x in c))
 
 
 # --------------------------------------------------------------------------------------------------
@@ -234,12 +205,9 @@ class BridgeConstraintMass:
     """Eq. (31): ``m_N^B(xi)``, with the consistent mass of the element holding the contact."""
 
     def __init__(self, le: float, mu: float, aux_mass: float) -> None:
-        m_g = sp.Symbol("m_g", positive=True)
-        expr = constraints.mass_bridge_constraint(m_g)
-        num, den = sp.fraction(sp.together(expr))
-        subs = {beam.le: le, beam.mu: mu, m_g: aux_mass}
-        self._num = XiPolynomials([num], subs)
-        self._den = XiPolynomials([den], subs)
+        num, den = frame2d().bridge_constraint_mass_coefficients(le, mu, aux_mass)
+        self._num = XiPolynomials(num)
+        self._den = XiPolynomials(den)
 
     def __call__(self, xi: np.ndarray) -> np.ndarray:
         return (self._num(xi) / self._den(xi))[:, 0]
@@ -247,34 +215,12 @@ class BridgeConstraintMass:
 
 def support_constraint_masses(le: float, mu: float, element_dofs: list[int]) -> np.ndarray:
     """Eq. (34): ``b^T m^B b`` for support constraints on the given element DOFs (0..5)."""
-    subs = {beam.le: le, beam.mu: mu}
-    return np.array([float(constraints.mass_support_constraint(k).xreplace(subs)) for k in element_dofs])
+    masses = np.asarray(frame2d().support_constraint(mu, le), dtype=np.float64)
+    return masses[np.asarray(element_dofs, dtype=int)]
 
 
-@cache
-def _vehicle_constraint_mass_exprs(topology: str) -> tuple[tuple[sp.Expr, ...], tuple[sp.Symbol, ...]]:
-    from svbi.codegen.vehicle import a_split, derive_vehicle
-
-    model = derive_vehicle(topology)
-    nw = model.contact_normal.shape[1]
-    active, aux = model.active_mass_matrix(a_split), model.aux_masses(a_split)
-    out = []
-    for i in range(nw):
-        e_col = sp.zeros(nw, 1)
-        e_col[i, 0] = 1
-        b = constraints.b_vehicle(model.contact_normal[:, i], e_col)
-        out.append(constraints.mass_vehicle_constraint(b, active, aux))
-    return tuple(out), tuple(p.symbol for p in model.topology.parameters.values())
-
-
-def vehicle_constraint_masses(topology: str, values: dict[str, float], a: float) -> np.ndarray:
+def vehicle_constraint_masses(topology: str, values: dict[str, Any], a: float) -> np.ndarray:
     """Eq. (27): ``m_N^V`` of each wheel-aux constraint, with the active vehicle mass."""
-    from svbi.codegen.vehicle import GRAVITY, a_split, g
+    from svbi.runtime.train import vehicle_model
 
-    exprs, symbols = _vehicle_constraint_mass_exprs(topology)
-    subs: dict[sp.Symbol, float] = {a_split: a, g: GRAVITY}
-    for sym in symbols:
-        val = values.get(sym.name)
-        if isinstance(val, int | float):
-            subs[sym] = float(val)
-    return np.array([float(e.xreplace(subs)) for e in exprs])
+    return vehicle_model(topology).constraint_masses(values, a)

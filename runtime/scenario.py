@@ -341,7 +341,7 @@ def parse_literal(raw: str) -> Any:
 
 
 def _semantic_problems(s: Scenario) -> Iterable[tuple[str, str]]:
-    from svbi.codegen.topology import TopologyError
+    from svbi.codegen.plain_types import TopologyError
 
     t, sol, trk = s.train, s.solver, s.track
     if trk.wavelength_min >= trk.wavelength_max:
@@ -455,7 +455,7 @@ def vehicle_topology(s: Scenario):  # noqa: ANN201 - Topology, imported lazily
 
 
 def _vehicle_ref(s: Scenario) -> str:
-    from svbi.codegen.topology import builtin_topologies
+    from svbi.codegen.plain_types import builtin_topologies
 
     name = s.train.vehicle
     return name if name in builtin_topologies() else str(s.resolve_path(name))

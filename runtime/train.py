@@ -4,8 +4,8 @@ Car k (0-based here, 1-based in the results) has its leading axle ``k * car_leng
 train's leading axle, which is at ``start_position`` at t = 0 and moves at constant ``speed``.
 Contact points are numbered car by car, wheels from the front of each car (``c = k * nw + i``).
 
-A rigid-body car brings its derived matrices (``svbi.codegen.vehicle``); a moving-load "car" only
-brings its axle forces and offsets.
+A rigid-body car brings its matrices, evaluated by the vehicle's generated kernels
+(``svbi.runtime.vehicle_kernels``); a moving-load "car" only brings its axle forces and offsets.
 """
 
 from __future__ import annotations
@@ -14,17 +14,19 @@ from functools import cache
 from typing import Any
 
 import numpy as np
-from svbi.codegen.topology import Topology, load_topology
-from svbi.codegen.vehicle import GRAVITY, NumericVehicle, VehicleModel, derive_vehicle
+from svbi.codegen.plain_types import GRAVITY, NumericVehicle
+from svbi.runtime.vehicle_kernels import GeneratedVehicle, VehicleTopology, vehicle
 
 
 @cache
-def vehicle_model(name_or_path: str) -> VehicleModel:
-    """Derived (symbolic) vehicle model of a built-in name or a topology file, cached per process."""
-    return derive_vehicle(load_topology(name_or_path))
+def vehicle_model(name_or_path: str) -> GeneratedVehicle:
+    """The vehicle of a built-in name or a topology file as its generated kernels, cached per
+    process (a topology file is derived and emitted once into the compile cache)."""
+    return vehicle(name_or_path)
 
 
-def topology(name_or_path: str) -> Topology:
+def topology(name_or_path: str) -> VehicleTopology:
+    """The plain data and parameter validation of a vehicle topology."""
     return vehicle_model(name_or_path).topology
 
 
