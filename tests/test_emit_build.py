@@ -122,13 +122,16 @@ def test_check_fails_with_a_diff_on_an_altered_copy(tmp_path: Path) -> None:
 
 
 def test_generate_skips_the_moving_load_with_a_reason(tmp_path: Path) -> None:
-    """A moving load has no C kernels; it gets only its NumPy module (the data a run loads)."""
+    """A moving load has no C kernels; it gets its NumPy module (the data a run loads) and the C
+    loop's topology header (no vehicle DOFs)."""
     result = CliRunner().invoke(_app(), ["generate", "moving-load", "--out", str(tmp_path)])
     assert result.exit_code == 0
     assert "no C kernels: moving-load" in result.output and "no dynamics" in result.output
-    assert [p.relative_to(tmp_path).as_posix() for p in tmp_path.rglob("*") if p.is_file()] == [
-        "moving-load/numpy_kernels.py"
+    assert sorted(p.relative_to(tmp_path).as_posix() for p in tmp_path.rglob("*") if p.is_file()) == [
+        "moving-load/numpy_kernels.py",
+        "moving-load/svbi_topology.h",
     ]
+    assert "#define SVBI_NV 0" in (tmp_path / "moving-load" / "svbi_topology.h").read_text()
 
 
 def test_generate_a_topology_file(tmp_path: Path) -> None:
