@@ -27,6 +27,7 @@
 #endif
 
 #define NE 6 /* DOFs of one bridge element (frame2d) */
+#define LW 2 /* lanes of the localized bridge state: spans padded to a multiple of LW ([DOF][spans]) */
 
 typedef svbi_solver_setup setup_t;
 typedef svbi_solver_state state_t;
@@ -102,23 +103,32 @@ typedef struct {
   int* slist;    /* nc: contacts grouped by span */
   int* sstart;   /* spans + 1 */
   /* the bridge state the step works on. coupled methods: the state itself, span after span.
-   * localized-dynamic: blocks of SW spans, [block][DOF][SW], so that one factor solves SW spans at
-   * once with fixed-width (vectorised) inner loops */
+   * localized-dynamic: DOF after DOF over the spans padded to a multiple of LW ([DOF][pad]), so that
+   * one factor solves every span at once with inner loops over LW lanes (vectorised) */
   double* bu;
   double* bv;
   double* ba;
   int blocked;
-  long pad;      /* spans padded to a multiple of SW (localized) */
+  long pad;      /* spans padded to a multiple of LW (localized) */
   long nb;       /* entries of bu (with the padding) */
-  double* TU;    /* nblk x nd x SW (localized) */
+  double* TU;    /* nd x pad (localized) */
   double* TV;
   double* TA;
-  double* qb;    /* 2 x ns x SW: q' and q^ of one block */
-  double* RF;    /* nblk x nfree x SW: free-DOF right-hand sides (localized) */
+  double* qb;    /* 2 x ns x pad: q' and q^ of every span */
+  double* RF;    /* nfree x pad: free-DOF right-hand sides of the correction (localized) */
   double* dinv;  /* nfree: reciprocal diagonal of the factor on the free DOFs */
   int* freeidx;  /* nd: index among the free DOFs, -1 for a support DOF */
   int* lidx;     /* spans: index among the loaded spans, -1 if unloaded */
   int* lspan;    /* spans: the loaded spans */
+  /* localized: the non-zeros of the factor on the free DOFs (the band is 40 % zeros: axial and
+   * bending DOFs do not couple), row j's L(j, j - r) for r descending (forward sweep) and column j's
+   * L(j + r, j) for r ascending (backward sweep): the order of svbi_band_solve_blocked's updates */
+  int* fw_ptr;   /* nfree + 1 */
+  int* fw_r;     /* nfree x band_pf */
+  double* fw_c;  /* nfree x band_pf */
+  int* bk_ptr;   /* nfree + 1 */
+  int* bk_r;     /* nfree x band_pf */
+  double* bk_c;  /* nfree x band_pf */
   double* creepc; /* NW x CREEP_NC: coefficients of the creep law of every wheel */
   double* DG;    /* ns: scale of the support rows */
   double* ab;    /* (ns + nc) x NE: attachments' B entries */
@@ -129,7 +139,7 @@ typedef struct {
 } work_t;
 
 /* Element (s, i) of a bridge-state array: span after span, or DOF after DOF over the spans padded
- * to a multiple of SW (localized). */
+ * to a multiple of LW (localized). */
 #define BR(b, s, i) ((b)[w->blocked ? (long)(i) * w->pad + (s) : (long)(s) * S->nd + (i)])
 
 /* Unknowns of the interface system (contact forces, or multipliers). */
