@@ -94,8 +94,10 @@ def contact_rows() -> dict[str, bytes]:
     from svbi.runtime import c_loop
 
     degree, nonzero = c_loop.row_structure()
+    powers = c_loop.row_powers()
     blocks = c_loop.ROW_BLOCKS
     context = {
+        "row_powers": [list(p) for p in powers],
         "row_degree": degree,
         "row_cols": c_loop.ROW_COLUMNS,
         "row_blocks": [
@@ -110,7 +112,7 @@ def contact_rows() -> dict[str, bytes]:
 def creep_split_sources(embedded: bool = False) -> dict[str, bytes]:
     """C sources of the split creep law (``c_loop.creep_split``), from the CasADi emitter: the
     functions ``svbi_creep_split_coefficients(creep[8]) -> c`` and
-    ``svbi_creep_split_force(creepage, N, c) -> F_x``."""
+    ``svbi_creep_split_force(creepage, N, c, N_cbrt) -> F_x`` (``N_cbrt``: the cube root of N)."""
     from svbi.codegen import c_emit
     from svbi.codegen import creep as law
     from svbi.codegen.kernels import CREEP_SAMPLE, KernelSpec, ModelSpec, column
@@ -129,9 +131,14 @@ def creep_split_sources(embedded: bool = False) -> dict[str, bytes]:
         KernelSpec(
             "force",
             "Creep force F_x(creepage, N) from the coefficients of `coefficients`.",
-            [("creepage", column([law.xi])), ("N", column([law.normal_load])), ("c", column(symbols))],
+            [
+                ("creepage", column([law.xi])),
+                ("N", column([law.normal_load])),
+                ("c", column(symbols)),
+                ("N_cbrt", column([c_loop.CREEP_CBRT])),
+            ],
             [("F_x", sp.Matrix([[reduced]]))],
-            {"xi_x": 5e-3, "N_c": 8.5e4},
+            {"xi_x": 5e-3, "N_c": 8.5e4, "N_cbrt": 8.5e4 ** (1 / 3)},
         ),
     ]
     model = ModelSpec(

@@ -407,8 +407,29 @@ def row_structure() -> tuple[int, tuple[bool, ...]]:
     return degree, tuple(nonzero)
 
 
+@cache
+def row_powers() -> tuple[tuple[int, ...], ...]:
+    """For every column of the row table, the powers of xi whose coefficient is structurally
+    non-zero (an empty tuple for a zero column): the rest of the table is exactly 0 for every
+    parameter value, so the generated evaluation leaves it out (the same sums)."""
+    out = []
+    for e in row_expressions():
+        value = sp.expand(e)
+        if value == 0:
+            out.append(())
+            continue
+        coeffs = sp.Poly(value, beam.xi).all_coeffs()[::-1]
+        out.append(tuple(p for p, c in enumerate(coeffs) if sp.expand(c) != 0))
+    return tuple(out)
+
+
 CREEP_MODEL = "creep_split"
 """Model name of the two generated creep functions linked into the loop (:func:`creep_split`)."""
+
+
+CREEP_CBRT = sp.Symbol("N_cbrt", positive=True)
+"""Input of the split creep law: the cube root of the normal load, computed once per wheel and step
+(one ``cbrt`` in C for the law's powers of N, instead of two ``pow``)."""
 
 
 @cache
@@ -420,21 +441,39 @@ def creep_split() -> tuple[tuple[sp.Expr, ...], sp.Expr, tuple[sp.Symbol, ...]]:
     computed once per wheel; what is left depends on the creepage, the normal load and the
     ``c_k``. Powers of products are separated first (``(N (1 - nu^2))^(2/3)`` ->
     ``N^(2/3) (1 - nu^2)^(2/3)``: N > 0 wherever the law is used, and the parameters are
-    positive), so that only the powers of N remain per step. Returns the coefficient expressions,
-    the reduced law and the coefficient symbols.
+    positive), so that only the powers of N remain per step; those are powers of
+    :data:`CREEP_CBRT` (``N^(2/3) = N_cbrt^2``), an input. The parameter-only factors of a product
+    (numbers included) form one coefficient, so no product of constants is left per step. Returns
+    the coefficient expressions, the reduced law and the coefficient symbols.
     """
     from svbi.codegen import creep as law
 
     params = set(law.PARAMETERS)
     expanded = sp.expand_power_base(law.creep_force(), force=True)
+    expanded = expanded.replace(
+        lambda e: e.is_Pow and e.base == law.normal_load and e.exp.is_Rational and e.exp.q == 3,
+        lambda e: CREEP_CBRT ** (3 * e.exp),
+    )
     coefs: dict[sp.Expr, sp.Symbol] = {}
+
+    def constant(e: sp.Expr) -> bool:
+        return e.free_symbols <= params
+
+    def coefficient(e: sp.Expr) -> sp.Symbol:
+        if e not in coefs:
+            coefs[e] = sp.Symbol(f"creep_c{len(coefs)}", real=True)
+        return coefs[e]
 
     def split(e: sp.Expr) -> sp.Expr:
         free = e.free_symbols
         if free and free <= params and not e.is_Number:  # a parameter itself is a coefficient too
-            if e not in coefs:
-                coefs[e] = sp.Symbol(f"creep_c{len(coefs)}", real=True)
-            return coefs[e]
+            return coefficient(e)
+        if e.is_Mul:
+            fixed = [a for a in e.args if constant(a)]
+            rest = [split(a) for a in e.args if not constant(a)]
+            if len(fixed) > 1 or (fixed and not fixed[0].is_Number):
+                return sp.Mul(coefficient(sp.Mul(*fixed)), *rest, evaluate=False)
+            return sp.Mul(*fixed, *rest)
         if not e.args or e.is_Symbol:
             return e
         return e.func(*[split(a) for a in e.args])

@@ -126,6 +126,10 @@ typedef struct {
   int* fw_ptr;   /* nfree + 1 */
   int* fw_r;     /* nfree x band_pf */
   double* fw_c;  /* nfree x band_pf */
+  /* vehicles: the non-zeros of V_K, V_M, V_C and V_kinv row by row (y = x^T A, vec_mat_nz) */
+  int* vnz_ptr;  /* 4 x (NV + 1) */
+  int* vnz_idx;  /* 4 x NV x NV */
+  double* vnz_val; /* 4 x NV x NV */
   int* bk_ptr;   /* nfree + 1 */
   int* bk_r;     /* nfree x band_pf */
   double* bk_c;  /* nfree x band_pf */
@@ -185,6 +189,20 @@ static inline void vec_mat(const double* A, const double* x, double* y) {
   }
 }
 
+/* y = x^T A over the non-zeros of A (matrix a of work_t vnz_*: 0 K, 1 M, 2 C, 3 K^-1): the sums of
+ * vec_mat without its exact zeros, in the same order (the same result). */
+static inline void vec_mat_nz(const work_t* w, int a, const double* x, double* y) {
+  int j, k, d;
+  const int* ptr = w->vnz_ptr + a * (NV + 1);
+  const int* idx = w->vnz_idx + a * NV * NV;
+  const double* val = w->vnz_val + a * NV * NV;
+  for (d = 0; d < NV; ++d) y[d] = 0.0;
+  for (j = 0; j < NV; ++j) {
+    double xj = x[j];
+    for (k = ptr[j]; k < ptr[j + 1]; ++k) y[idx[k]] += xj * val[k];
+  }
+}
+
 /* W_i^T x: the vertical motion of wheel i (column i of W_N^V, exact zeros dropped). */
 static inline double wheel(const setup_t* S, const double* x, int i) {
   int k;
@@ -196,6 +214,8 @@ static inline double wheel(const setup_t* S, const double* x, int i) {
 /* vehicle.c: the vehicles, the creep law and the aux-bridge row target. */
 void svbi_vehicle_increment_load(const setup_t* S, const double* u, const double* v, const double* a,
                                  double* Pt, double* Qt, double* PV, double* QV, double* f);
+void svbi_vehicle_increment_load_nz(const setup_t* S, const work_t* w, const double* u, const double* v,
+                                    const double* a, double* Pt, double* Qt, double* PV, double* QV, double* f);
 void svbi_creep_vehicle_load(const setup_t* S, const double* force, int k, double* f);
 void svbi_creep_update(const setup_t* S, state_t* X, const work_t* w);
 void svbi_creep_bridge_load(const setup_t* S, const double* force, work_t* w);

@@ -177,9 +177,9 @@ int svbi_step_localized(const setup_t* S, state_t* X, work_t* w) {
       double* Qt = w->QVh + (long)k * NV;
       double* du = w->dVh + (long)k * NV;
       double f[NV], ut[NV], PV[NV], QV[NV];
-      svbi_vehicle_increment_load(S, u, v, a, Pt, Qt, PV, QV, f);
+      svbi_vehicle_increment_load_nz(S, w, u, v, a, Pt, Qt, PV, QV, f);
       if (S->creep) svbi_creep_vehicle_load(S, X->creep_force, k, f);
-      vec_mat(S->V_kinv, f, du); /* du~ = K^-T f */
+      vec_mat_nz(w, 3, f, du); /* du~ = K^-T f */
       for (d = 0; d < NV; ++d) ut[d] = u[d] + du[d];
       for (i = 0; i < NW; ++i) {
         int c = k * NW + i;

@@ -131,6 +131,9 @@ static void carve(const setup_t* S, carver_t* c, work_t* w) {
     w->bk_c = take_d(c, nz);
   }
   w->creepc = take_d(c, nv ? S->nw * SVBI_CREEP_NC : 0);
+  w->vnz_ptr = take_i(c, 4 * (nv + 1));
+  w->vnz_idx = take_i(c, 4 * nv * nv);
+  w->vnz_val = take_d(c, 4 * nv * nv);
 }
 
 int svbi_solver_workspace(const setup_t* S, long* n_double, long* n_int) {
@@ -155,6 +158,31 @@ int svbi_solver_init(const setup_t* S, double* work, int* iwork) {
   for (k = 0; k < S->nd; ++k) w.freeidx[k] = -1;
   for (k = 0; k < S->nfree; ++k) w.freeidx[S->free[k]] = k;
 #if !SVBI_MOVING_LOAD
+  if (!S->moving_load) {
+    /* the non-zeros of the car's constant matrices, row by row (vec_mat_nz) */
+    const double* mats[4];
+    int a, j, d;
+    mats[0] = S->V_K;
+    mats[1] = S->V_M;
+    mats[2] = S->V_C;
+    mats[3] = S->method == 0 ? S->V_kinv : 0;
+    for (a = 0; a < 4; ++a) {
+      int* ptr = w.vnz_ptr + a * (NV + 1);
+      int* idx = w.vnz_idx + a * NV * NV;
+      double* val = w.vnz_val + a * NV * NV;
+      int n = 0;
+      for (j = 0; j < NV; ++j) {
+        ptr[j] = n;
+        for (d = 0; mats[a] && d < NV; ++d) {
+          if (mats[a][j * NV + d] != 0.0) {
+            idx[n] = d;
+            val[n++] = mats[a][j * NV + d];
+          }
+        }
+      }
+      ptr[NV] = n;
+    }
+  }
   if (S->creep) {
     /* the parameter-only part of every wheel's creep law, once */
     for (k = 0; k < S->nw; ++k) {
