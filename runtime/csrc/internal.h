@@ -99,6 +99,7 @@ typedef struct {
   double* HG;    /* spans * ns */
   double* Z;     /* attachment vectors of the span blocks */
   int* piv;      /* nmult */
+  double* rpiv;  /* nmult: reciprocal pivots of the interface LU (localized) */
   int* mpos;     /* nmult: track-order position of each multiplier */
   int* slist;    /* nc: contacts grouped by span */
   int* sstart;   /* spans + 1 */
@@ -109,6 +110,7 @@ typedef struct {
   double* bv;
   double* ba;
   int blocked;
+  int hist;      /* localized: PB, QB already hold this step's histories (set by the last update) */
   long pad;      /* spans padded to a multiple of LW (localized) */
   long nb;       /* entries of bu (with the padding) */
   double* TU;    /* nd x pad (localized) */
@@ -164,6 +166,8 @@ void svbi_excite(const setup_t* S, const excitation_t* E, work_t* w, long n, dou
 void svbi_locate(const setup_t* S, work_t* w);
 void svbi_group_by_span(const setup_t* S, work_t* w);
 void svbi_bridge_histories(const setup_t* S, work_t* w);
+void svbi_support_targets(const setup_t* S, work_t* w);
+void svbi_bridge_update_histories(const setup_t* S, work_t* w);
 void svbi_span_load(const setup_t* S, const work_t* w, int s, double* f);
 void svbi_bridge_update(const setup_t* S, work_t* w);
 

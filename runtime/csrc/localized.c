@@ -145,7 +145,12 @@ static void localized_correct(const setup_t* S, work_t* w, const double* force) 
 
 int svbi_step_localized(const setup_t* S, state_t* X, work_t* w) {
   int nc = S->nc;
-  svbi_bridge_histories(S, w);
+  /* the histories of this step come from the last step's update (merged pass), or afresh */
+  if (w->hist)
+    svbi_support_targets(S, w);
+  else
+    svbi_bridge_histories(S, w);
+  w->hist = 1;
   svbi_group_by_span(S, w);
 #if SVBI_MOVING_LOAD
   localized_predictor(S, w, 0);
@@ -157,7 +162,7 @@ int svbi_step_localized(const setup_t* S, state_t* X, work_t* w) {
     int i;
     for (i = 0; i < nc; ++i) w->rhs[i] = w->con[i] ? S->axle_loads[i] : 0.0;
     localized_correct(S, w, w->rhs);
-    svbi_bridge_update(S, w);
+    svbi_bridge_update_histories(S, w);
     for (i = 0; i < nc; ++i) {
       X->P[i] = S->axle_loads[i];
       X->PV[i] = S->axle_loads[i];
@@ -239,10 +244,10 @@ int svbi_step_localized(const setup_t* S, state_t* X, work_t* w) {
         }
       }
     }
-    status = svbi_gb_factor(w->band, nc, bw, w->piv);
+    status = svbi_gb_factor_r(w->band, nc, bw, w->piv, w->rpiv);
     if (status) return status;
     for (i = 0; i < nc; ++i) w->bsol[w->cpos[i]] = w->rhs[i];
-    svbi_gb_solve(w->band, nc, bw, w->piv, w->bsol);
+    svbi_gb_solve_r(w->band, nc, bw, w->piv, w->rpiv, w->bsol);
     for (i = 0; i < nc; ++i) X->P[i] = w->bsol[w->cpos[i]];
 
     /* back-substitution: wheel-aux forces, aux points, vehicles, bridge */
@@ -279,7 +284,7 @@ int svbi_step_localized(const setup_t* S, state_t* X, work_t* w) {
       }
     }
     localized_correct(S, w, X->P);
-    svbi_bridge_update(S, w);
+    svbi_bridge_update_histories(S, w);
     if (S->creep) svbi_creep_update(S, X, w);
   }
   return ST_OK;

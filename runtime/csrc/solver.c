@@ -95,6 +95,7 @@ static void carve(const setup_t* S, carver_t* c, work_t* w) {
   w->HG = take_d(c, NS);
   w->Z = take_d(c, S->method == 0 ? 0 : (NS + nc) * nd);
   w->piv = take_i(c, nm);
+  w->rpiv = take_d(c, S->method == 0 ? nm : 0);
   w->mpos = take_i(c, nm);
   w->slist = take_i(c, nc);
   w->sstart = take_i(c, spans + 1);
@@ -279,11 +280,13 @@ static void bridge_view(const setup_t* S, state_t* X, work_t* w) {
     w->bv = w->TV;
     w->ba = w->TA;
     w->blocked = 1;
+    w->hist = 0;
   } else {
     w->bu = X->uB;
     w->bv = X->vB;
     w->ba = X->aB;
     w->blocked = 0;
+    w->hist = 0;
     w->nb = (long)S->spans * S->nd;
   }
 }
