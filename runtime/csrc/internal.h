@@ -128,7 +128,7 @@ typedef struct {
   int* fw_ptr;   /* nfree + 1 */
   int* fw_r;     /* nfree x band_pf */
   double* fw_c;  /* nfree x band_pf */
-  /* vehicles: the non-zeros of V_K, V_M, V_C and V_kinv row by row (y = x^T A, vec_mat_nz) */
+  /* vehicles: the non-zeros of V_K, V_M, V_C and V_kinv column by column (y = x^T A, vec_mat_nz) */
   int* vnz_ptr;  /* 4 x (NV + 1) */
   int* vnz_idx;  /* 4 x NV x NV */
   double* vnz_val; /* 4 x NV x NV */
@@ -193,17 +193,18 @@ static inline void vec_mat(const double* A, const double* x, double* y) {
   }
 }
 
-/* y = x^T A over the non-zeros of A (matrix a of work_t vnz_*: 0 K, 1 M, 2 C, 3 K^-1): the sums of
- * vec_mat without its exact zeros, in the same order (the same result). */
+/* y = x^T A over the non-zeros of A (matrix a of work_t vnz_*: 0 K, 1 M, 2 C, 3 K^-1, stored
+ * column by column): every y[d] is the sum of vec_mat without its exact zeros, in the same order
+ * over j (the same result), accumulated in a register. */
 static inline void vec_mat_nz(const work_t* w, int a, const double* x, double* y) {
-  int j, k, d;
+  int k, d;
   const int* ptr = w->vnz_ptr + a * (NV + 1);
   const int* idx = w->vnz_idx + a * NV * NV;
   const double* val = w->vnz_val + a * NV * NV;
-  for (d = 0; d < NV; ++d) y[d] = 0.0;
-  for (j = 0; j < NV; ++j) {
-    double xj = x[j];
-    for (k = ptr[j]; k < ptr[j + 1]; ++k) y[idx[k]] += xj * val[k];
+  for (d = 0; d < NV; ++d) {
+    double s = 0.0;
+    for (k = ptr[d]; k < ptr[d + 1]; ++k) s += x[idx[k]] * val[k];
+    y[d] = s;
   }
 }
 

@@ -160,7 +160,7 @@ int svbi_solver_init(const setup_t* S, double* work, int* iwork) {
   for (k = 0; k < S->nfree; ++k) w.freeidx[S->free[k]] = k;
 #if !SVBI_MOVING_LOAD
   if (!S->moving_load) {
-    /* the non-zeros of the car's constant matrices, row by row (vec_mat_nz) */
+    /* the non-zeros of the car's constant matrices, column by column (vec_mat_nz) */
     const double* mats[4];
     int a, j, d;
     mats[0] = S->V_K;
@@ -172,11 +172,11 @@ int svbi_solver_init(const setup_t* S, double* work, int* iwork) {
       int* idx = w.vnz_idx + a * NV * NV;
       double* val = w.vnz_val + a * NV * NV;
       int n = 0;
-      for (j = 0; j < NV; ++j) {
-        ptr[j] = n;
-        for (d = 0; mats[a] && d < NV; ++d) {
+      for (d = 0; d < NV; ++d) {
+        ptr[d] = n;
+        for (j = 0; mats[a] && j < NV; ++j) {
           if (mats[a][j * NV + d] != 0.0) {
-            idx[n] = d;
+            idx[n] = j;
             val[n++] = mats[a][j * NV + d];
           }
         }
