@@ -24,7 +24,8 @@ IP = ctypes.POINTER(ctypes.c_int)
 def library() -> ctypes.CDLL:
     static = c_loop.static_sources()
     sources = {n: static[n] for n in ("band.c", "band.h")}
-    sources[c_loop.TYPES_HEADER] = c_loop.glue_sources(c_loop.LoopSpec("moving-load", 0, 0))[c_loop.TYPES_HEADER]
+    glue = c_loop.glue_sources(c_loop.LoopSpec("moving-load", 0, 0))
+    sources[c_loop.TYPES_HEADER] = glue[c_loop.TYPES_HEADER]
     lib = compiled.load_library(sources, "svbi_test_c_band_reciprocal", flags=c_loop.LOOP_FLAGS)
     lib.svbi_gb_factor.argtypes = [DP, ctypes.c_int, ctypes.c_int, IP]
     lib.svbi_gb_factor_r.argtypes = [DP, ctypes.c_int, ctypes.c_int, IP, DP]
