@@ -37,6 +37,8 @@ xi = sp.Symbol("xi_x", real=True)
 """Longitudinal creepage ξ (dimensionless)."""
 normal_load = sp.Symbol("N_c", real=True)
 """Normal contact force N (N), positive in compression (DESIGN §2)."""
+N_CBRT = sp.Symbol("N_cbrt", positive=True)
+"""The cube root of the normal load: an input of the split law (:func:`split_creep_force`)."""
 v = sp.Symbol("v", positive=True)
 """Train speed (m/s); the same symbol as in ``constraints``."""
 
@@ -175,19 +177,38 @@ def split_creep_force() -> tuple[tuple[sp.Expr, ...], sp.Expr, tuple[sp.Symbol, 
     computed once per wheel; what is left depends on the creepage, the normal load and the
     ``c_k``. Powers of products are separated first (``(N (1 - nu^2))^(2/3)`` ->
     ``N^(2/3) (1 - nu^2)^(2/3)``: N > 0 wherever the law is used, and the parameters are
-    positive), so that only the powers of N remain per step. Returns the coefficient expressions,
-    the reduced law and the coefficient symbols.
+    positive), so that only the powers of N remain per step; those are powers of :data:`N_CBRT`
+    (``N^(2/3) = N_cbrt^2``), an input, so a step takes one cube root instead of two ``pow``. The
+    parameter-only factors of a product (numbers included) form one coefficient, so no product of
+    constants is left per step. Returns the coefficient expressions, the reduced law and the
+    coefficient symbols.
     """
     params = set(PARAMETERS)
     expanded = sp.expand_power_base(creep_force(), force=True)
+    expanded = expanded.replace(
+        lambda e: e.is_Pow and e.base == normal_load and e.exp.is_Rational and e.exp.q == 3,
+        lambda e: N_CBRT ** (3 * e.exp),
+    )
     coefs: dict[sp.Expr, sp.Symbol] = {}
+
+    def constant(e: sp.Expr) -> bool:
+        return e.free_symbols <= params
+
+    def coefficient(e: sp.Expr) -> sp.Symbol:
+        if e not in coefs:
+            coefs[e] = sp.Symbol(f"creep_c{len(coefs)}", real=True)
+        return coefs[e]
 
     def split(e: sp.Expr) -> sp.Expr:
         free = e.free_symbols
         if free and free <= params and not e.is_Number:  # a parameter itself is a coefficient too
-            if e not in coefs:
-                coefs[e] = sp.Symbol(f"creep_c{len(coefs)}", real=True)
-            return coefs[e]
+            return coefficient(e)
+        if e.is_Mul:
+            fixed = [a for a in e.args if constant(a)]
+            rest = [split(a) for a in e.args if not constant(a)]
+            if len(fixed) > 1 or (fixed and not fixed[0].is_Number):
+                return sp.Mul(coefficient(sp.Mul(*fixed)), *rest, evaluate=False)
+            return sp.Mul(*fixed, *rest)
         if not e.args or e.is_Symbol:
             return e
         return e.func(*[split(a) for a in e.args])

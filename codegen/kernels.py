@@ -23,6 +23,7 @@ from functools import cache
 from typing import Any
 
 import sympy as sp
+from svbi.codegen.plain_types import c_identifier
 
 _IDENT = re.compile(r"^[A-Za-z_][A-Za-z0-9_]*$")
 
@@ -32,14 +33,6 @@ FRAME2D = "frame2d"
 
 class KernelError(ValueError):
     """A kernel specification is malformed; the message names the kernel and the problem."""
-
-
-def c_identifier(name: str) -> str:
-    """C-safe spelling of a model name: ``pioneer-2d`` -> ``pioneer_2d``."""
-    ident = re.sub(r"[^A-Za-z0-9_]", "_", name)
-    if not ident or ident[0].isdigit():
-        ident = "m_" + ident
-    return ident
 
 
 def _as_matrix(value: Any) -> sp.ImmutableMatrix:
@@ -822,10 +815,15 @@ def _k_creep_split_force() -> KernelSpec:
     return KernelSpec(
         "creep_split_force",
         "Creep force F_x(creepage, N) (Eq. 15 with saturation) from the coefficients c of "
-        "creep_split_coefficients.",
-        [("creepage", column([creep.xi])), ("N", column([creep.normal_load])), ("c", column(symbols))],
+        "creep_split_coefficients; N_cbrt is the cube root of N.",
+        [
+            ("creepage", column([creep.xi])),
+            ("N", column([creep.normal_load])),
+            ("c", column(symbols)),
+            ("N_cbrt", column([creep.N_CBRT])),
+        ],
         [("F_x", sp.Matrix([[reduced]]))],
-        {"xi_x": 5e-3, "N_c": 8.5e4},
+        {"xi_x": 5e-3, "N_c": 8.5e4, "N_cbrt": 8.5e4 ** (1 / 3)},
     )
 
 

@@ -8,6 +8,7 @@ topology parameter values. ``svbi.codegen.vehicle`` and ``svbi.codegen.topology`
 from __future__ import annotations
 
 import math
+import re
 from dataclasses import dataclass, field
 from importlib import resources
 from typing import Any
@@ -88,3 +89,11 @@ class NumericVehicle:
     @property
     def nwheels(self) -> int:
         return len(self.wheel_offsets)
+
+
+def c_identifier(name: str) -> str:
+    """C-safe spelling of a model name: ``pioneer-2d`` -> ``pioneer_2d``."""
+    ident = re.sub(r"[^A-Za-z0-9_]", "_", name)
+    if not ident or ident[0].isdigit():
+        ident = "m_" + ident
+    return ident

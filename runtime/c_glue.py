@@ -10,7 +10,7 @@ pipeline or on a vehicle topology is rendered here, by ``svbi generate`` (Jinja2
 * ``generated/frame2d/svbi_contact_rows.h``: the contact-row table of the bridge element (degree,
   columns, structural non-zeros, the unrolled evaluation) from ``c_loop.row_structure``;
   ``generated/frame2d/creep_split*``: the creep law split into per-run coefficients and a per-step
-  force (``c_loop.creep_split``), C from the CasADi emitter;
+  force (``svbi.codegen.creep.split_creep_force``), C from the CasADi emitter;
 * ``generated/<model>/svbi_topology.h``: the sizes of one vehicle topology (``moving-load`` too).
 
 At run time a built-in model reads these files (no Jinja2, no CasADi); a topology file has its
@@ -20,6 +20,7 @@ and CasADi: only generation and exports use it.
 
 from __future__ import annotations
 
+from functools import cache
 from typing import Any
 
 import jinja2
@@ -53,6 +54,43 @@ __all__ = [
     "solver_types",
     "topology",
 ]
+
+
+@cache
+def row_expressions() -> tuple[sp.Expr, ...]:
+    """The contact-row columns of the C table, in ``ROW_BLOCKS`` then ``ROW_SCALARS`` order.
+
+    The symbolic rows behind the generated tables of :func:`row_coefficients` (SymPy; for tests and
+    derivations, not for a run): ``W_N^B`` and the discrete aux-bridge row of
+    ``svbi.codegen.constraints`` split into ``W_hat`` and the coefficients of ``h_B`` in the
+    histories and the irregularity (``svbi.codegen.kernels.discrete_bridge_row_parts``).
+    """
+    from svbi.codegen import beam
+    from svbi.codegen.kernels import BRIDGE_HISTORY, discrete_bridge_row_parts
+
+    _, w_hat, coefs = discrete_bridge_row_parts()
+    exprs: list[sp.Expr] = list(beam.normal_row(0)) + list(w_hat) + coefs["P_ue"] + coefs["Q_ue"]
+    exprs += list(beam.tangential_row(0)) + list(beam.tangential_row(1))
+    exprs += [coefs[k][0] for k in BRIDGE_HISTORY]
+    return tuple(exprs)
+
+
+@cache
+def row_powers() -> tuple[tuple[int, ...], ...]:
+    """For every column of the row table, the powers of xi whose coefficient is structurally
+    non-zero (an empty tuple for a zero column): the rest of the table is exactly 0 for every
+    parameter value, so the generated evaluation leaves it out (the same sums)."""
+    from svbi.codegen import beam
+
+    out = []
+    for e in row_expressions():
+        value = sp.expand(e)
+        if value == 0:
+            out.append(())
+            continue
+        coeffs = sp.Poly(value, beam.xi).all_coeffs()[::-1]
+        out.append(tuple(p for p, c in enumerate(coeffs) if sp.expand(c) != 0))
+    return tuple(out)
 
 
 def environment() -> jinja2.Environment:
@@ -93,8 +131,10 @@ def contact_rows() -> dict[str, bytes]:
     from svbi.runtime import c_loop
 
     degree, nonzero = c_loop.row_structure()
+    powers = row_powers()
     blocks = c_loop.ROW_BLOCKS
     context = {
+        "row_powers": [list(p) for p in powers],
         "row_degree": degree,
         "row_cols": c_loop.ROW_COLUMNS,
         "row_blocks": [
@@ -107,15 +147,15 @@ def contact_rows() -> dict[str, bytes]:
 
 
 def creep_split_sources(embedded: bool = False) -> dict[str, bytes]:
-    """C sources of the split creep law (``c_loop.creep_split``), from the CasADi emitter: the
-    functions ``svbi_creep_split_coefficients(creep[8]) -> c`` and
-    ``svbi_creep_split_force(creepage, N, c) -> F_x``."""
+    """C sources of the split creep law (``svbi.codegen.creep.split_creep_force``), from the CasADi
+    emitter: the functions ``svbi_creep_split_coefficients(creep[8]) -> c`` and
+    ``svbi_creep_split_force(creepage, N, c, N_cbrt) -> F_x`` (``N_cbrt``: the cube root of N)."""
     from svbi.codegen import c_emit
     from svbi.codegen import creep as law
     from svbi.codegen.kernels import CREEP_SAMPLE, KernelSpec, ModelSpec, column
     from svbi.runtime import c_loop
 
-    coefs, reduced, symbols = c_loop.creep_split()
+    coefs, reduced, symbols = law.split_creep_force()
     sample = {k: v for k, v in CREEP_SAMPLE.items() if k not in ("xi_x", "N_c")}
     kernels = [
         KernelSpec(
@@ -128,9 +168,14 @@ def creep_split_sources(embedded: bool = False) -> dict[str, bytes]:
         KernelSpec(
             "force",
             "Creep force F_x(creepage, N) from the coefficients of `coefficients`.",
-            [("creepage", column([law.xi])), ("N", column([law.normal_load])), ("c", column(symbols))],
+            [
+                ("creepage", column([law.xi])),
+                ("N", column([law.normal_load])),
+                ("c", column(symbols)),
+                ("N_cbrt", column([law.N_CBRT])),
+            ],
             [("F_x", sp.Matrix([[reduced]]))],
-            {"xi_x": 5e-3, "N_c": 8.5e4},
+            {"xi_x": 5e-3, "N_c": 8.5e4, "N_cbrt": 8.5e4 ** (1 / 3)},
         ),
     ]
     model = ModelSpec(

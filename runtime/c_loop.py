@@ -35,10 +35,8 @@ from importlib import resources
 from typing import Any
 
 import numpy as np
-import sympy as sp
-from svbi.codegen import beam
 from svbi.codegen.c_flags import CASADI_WARNING_EXCEPTION, STRICT_FLAGS
-from svbi.codegen.kernels import c_identifier
+from svbi.codegen.plain_types import c_identifier
 
 ROW_BLOCKS = ("N0", "W_hat", "c_P_ue", "c_Q_ue", "T0", "T1")
 """Six-column blocks of the contact-row table, in column order; then ``ROW_SCALARS``. ``N0`` is
@@ -377,24 +375,6 @@ Info = _structure("Info", INFO_FIELDS)
 # the contact-row table (symbolic -> polynomial coefficients in xi)
 
 
-@cache
-def row_expressions() -> tuple[sp.Expr, ...]:
-    """The contact-row columns of the C table, in ``ROW_BLOCKS`` then ``ROW_SCALARS`` order.
-
-    The symbolic rows behind the generated tables of :func:`row_coefficients` (SymPy; for tests and
-    derivations, not for a run): ``W_N^B`` and the discrete aux-bridge row of
-    ``svbi.codegen.constraints`` split into ``W_hat`` and the coefficients of ``h_B`` in the
-    histories and the irregularity (``svbi.codegen.kernels.discrete_bridge_row_parts``).
-    """
-    from svbi.codegen.kernels import BRIDGE_HISTORY, discrete_bridge_row_parts
-
-    _, w_hat, coefs = discrete_bridge_row_parts()
-    exprs: list[sp.Expr] = list(beam.normal_row(0)) + list(w_hat) + coefs["P_ue"] + coefs["Q_ue"]
-    exprs += list(beam.tangential_row(0)) + list(beam.tangential_row(1))
-    exprs += [coefs[k][0] for k in BRIDGE_HISTORY]
-    return tuple(exprs)
-
-
 _ROW_TABLES = ("N0", "W_hat", "c_P_ue", "c_Q_ue", "T0", "T1", "c_scalars")
 """Generated tables (``svbi.runtime.numeric``) of the ``ROW_BLOCKS`` and ``ROW_SCALARS`` columns."""
 
@@ -411,24 +391,8 @@ def row_structure() -> tuple[int, tuple[bool, ...]]:
 
 
 CREEP_MODEL = "creep_split"
-"""Model name of the two generated creep functions linked into the loop (:func:`creep_split`)."""
-
-
-@cache
-def creep_split() -> tuple[tuple[sp.Expr, ...], sp.Expr, tuple[sp.Symbol, ...]]:
-    """The creep law of ``svbi.codegen.creep`` split for the time loop.
-
-    The law's parameters are fixed for a run, so every subexpression that depends on them only
-    (``E^(1/3)``, ``(1/(2 R_wheel) + 1/(2 R_rail))^(-2/3)``, ...) becomes a coefficient ``c_k``,
-    computed once per wheel; what is left depends on the creepage, the normal load and the
-    ``c_k``. Powers of products are separated first (``(N (1 - nu^2))^(2/3)`` ->
-    ``N^(2/3) (1 - nu^2)^(2/3)``: N > 0 wherever the law is used, and the parameters are
-    positive), so that only the powers of N remain per step. Returns the coefficient expressions,
-    the reduced law and the coefficient symbols.
-    """
-    from svbi.codegen.creep import split_creep_force
-
-    return split_creep_force()
+"""Model name of the two generated creep functions linked into the loop
+(``svbi.codegen.creep.split_creep_force``, rendered by :mod:`svbi.runtime.c_glue`)."""
 
 
 def row_coefficients(

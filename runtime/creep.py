@@ -215,7 +215,7 @@ class CreepLaw:
 
     The law is split (``svbi.codegen.creep.split_creep_force``) into coefficients that depend on the
     parameters only, computed once here by the generated ``creep_split_coefficients``, and the
-    per-step ``creep_split_force(ξ, N, c)``: the same two generated functions as the C loop's; the
+    per-step ``creep_split_force(ξ, N, c, ∛N)``: the same two generated functions as the C loop's; the
     Hertz and Kalker coefficients are computed once.
     """
 
@@ -232,7 +232,7 @@ class CreepLaw:
         loaded = normal_load > 0.0
         safe_n = np.where(loaded, normal_load, 1.0)  # every branch is evaluated: keep N^(1/3) real
         with np.errstate(divide="ignore", invalid="ignore"):
-            out = self._force(creepage, safe_n, self.coefficients)
+            out = self._force(creepage, safe_n, self.coefficients, np.cbrt(safe_n))
         return np.where(loaded, out, 0.0)
 
     def f33(self, normal_load: ArrayLike) -> NDArray[np.float64]:

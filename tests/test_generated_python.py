@@ -77,11 +77,13 @@ def test_generated_functions_equal_sympy(model: str) -> None:
 
 
 def test_row_tables_equal_the_symbolic_rows() -> None:
-    """``c_loop.row_coefficients`` (generated tables) against ``c_loop.row_expressions`` (SymPy)."""
+    """``c_loop.row_coefficients`` (generated tables) against ``c_glue.row_expressions`` (SymPy)."""
     from svbi.codegen import beam, constraints
 
     rng = np.random.default_rng(7)
-    exprs = c_loop.row_expressions()
+    from svbi.runtime import c_glue
+
+    exprs = c_glue.row_expressions()
     degree, nonzero = c_loop.row_structure()
     assert nonzero == tuple(sp.expand(e) != 0 for e in exprs)
     assert degree == max(sp.Poly(sp.expand(e), beam.xi).degree() for e in exprs if sp.expand(e) != 0)
@@ -196,13 +198,6 @@ def test_numpy_run_imports_no_sympy_casadi_or_jinja2(vehicle: str, method: str) 
     assert not _svbi_importers(imported), imported
 
 
-@pytest.mark.xfail(
-    strict=True,
-    reason="C backend: runtime/c_loop.py imports sympy and jinja2 at module level (it renders "
-    "templates/solver/solver.c.j2 per run) and imports svbi.codegen.c_emit, which imports casadi "
-    "(creep_split_sources runs the CasADi emitter per run); another branch replaces these with "
-    "committed C sources (issue 11 item 2)",
-)
 def test_c_run_imports_no_sympy_casadi_or_jinja2() -> None:
     if shutil.which(os.environ.get("CC", "cc")) is None:
         pytest.skip("no C compiler")

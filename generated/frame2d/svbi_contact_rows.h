@@ -42,50 +42,51 @@ static const int nz_T0[6] = { 0, 1, 2, 3, 4, 5 };
 #define NNZ_T1 6
 static const int nz_T1[6] = { 0, 1, 2, 3, 4, 5 };
 
-/* row[0 .. ROW_COLS) = sum_p pw[p] cf[p * ROW_COLS + col], pw[p] = xi^p, over the non-zero columns
- * (structural zeros are stored as 0). */
+/* row[0 .. ROW_COLS) = sum_p pw[p] cf[p * ROW_COLS + col], pw[p] = xi^p (pw[0] = 1), over the powers
+ * whose coefficient is structurally non-zero (c_loop.row_powers: 77 of the 164 terms for frame2d;
+ * the others are exact zeros, so the sums are the same); structural zeros are stored as 0. */
 static inline void svbi_contact_rows(const double* pw, const double* cf, double* row) {
   row[COL_N0 + 0] = 0.0;
-  row[COL_N0 + 1] = pw[0] * cf[0 * ROW_COLS + COL_N0 + 1] + pw[1] * cf[1 * ROW_COLS + COL_N0 + 1] + pw[2] * cf[2 * ROW_COLS + COL_N0 + 1] + pw[3] * cf[3 * ROW_COLS + COL_N0 + 1];
-  row[COL_N0 + 2] = pw[0] * cf[0 * ROW_COLS + COL_N0 + 2] + pw[1] * cf[1 * ROW_COLS + COL_N0 + 2] + pw[2] * cf[2 * ROW_COLS + COL_N0 + 2] + pw[3] * cf[3 * ROW_COLS + COL_N0 + 2];
+  row[COL_N0 + 1] = cf[COL_N0 + 1] + pw[2] * cf[2 * ROW_COLS + COL_N0 + 1] + pw[3] * cf[3 * ROW_COLS + COL_N0 + 1];
+  row[COL_N0 + 2] = pw[1] * cf[1 * ROW_COLS + COL_N0 + 2] + pw[2] * cf[2 * ROW_COLS + COL_N0 + 2] + pw[3] * cf[3 * ROW_COLS + COL_N0 + 2];
   row[COL_N0 + 3] = 0.0;
-  row[COL_N0 + 4] = pw[0] * cf[0 * ROW_COLS + COL_N0 + 4] + pw[1] * cf[1 * ROW_COLS + COL_N0 + 4] + pw[2] * cf[2 * ROW_COLS + COL_N0 + 4] + pw[3] * cf[3 * ROW_COLS + COL_N0 + 4];
-  row[COL_N0 + 5] = pw[0] * cf[0 * ROW_COLS + COL_N0 + 5] + pw[1] * cf[1 * ROW_COLS + COL_N0 + 5] + pw[2] * cf[2 * ROW_COLS + COL_N0 + 5] + pw[3] * cf[3 * ROW_COLS + COL_N0 + 5];
+  row[COL_N0 + 4] = pw[2] * cf[2 * ROW_COLS + COL_N0 + 4] + pw[3] * cf[3 * ROW_COLS + COL_N0 + 4];
+  row[COL_N0 + 5] = pw[2] * cf[2 * ROW_COLS + COL_N0 + 5] + pw[3] * cf[3 * ROW_COLS + COL_N0 + 5];
   row[COL_W_HAT + 0] = 0.0;
-  row[COL_W_HAT + 1] = pw[0] * cf[0 * ROW_COLS + COL_W_HAT + 1] + pw[1] * cf[1 * ROW_COLS + COL_W_HAT + 1] + pw[2] * cf[2 * ROW_COLS + COL_W_HAT + 1] + pw[3] * cf[3 * ROW_COLS + COL_W_HAT + 1];
-  row[COL_W_HAT + 2] = pw[0] * cf[0 * ROW_COLS + COL_W_HAT + 2] + pw[1] * cf[1 * ROW_COLS + COL_W_HAT + 2] + pw[2] * cf[2 * ROW_COLS + COL_W_HAT + 2] + pw[3] * cf[3 * ROW_COLS + COL_W_HAT + 2];
+  row[COL_W_HAT + 1] = cf[COL_W_HAT + 1] + pw[1] * cf[1 * ROW_COLS + COL_W_HAT + 1] + pw[2] * cf[2 * ROW_COLS + COL_W_HAT + 1] + pw[3] * cf[3 * ROW_COLS + COL_W_HAT + 1];
+  row[COL_W_HAT + 2] = cf[COL_W_HAT + 2] + pw[1] * cf[1 * ROW_COLS + COL_W_HAT + 2] + pw[2] * cf[2 * ROW_COLS + COL_W_HAT + 2] + pw[3] * cf[3 * ROW_COLS + COL_W_HAT + 2];
   row[COL_W_HAT + 3] = 0.0;
-  row[COL_W_HAT + 4] = pw[0] * cf[0 * ROW_COLS + COL_W_HAT + 4] + pw[1] * cf[1 * ROW_COLS + COL_W_HAT + 4] + pw[2] * cf[2 * ROW_COLS + COL_W_HAT + 4] + pw[3] * cf[3 * ROW_COLS + COL_W_HAT + 4];
-  row[COL_W_HAT + 5] = pw[0] * cf[0 * ROW_COLS + COL_W_HAT + 5] + pw[1] * cf[1 * ROW_COLS + COL_W_HAT + 5] + pw[2] * cf[2 * ROW_COLS + COL_W_HAT + 5] + pw[3] * cf[3 * ROW_COLS + COL_W_HAT + 5];
+  row[COL_W_HAT + 4] = cf[COL_W_HAT + 4] + pw[1] * cf[1 * ROW_COLS + COL_W_HAT + 4] + pw[2] * cf[2 * ROW_COLS + COL_W_HAT + 4] + pw[3] * cf[3 * ROW_COLS + COL_W_HAT + 4];
+  row[COL_W_HAT + 5] = cf[COL_W_HAT + 5] + pw[1] * cf[1 * ROW_COLS + COL_W_HAT + 5] + pw[2] * cf[2 * ROW_COLS + COL_W_HAT + 5] + pw[3] * cf[3 * ROW_COLS + COL_W_HAT + 5];
   row[COL_C_P_UE + 0] = 0.0;
-  row[COL_C_P_UE + 1] = pw[0] * cf[0 * ROW_COLS + COL_C_P_UE + 1] + pw[1] * cf[1 * ROW_COLS + COL_C_P_UE + 1] + pw[2] * cf[2 * ROW_COLS + COL_C_P_UE + 1] + pw[3] * cf[3 * ROW_COLS + COL_C_P_UE + 1];
-  row[COL_C_P_UE + 2] = pw[0] * cf[0 * ROW_COLS + COL_C_P_UE + 2] + pw[1] * cf[1 * ROW_COLS + COL_C_P_UE + 2] + pw[2] * cf[2 * ROW_COLS + COL_C_P_UE + 2] + pw[3] * cf[3 * ROW_COLS + COL_C_P_UE + 2];
+  row[COL_C_P_UE + 1] = cf[COL_C_P_UE + 1] + pw[2] * cf[2 * ROW_COLS + COL_C_P_UE + 1] + pw[3] * cf[3 * ROW_COLS + COL_C_P_UE + 1];
+  row[COL_C_P_UE + 2] = pw[1] * cf[1 * ROW_COLS + COL_C_P_UE + 2] + pw[2] * cf[2 * ROW_COLS + COL_C_P_UE + 2] + pw[3] * cf[3 * ROW_COLS + COL_C_P_UE + 2];
   row[COL_C_P_UE + 3] = 0.0;
-  row[COL_C_P_UE + 4] = pw[0] * cf[0 * ROW_COLS + COL_C_P_UE + 4] + pw[1] * cf[1 * ROW_COLS + COL_C_P_UE + 4] + pw[2] * cf[2 * ROW_COLS + COL_C_P_UE + 4] + pw[3] * cf[3 * ROW_COLS + COL_C_P_UE + 4];
-  row[COL_C_P_UE + 5] = pw[0] * cf[0 * ROW_COLS + COL_C_P_UE + 5] + pw[1] * cf[1 * ROW_COLS + COL_C_P_UE + 5] + pw[2] * cf[2 * ROW_COLS + COL_C_P_UE + 5] + pw[3] * cf[3 * ROW_COLS + COL_C_P_UE + 5];
+  row[COL_C_P_UE + 4] = pw[2] * cf[2 * ROW_COLS + COL_C_P_UE + 4] + pw[3] * cf[3 * ROW_COLS + COL_C_P_UE + 4];
+  row[COL_C_P_UE + 5] = pw[2] * cf[2 * ROW_COLS + COL_C_P_UE + 5] + pw[3] * cf[3 * ROW_COLS + COL_C_P_UE + 5];
   row[COL_C_Q_UE + 0] = 0.0;
-  row[COL_C_Q_UE + 1] = pw[0] * cf[0 * ROW_COLS + COL_C_Q_UE + 1] + pw[1] * cf[1 * ROW_COLS + COL_C_Q_UE + 1] + pw[2] * cf[2 * ROW_COLS + COL_C_Q_UE + 1] + pw[3] * cf[3 * ROW_COLS + COL_C_Q_UE + 1];
-  row[COL_C_Q_UE + 2] = pw[0] * cf[0 * ROW_COLS + COL_C_Q_UE + 2] + pw[1] * cf[1 * ROW_COLS + COL_C_Q_UE + 2] + pw[2] * cf[2 * ROW_COLS + COL_C_Q_UE + 2] + pw[3] * cf[3 * ROW_COLS + COL_C_Q_UE + 2];
+  row[COL_C_Q_UE + 1] = cf[COL_C_Q_UE + 1] + pw[1] * cf[1 * ROW_COLS + COL_C_Q_UE + 1] + pw[2] * cf[2 * ROW_COLS + COL_C_Q_UE + 1] + pw[3] * cf[3 * ROW_COLS + COL_C_Q_UE + 1];
+  row[COL_C_Q_UE + 2] = cf[COL_C_Q_UE + 2] + pw[1] * cf[1 * ROW_COLS + COL_C_Q_UE + 2] + pw[2] * cf[2 * ROW_COLS + COL_C_Q_UE + 2] + pw[3] * cf[3 * ROW_COLS + COL_C_Q_UE + 2];
   row[COL_C_Q_UE + 3] = 0.0;
-  row[COL_C_Q_UE + 4] = pw[0] * cf[0 * ROW_COLS + COL_C_Q_UE + 4] + pw[1] * cf[1 * ROW_COLS + COL_C_Q_UE + 4] + pw[2] * cf[2 * ROW_COLS + COL_C_Q_UE + 4] + pw[3] * cf[3 * ROW_COLS + COL_C_Q_UE + 4];
-  row[COL_C_Q_UE + 5] = pw[0] * cf[0 * ROW_COLS + COL_C_Q_UE + 5] + pw[1] * cf[1 * ROW_COLS + COL_C_Q_UE + 5] + pw[2] * cf[2 * ROW_COLS + COL_C_Q_UE + 5] + pw[3] * cf[3 * ROW_COLS + COL_C_Q_UE + 5];
-  row[COL_T0 + 0] = pw[0] * cf[0 * ROW_COLS + COL_T0 + 0] + pw[1] * cf[1 * ROW_COLS + COL_T0 + 0] + pw[2] * cf[2 * ROW_COLS + COL_T0 + 0] + pw[3] * cf[3 * ROW_COLS + COL_T0 + 0];
-  row[COL_T0 + 1] = pw[0] * cf[0 * ROW_COLS + COL_T0 + 1] + pw[1] * cf[1 * ROW_COLS + COL_T0 + 1] + pw[2] * cf[2 * ROW_COLS + COL_T0 + 1] + pw[3] * cf[3 * ROW_COLS + COL_T0 + 1];
-  row[COL_T0 + 2] = pw[0] * cf[0 * ROW_COLS + COL_T0 + 2] + pw[1] * cf[1 * ROW_COLS + COL_T0 + 2] + pw[2] * cf[2 * ROW_COLS + COL_T0 + 2] + pw[3] * cf[3 * ROW_COLS + COL_T0 + 2];
-  row[COL_T0 + 3] = pw[0] * cf[0 * ROW_COLS + COL_T0 + 3] + pw[1] * cf[1 * ROW_COLS + COL_T0 + 3] + pw[2] * cf[2 * ROW_COLS + COL_T0 + 3] + pw[3] * cf[3 * ROW_COLS + COL_T0 + 3];
-  row[COL_T0 + 4] = pw[0] * cf[0 * ROW_COLS + COL_T0 + 4] + pw[1] * cf[1 * ROW_COLS + COL_T0 + 4] + pw[2] * cf[2 * ROW_COLS + COL_T0 + 4] + pw[3] * cf[3 * ROW_COLS + COL_T0 + 4];
-  row[COL_T0 + 5] = pw[0] * cf[0 * ROW_COLS + COL_T0 + 5] + pw[1] * cf[1 * ROW_COLS + COL_T0 + 5] + pw[2] * cf[2 * ROW_COLS + COL_T0 + 5] + pw[3] * cf[3 * ROW_COLS + COL_T0 + 5];
-  row[COL_T1 + 0] = pw[0] * cf[0 * ROW_COLS + COL_T1 + 0] + pw[1] * cf[1 * ROW_COLS + COL_T1 + 0] + pw[2] * cf[2 * ROW_COLS + COL_T1 + 0] + pw[3] * cf[3 * ROW_COLS + COL_T1 + 0];
-  row[COL_T1 + 1] = pw[0] * cf[0 * ROW_COLS + COL_T1 + 1] + pw[1] * cf[1 * ROW_COLS + COL_T1 + 1] + pw[2] * cf[2 * ROW_COLS + COL_T1 + 1] + pw[3] * cf[3 * ROW_COLS + COL_T1 + 1];
-  row[COL_T1 + 2] = pw[0] * cf[0 * ROW_COLS + COL_T1 + 2] + pw[1] * cf[1 * ROW_COLS + COL_T1 + 2] + pw[2] * cf[2 * ROW_COLS + COL_T1 + 2] + pw[3] * cf[3 * ROW_COLS + COL_T1 + 2];
-  row[COL_T1 + 3] = pw[0] * cf[0 * ROW_COLS + COL_T1 + 3] + pw[1] * cf[1 * ROW_COLS + COL_T1 + 3] + pw[2] * cf[2 * ROW_COLS + COL_T1 + 3] + pw[3] * cf[3 * ROW_COLS + COL_T1 + 3];
-  row[COL_T1 + 4] = pw[0] * cf[0 * ROW_COLS + COL_T1 + 4] + pw[1] * cf[1 * ROW_COLS + COL_T1 + 4] + pw[2] * cf[2 * ROW_COLS + COL_T1 + 4] + pw[3] * cf[3 * ROW_COLS + COL_T1 + 4];
-  row[COL_T1 + 5] = pw[0] * cf[0 * ROW_COLS + COL_T1 + 5] + pw[1] * cf[1 * ROW_COLS + COL_T1 + 5] + pw[2] * cf[2 * ROW_COLS + COL_T1 + 5] + pw[3] * cf[3 * ROW_COLS + COL_T1 + 5];
-  row[COL_C_P_UG] = pw[0] * cf[0 * ROW_COLS + COL_C_P_UG] + pw[1] * cf[1 * ROW_COLS + COL_C_P_UG] + pw[2] * cf[2 * ROW_COLS + COL_C_P_UG] + pw[3] * cf[3 * ROW_COLS + COL_C_P_UG];
-  row[COL_C_Q_UG] = pw[0] * cf[0 * ROW_COLS + COL_C_Q_UG] + pw[1] * cf[1 * ROW_COLS + COL_C_Q_UG] + pw[2] * cf[2 * ROW_COLS + COL_C_Q_UG] + pw[3] * cf[3 * ROW_COLS + COL_C_Q_UG];
-  row[COL_C_R] = pw[0] * cf[0 * ROW_COLS + COL_C_R] + pw[1] * cf[1 * ROW_COLS + COL_C_R] + pw[2] * cf[2 * ROW_COLS + COL_C_R] + pw[3] * cf[3 * ROW_COLS + COL_C_R];
-  row[COL_C_R_X] = pw[0] * cf[0 * ROW_COLS + COL_C_R_X] + pw[1] * cf[1 * ROW_COLS + COL_C_R_X] + pw[2] * cf[2 * ROW_COLS + COL_C_R_X] + pw[3] * cf[3 * ROW_COLS + COL_C_R_X];
-  row[COL_C_R_XX] = pw[0] * cf[0 * ROW_COLS + COL_C_R_XX] + pw[1] * cf[1 * ROW_COLS + COL_C_R_XX] + pw[2] * cf[2 * ROW_COLS + COL_C_R_XX] + pw[3] * cf[3 * ROW_COLS + COL_C_R_XX];
+  row[COL_C_Q_UE + 4] = pw[1] * cf[1 * ROW_COLS + COL_C_Q_UE + 4] + pw[2] * cf[2 * ROW_COLS + COL_C_Q_UE + 4] + pw[3] * cf[3 * ROW_COLS + COL_C_Q_UE + 4];
+  row[COL_C_Q_UE + 5] = pw[1] * cf[1 * ROW_COLS + COL_C_Q_UE + 5] + pw[2] * cf[2 * ROW_COLS + COL_C_Q_UE + 5] + pw[3] * cf[3 * ROW_COLS + COL_C_Q_UE + 5];
+  row[COL_T0 + 0] = cf[COL_T0 + 0] + pw[1] * cf[1 * ROW_COLS + COL_T0 + 0];
+  row[COL_T0 + 1] = pw[1] * cf[1 * ROW_COLS + COL_T0 + 1] + pw[2] * cf[2 * ROW_COLS + COL_T0 + 1];
+  row[COL_T0 + 2] = cf[COL_T0 + 2] + pw[1] * cf[1 * ROW_COLS + COL_T0 + 2] + pw[2] * cf[2 * ROW_COLS + COL_T0 + 2];
+  row[COL_T0 + 3] = pw[1] * cf[1 * ROW_COLS + COL_T0 + 3];
+  row[COL_T0 + 4] = pw[1] * cf[1 * ROW_COLS + COL_T0 + 4] + pw[2] * cf[2 * ROW_COLS + COL_T0 + 4];
+  row[COL_T0 + 5] = pw[1] * cf[1 * ROW_COLS + COL_T0 + 5] + pw[2] * cf[2 * ROW_COLS + COL_T0 + 5];
+  row[COL_T1 + 0] = cf[COL_T1 + 0];
+  row[COL_T1 + 1] = cf[COL_T1 + 1] + pw[1] * cf[1 * ROW_COLS + COL_T1 + 1];
+  row[COL_T1 + 2] = cf[COL_T1 + 2] + pw[1] * cf[1 * ROW_COLS + COL_T1 + 2];
+  row[COL_T1 + 3] = cf[COL_T1 + 3];
+  row[COL_T1 + 4] = cf[COL_T1 + 4] + pw[1] * cf[1 * ROW_COLS + COL_T1 + 4];
+  row[COL_T1 + 5] = cf[COL_T1 + 5] + pw[1] * cf[1 * ROW_COLS + COL_T1 + 5];
+  row[COL_C_P_UG] = cf[COL_C_P_UG];
+  row[COL_C_Q_UG] = cf[COL_C_Q_UG];
+  row[COL_C_R] = cf[COL_C_R];
+  row[COL_C_R_X] = cf[COL_C_R_X];
+  row[COL_C_R_XX] = cf[COL_C_R_XX];
 }
 
 #endif /* SVBI_CONTACT_ROWS_H */

@@ -153,6 +153,78 @@ void svbi_gb_solve(const double* AB, int n, int bw, const int* ipiv, double* b) 
   }
 }
 
+/* svbi_gb_factor that also stores the reciprocal of every pivot (rpiv: n) and scales the column
+ * by it (one division per column instead of one per sub-diagonal entry). */
+int svbi_gb_factor_r(double* AB, int n, int bw, int* ipiv, double* rpiv) {
+  int ku = bw, kv = 2 * bw, ldab = 3 * bw + 1;
+  int j, i, jp, ju = 0, km, jj;
+  for (j = 0; j < n; ++j) {
+    double* colj = AB + (long)j * ldab;
+    double pmax, r;
+    km = bw < n - 1 - j ? bw : n - 1 - j;
+    jp = 0;
+    pmax = fabs(colj[kv]);
+    for (i = 1; i <= km; ++i) {
+      double a = fabs(colj[kv + i]);
+      if (a > pmax) {
+        pmax = a;
+        jp = i;
+      }
+    }
+    ipiv[j] = j + jp;
+    if (colj[kv + jp] == 0.0) return SVBI_SOLVER_STATUS_SINGULAR;
+    {
+      int jmax = j + ku + jp < n - 1 ? j + ku + jp : n - 1;
+      if (jmax > ju) ju = jmax;
+    }
+    if (jp != 0) {
+      for (jj = j; jj <= ju; ++jj) {
+        double* cc = AB + (long)jj * ldab;
+        double tmp = cc[kv + j - jj];
+        cc[kv + j - jj] = cc[kv + j + jp - jj];
+        cc[kv + j + jp - jj] = tmp;
+      }
+    }
+    r = 1.0 / colj[kv];
+    rpiv[j] = r;
+    for (i = 1; i <= km; ++i) colj[kv + i] *= r;
+    for (jj = j + 1; jj <= ju; ++jj) {
+      double* cc = AB + (long)jj * ldab;
+      double u = cc[kv + j - jj];
+      if (u != 0.0) {
+        for (i = 1; i <= km; ++i) cc[kv + j + i - jj] -= colj[kv + i] * u;
+      }
+    }
+  }
+  return SVBI_SOLVER_STATUS_OK;
+}
+
+/* The solve with svbi_gb_factor_r's factor: multiplications by the reciprocal pivots. */
+void svbi_gb_solve_r(const double* AB, int n, int bw, const int* ipiv, const double* rpiv, double* b) {
+  int kv = 2 * bw, ldab = 3 * bw + 1;
+  int j, i;
+  for (j = 0; j < n - 1; ++j) {
+    const double* colj = AB + (long)j * ldab;
+    int lm = bw < n - 1 - j ? bw : n - 1 - j;
+    int l = ipiv[j];
+    double x;
+    if (l != j) {
+      double tmp = b[l];
+      b[l] = b[j];
+      b[j] = tmp;
+    }
+    x = b[j];
+    for (i = 1; i <= lm; ++i) b[j + i] -= colj[kv + i] * x;
+  }
+  for (j = n - 1; j >= 0; --j) {
+    const double* colj = AB + (long)j * ldab;
+    int i0 = j - kv > 0 ? j - kv : 0;
+    double x = b[j] * rpiv[j];
+    b[j] = x;
+    for (i = i0; i < j; ++i) b[i] -= colj[kv + i - j] * x;
+  }
+}
+
 /* y += A x for a CSR matrix. */
 void svbi_csr_add(const int* ptr, const int* idx, const double* val, int n, const double* x, double* y) {
   int i, k;

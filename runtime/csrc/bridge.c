@@ -53,11 +53,16 @@ void svbi_group_by_span(const setup_t* S, work_t* w) {
 /* Newmark histories of the bridge and the support targets q^ (row of svbi.codegen.constraints). */
 void svbi_bridge_histories(const setup_t* S, work_t* w) {
   long i, n = w->nb;
-  int s, j, ns = S->ns, NS = S->spans * S->ns;
   for (i = 0; i < n; ++i) {
     w->PB[i] = S->a0 * w->bu[i] + S->a2 * w->bv[i] + w->ba[i];
     w->QB[i] = S->a1 * w->bu[i] + w->bv[i];
   }
+  svbi_support_targets(S, w);
+}
+
+/* The support targets q^ from the histories PB, QB and the support motion of the step. */
+void svbi_support_targets(const setup_t* S, work_t* w) {
+  int s, j, ns = S->ns, NS = S->spans * S->ns;
   for (s = 0; s < S->spans; ++s) {
     for (j = 0; j < ns; ++j) {
       int k = s * ns + j;
@@ -79,6 +84,25 @@ void svbi_span_load(const setup_t* S, const work_t* w, int s, double* f) {
   }
   svbi_csr_add(S->M_ptr, S->M_idx, S->M_val, nd, P, f);
   svbi_csr_add(S->C_ptr, S->C_idx, S->C_val, nd, Q, f);
+}
+
+/* svbi_bridge_update followed by the histories of the next step (svbi_bridge_histories without
+ * the support targets) in one pass: the same values, read once. */
+void svbi_bridge_update_histories(const setup_t* S, work_t* w) {
+  long i, n = w->nb;
+  double a0 = S->a0, a1 = S->a1, a2 = S->a2;
+  double* restrict u = w->bu;
+  double* restrict v = w->bv;
+  double* restrict a = w->ba;
+  double* restrict P = w->PB;
+  double* restrict Q = w->QB;
+  for (i = 0; i < n; ++i) {
+    double vi = a1 * u[i] - Q[i], ai = a0 * u[i] - P[i];
+    v[i] = vi;
+    a[i] = ai;
+    P[i] = a0 * u[i] + a2 * vi + ai;
+    Q[i] = a1 * u[i] + vi;
+  }
 }
 
 /* The Newmark update of the bridge from its new displacements. */

@@ -20,13 +20,14 @@
 #include "tables.h"
 
 #if !SVBI_MOVING_LOAD
-#include "creep_split.h" /* the generated creep law, split (svbi.runtime.c_loop.creep_split) */
+#include "creep_split.h" /* the generated creep law, split (svbi.codegen.creep.split_creep_force) */
 #define CREEP_NC SVBI_CREEP_SPLIT_COEFFICIENTS_OUT_C_ROWS /* coefficients of the split creep law */
 #define NV SVBI_NV
 #define NW SVBI_NW
 #endif
 
 #define NE 6 /* DOFs of one bridge element (frame2d) */
+#define LW 2 /* lanes of the localized bridge state: spans padded to a multiple of LW ([DOF][spans]) */
 
 typedef svbi_solver_setup setup_t;
 typedef svbi_solver_state state_t;
@@ -98,27 +99,42 @@ typedef struct {
   double* HG;    /* spans * ns */
   double* Z;     /* attachment vectors of the span blocks */
   int* piv;      /* nmult */
+  double* rpiv;  /* nmult: reciprocal pivots of the interface LU (localized) */
   int* mpos;     /* nmult: track-order position of each multiplier */
   int* slist;    /* nc: contacts grouped by span */
   int* sstart;   /* spans + 1 */
   /* the bridge state the step works on. coupled methods: the state itself, span after span.
-   * localized-dynamic: blocks of SW spans, [block][DOF][SW], so that one factor solves SW spans at
-   * once with fixed-width (vectorised) inner loops */
+   * localized-dynamic: DOF after DOF over the spans padded to a multiple of LW ([DOF][pad]), so that
+   * one factor solves every span at once with inner loops over LW lanes (vectorised) */
   double* bu;
   double* bv;
   double* ba;
   int blocked;
-  long pad;      /* spans padded to a multiple of SW (localized) */
+  int hist;      /* localized: PB, QB already hold this step's histories (set by the last update) */
+  long pad;      /* spans padded to a multiple of LW (localized) */
   long nb;       /* entries of bu (with the padding) */
-  double* TU;    /* nblk x nd x SW (localized) */
+  double* TU;    /* nd x pad (localized) */
   double* TV;
   double* TA;
-  double* qb;    /* 2 x ns x SW: q' and q^ of one block */
-  double* RF;    /* nblk x nfree x SW: free-DOF right-hand sides (localized) */
+  double* qb;    /* 2 x ns x pad: q' and q^ of every span */
+  double* RF;    /* nfree x pad: free-DOF right-hand sides of the correction (localized) */
   double* dinv;  /* nfree: reciprocal diagonal of the factor on the free DOFs */
   int* freeidx;  /* nd: index among the free DOFs, -1 for a support DOF */
   int* lidx;     /* spans: index among the loaded spans, -1 if unloaded */
   int* lspan;    /* spans: the loaded spans */
+  /* localized: the non-zeros of the factor on the free DOFs (the band is 40 % zeros: axial and
+   * bending DOFs do not couple), row j's L(j, j - r) for r descending (forward sweep) and column j's
+   * L(j + r, j) for r ascending (backward sweep): the order of svbi_band_solve_blocked's updates */
+  int* fw_ptr;   /* nfree + 1 */
+  int* fw_r;     /* nfree x band_pf */
+  double* fw_c;  /* nfree x band_pf */
+  /* vehicles: the non-zeros of V_K, V_M, V_C and V_kinv column by column (y = x^T A, vec_mat_nz) */
+  int* vnz_ptr;  /* 4 x (NV + 1) */
+  int* vnz_idx;  /* 4 x NV x NV */
+  double* vnz_val; /* 4 x NV x NV */
+  int* bk_ptr;   /* nfree + 1 */
+  int* bk_r;     /* nfree x band_pf */
+  double* bk_c;  /* nfree x band_pf */
   double* creepc; /* NW x CREEP_NC: coefficients of the creep law of every wheel */
   double* DG;    /* ns: scale of the support rows */
   double* ab;    /* (ns + nc) x NE: attachments' B entries */
@@ -129,7 +145,7 @@ typedef struct {
 } work_t;
 
 /* Element (s, i) of a bridge-state array: span after span, or DOF after DOF over the spans padded
- * to a multiple of SW (localized). */
+ * to a multiple of LW (localized). */
 #define BR(b, s, i) ((b)[w->blocked ? (long)(i) * w->pad + (s) : (long)(s) * S->nd + (i)])
 
 /* Unknowns of the interface system (contact forces, or multipliers). */
@@ -150,6 +166,8 @@ void svbi_excite(const setup_t* S, const excitation_t* E, work_t* w, long n, dou
 void svbi_locate(const setup_t* S, work_t* w);
 void svbi_group_by_span(const setup_t* S, work_t* w);
 void svbi_bridge_histories(const setup_t* S, work_t* w);
+void svbi_support_targets(const setup_t* S, work_t* w);
+void svbi_bridge_update_histories(const setup_t* S, work_t* w);
 void svbi_span_load(const setup_t* S, const work_t* w, int s, double* f);
 void svbi_bridge_update(const setup_t* S, work_t* w);
 
@@ -175,6 +193,21 @@ static inline void vec_mat(const double* A, const double* x, double* y) {
   }
 }
 
+/* y = x^T A over the non-zeros of A (matrix a of work_t vnz_*: 0 K, 1 M, 2 C, 3 K^-1, stored
+ * column by column): every y[d] is the sum of vec_mat without its exact zeros, in the same order
+ * over j (the same result), accumulated in a register. */
+static inline void vec_mat_nz(const work_t* w, int a, const double* x, double* y) {
+  int k, d;
+  const int* ptr = w->vnz_ptr + a * (NV + 1);
+  const int* idx = w->vnz_idx + a * NV * NV;
+  const double* val = w->vnz_val + a * NV * NV;
+  for (d = 0; d < NV; ++d) {
+    double s = 0.0;
+    for (k = ptr[d]; k < ptr[d + 1]; ++k) s += x[idx[k]] * val[k];
+    y[d] = s;
+  }
+}
+
 /* W_i^T x: the vertical motion of wheel i (column i of W_N^V, exact zeros dropped). */
 static inline double wheel(const setup_t* S, const double* x, int i) {
   int k;
@@ -186,6 +219,8 @@ static inline double wheel(const setup_t* S, const double* x, int i) {
 /* vehicle.c: the vehicles, the creep law and the aux-bridge row target. */
 void svbi_vehicle_increment_load(const setup_t* S, const double* u, const double* v, const double* a,
                                  double* Pt, double* Qt, double* PV, double* QV, double* f);
+void svbi_vehicle_increment_load_nz(const setup_t* S, const work_t* w, const double* u, const double* v,
+                                    const double* a, double* Pt, double* Qt, double* PV, double* QV, double* f);
 void svbi_creep_vehicle_load(const setup_t* S, const double* force, int k, double* f);
 void svbi_creep_update(const setup_t* S, state_t* X, const work_t* w);
 void svbi_creep_bridge_load(const setup_t* S, const double* force, work_t* w);

@@ -1,17 +1,92 @@
 /*
  * localized-dynamic (svbi.runtime.localized): each car's effective matrix and wheel flexibility,
  * and the factor of the bridge span with its supports held, are constant (one factor serves every
- * span, SW spans at a time). Each step solves one banded interface system for the contact forces,
+ * span, every span at once). Each step solves one banded interface system for the contact forces,
  * in track order (docs/c-backend.md, "Structure exploited").
  */
 #include "internal.h"
 
+/* Solve L L^T X = B in place for m right-hand sides (m a multiple of LW) held row after row: row j
+ * at b + row(j) m, row(j) = rows[j] (or j without rows). Row form over the factor's non-zeros
+ * (work_t fw_*, bk_*): every row is read, updated in registers LW lanes at a time and stored once,
+ * with the subtractions in the order of svbi_band_solve_blocked (the same result, bit for bit). */
+static void factor_solve(const setup_t* S, const work_t* w, double* b, const int* rows, long m) {
+  int j, k, l, n = S->nfree;
+  long c;
+  for (j = 0; j < n; ++j) {
+    double* restrict bj = b + (long)(rows ? rows[j] : j) * m;
+    double di = w->dinv[j];
+    int k0 = w->fw_ptr[j], k1 = w->fw_ptr[j + 1];
+    for (c = 0; c < m; c += LW) {
+      double t[LW];
+      for (l = 0; l < LW; ++l) t[l] = bj[c + l];
+      for (k = k0; k < k1; ++k) {
+        int r = j - w->fw_r[k];
+        const double* br = b + (long)(rows ? rows[r] : r) * m + c;
+        double v = w->fw_c[k];
+        for (l = 0; l < LW; ++l) t[l] -= v * br[l];
+      }
+      for (l = 0; l < LW; ++l) bj[c + l] = t[l] * di;
+    }
+  }
+  for (j = n - 1; j >= 0; --j) {
+    double* restrict bj = b + (long)(rows ? rows[j] : j) * m;
+    double di = w->dinv[j];
+    int k0 = w->bk_ptr[j], k1 = w->bk_ptr[j + 1];
+    for (c = 0; c < m; c += LW) {
+      double t[LW];
+      for (l = 0; l < LW; ++l) t[l] = bj[c + l];
+      for (k = k0; k < k1; ++k) {
+        int r = j + w->bk_r[k];
+        const double* br = b + (long)(rows ? rows[r] : r) * m + c;
+        double v = w->bk_c[k];
+        for (l = 0; l < LW; ++l) t[l] -= v * br[l];
+      }
+      for (l = 0; l < LW; ++l) bj[c + l] = t[l] * di;
+    }
+  }
+}
+
+/* Row k (span DOF row) of the predictor's right-hand side f_f - K^_fs q^, f = M P + C Q + C T q',
+ * for lanes c .. c + W of every span (W <= 2 LW, a constant where it is inlined), accumulated in
+ * registers in the order of the sums (exact zeros skipped: C T is half empty, K^_fs nearly all;
+ * M and C share one pattern, C = alpha M + beta K: one pass over it). */
+static inline void rhs_lanes(const setup_t* S, const work_t* w, const double* q1, const double* qh, int k,
+                             int row, long m, long c, const int W, double* restrict f) {
+  int i, j, l, ns = S->ns, i0 = S->MC_ptr[row], i1 = S->MC_ptr[row + 1];
+  const double* ct = S->CT + row * ns;
+  const double* kf = S->Khat_fs + k * ns;
+  double a[2 * LW];
+  for (l = 0; l < W; ++l) a[l] = 0.0;
+  for (j = 0; j < ns; ++j) {
+    const double* q = q1 + j * m + c;
+    double v = ct[j];
+    if (v == 0.0) continue;
+    for (l = 0; l < W; ++l) a[l] += v * q[l];
+  }
+  for (i = i0; i < i1; ++i) {
+    double vm = S->MC_m[i], vc = S->MC_c[i];
+    long o = (long)S->MC_idx[i] * m + c;
+    const double* p = w->PB + o;
+    const double* q = w->QB + o;
+    for (l = 0; l < W; ++l) a[l] += vm * p[l] + vc * q[l];
+  }
+  for (j = 0; j < ns; ++j) {
+    const double* q = qh + j * m + c;
+    double v = kf[j];
+    if (v == 0.0) continue;
+    for (l = 0; l < W; ++l) a[l] -= v * q[l];
+  }
+  for (l = 0; l < W; ++l) f[c + l] = a[l];
+}
+
 /* Localized: u = S f + R q^ for every span at once: the free DOFs solve K^_ff u_f = f_f - K^_fs q^
- * with f = M P + C Q + C T q', and the support DOFs take their targets. Rows run over all spans. */
+ * with f = M P + C Q + C T q', and the support DOFs take their targets. Each row of f is described
+ * once (its non-zeros) and accumulated in registers, a few spans at a time, straight into u. */
 static void localized_predictor(const setup_t* S, work_t* w, const double* creep) {
-  int i, j, k, l, s, ns = S->ns, NS = S->spans * S->ns;
-  long b, m = w->pad, nblk = m / SW;
-  double* q1 = w->qb;       /* ns x m */
+  int j, k, s, ns = S->ns, NS = S->spans * S->ns;
+  long c, m = w->pad;
+  double* q1 = w->qb; /* ns x m */
   double* qh = w->qb + ns * m;
   for (j = 0; j < ns; ++j) {
     for (s = 0; s < m; ++s) {
@@ -21,43 +96,21 @@ static void localized_predictor(const setup_t* S, work_t* w, const double* creep
   }
   for (k = 0; k < S->nfree; ++k) {
     int row = S->free[k];
-    double* f = w->RF + (long)k * m;
-    for (b = 0; b < nblk; ++b)
-      for (l = 0; l < SW; ++l) f[b * SW + l] = 0.0;
-    /* exact zeros skipped (the sums are unchanged): C T is half empty, K^_fs nearly all */
-    for (j = 0; j < ns; ++j) {
-      double ct = S->CT[row * ns + j];
-      const double* q = q1 + j * m;
-      if (ct == 0.0) continue;
-      for (b = 0; b < nblk; ++b)
-        for (l = 0; l < SW; ++l) f[b * SW + l] += ct * q[b * SW + l];
-    }
-    /* M and C share one pattern (C = alpha M + beta K): one pass over it */
-    for (i = S->MC_ptr[row]; i < S->MC_ptr[row + 1]; ++i) {
-      double vm = S->MC_m[i], vc = S->MC_c[i];
-      const double* p = w->PB + (long)S->MC_idx[i] * m;
-      const double* q = w->QB + (long)S->MC_idx[i] * m;
-      for (b = 0; b < nblk; ++b)
-        for (l = 0; l < SW; ++l) f[b * SW + l] += vm * p[b * SW + l] + vc * q[b * SW + l];
-    }
-    for (j = 0; j < ns; ++j) {
-      double kf = S->Khat_fs[k * ns + j];
-      const double* q = qh + j * m;
-      if (kf == 0.0) continue;
-      for (b = 0; b < nblk; ++b)
-        for (l = 0; l < SW; ++l) f[b * SW + l] -= kf * q[b * SW + l];
-    }
+    double* restrict f = w->bu + (long)row * m;
+    /* four lanes (two registers) at a time, then two: fewer passes over the row's description */
+    for (c = 0; c + 2 * LW <= m; c += 2 * LW) rhs_lanes(S, w, q1, qh, k, row, m, c, 2 * LW, f);
+    for (; c < m; c += LW) rhs_lanes(S, w, q1, qh, k, row, m, c, LW, f);
   }
 #if !SVBI_MOVING_LOAD
   if (creep) {
     /* the creep forces of t_n load the rail: -W_T^B F (svbi.runtime.creep_forces) */
-    int c, q;
-    for (c = 0; c < S->nc; ++c) {
-      if (w->con[c] && creep[c] != 0.0) {
-        const double* T0 = w->crow + (long)c * ROW_COLS + COL_T0;
+    int i, q;
+    for (i = 0; i < S->nc; ++i) {
+      if (w->con[i] && creep[i] != 0.0) {
+        const double* T0 = w->crow + (long)i * ROW_COLS + COL_T0;
         for (q = 0; q < NNZ_T0; ++q) {
-          int f = w->freeidx[w->cfirst[c] + nz_T0[q]];
-          if (f >= 0) w->RF[(long)f * m + w->cspan[c]] -= T0[nz_T0[q]] * creep[c];
+          int d = w->cfirst[i] + nz_T0[q];
+          if (w->freeidx[d] >= 0) w->bu[(long)d * m + w->cspan[i]] -= T0[nz_T0[q]] * creep[i];
         }
       }
     }
@@ -65,8 +118,7 @@ static void localized_predictor(const setup_t* S, work_t* w, const double* creep
 #else
   (void)creep;
 #endif
-  svbi_band_solve_blocked(w->Lff, w->dinv, S->nfree, S->band_pf, w->RF, nblk);
-  for (k = 0; k < S->nfree; ++k) memcpy(w->bu + (long)S->free[k] * m, w->RF + (long)k * m, sizeof(double) * (size_t)m);
+  factor_solve(S, w, w->bu, S->free, m);
   for (j = 0; j < ns; ++j) memcpy(w->bu + (long)S->sup[j] * m, qh + j * m, sizeof(double) * (size_t)m);
 }
 
@@ -79,7 +131,7 @@ static void localized_correct(const setup_t* S, work_t* w, const double* force) 
     if (w->loaded[s]) w->lspan[nl++] = s;
   }
   if (!nl) return;
-  ml = (nl + SW - 1) / SW * SW;
+  ml = (nl + LW - 1) / LW * LW;
   memset(w->RF, 0, sizeof(double) * (size_t)nf * (size_t)ml);
   for (c = 0; c < S->nc; ++c) {
     if (w->con[c]) {
@@ -91,7 +143,7 @@ static void localized_correct(const setup_t* S, work_t* w, const double* force) 
       }
     }
   }
-  svbi_band_solve_blocked(w->Lff, w->dinv, nf, S->band_pf, w->RF, ml / SW);
+  factor_solve(S, w, w->RF, 0, ml);
   for (k = 0; k < nf; ++k) {
     double* u = w->bu + (long)S->free[k] * m;
     const double* r = w->RF + (long)k * ml;
@@ -101,7 +153,12 @@ static void localized_correct(const setup_t* S, work_t* w, const double* force) 
 
 int svbi_step_localized(const setup_t* S, state_t* X, work_t* w) {
   int nc = S->nc;
-  svbi_bridge_histories(S, w);
+  /* the histories of this step come from the last step's update (merged pass), or afresh */
+  if (w->hist)
+    svbi_support_targets(S, w);
+  else
+    svbi_bridge_histories(S, w);
+  w->hist = 1;
   svbi_group_by_span(S, w);
 #if SVBI_MOVING_LOAD
   localized_predictor(S, w, 0);
@@ -113,7 +170,7 @@ int svbi_step_localized(const setup_t* S, state_t* X, work_t* w) {
     int i;
     for (i = 0; i < nc; ++i) w->rhs[i] = w->con[i] ? S->axle_loads[i] : 0.0;
     localized_correct(S, w, w->rhs);
-    svbi_bridge_update(S, w);
+    svbi_bridge_update_histories(S, w);
     for (i = 0; i < nc; ++i) {
       X->P[i] = S->axle_loads[i];
       X->PV[i] = S->axle_loads[i];
@@ -133,9 +190,9 @@ int svbi_step_localized(const setup_t* S, state_t* X, work_t* w) {
       double* Qt = w->QVh + (long)k * NV;
       double* du = w->dVh + (long)k * NV;
       double f[NV], ut[NV], PV[NV], QV[NV];
-      svbi_vehicle_increment_load(S, u, v, a, Pt, Qt, PV, QV, f);
+      svbi_vehicle_increment_load_nz(S, w, u, v, a, Pt, Qt, PV, QV, f);
       if (S->creep) svbi_creep_vehicle_load(S, X->creep_force, k, f);
-      vec_mat(S->V_kinv, f, du); /* du~ = K^-T f */
+      vec_mat_nz(w, 3, f, du); /* du~ = K^-T f */
       for (d = 0; d < NV; ++d) ut[d] = u[d] + du[d];
       for (i = 0; i < NW; ++i) {
         int c = k * NW + i;
@@ -195,10 +252,10 @@ int svbi_step_localized(const setup_t* S, state_t* X, work_t* w) {
         }
       }
     }
-    status = svbi_gb_factor(w->band, nc, bw, w->piv);
+    status = svbi_gb_factor_r(w->band, nc, bw, w->piv, w->rpiv);
     if (status) return status;
     for (i = 0; i < nc; ++i) w->bsol[w->cpos[i]] = w->rhs[i];
-    svbi_gb_solve(w->band, nc, bw, w->piv, w->bsol);
+    svbi_gb_solve_r(w->band, nc, bw, w->piv, w->rpiv, w->bsol);
     for (i = 0; i < nc; ++i) X->P[i] = w->bsol[w->cpos[i]];
 
     /* back-substitution: wheel-aux forces, aux points, vehicles, bridge */
@@ -235,7 +292,7 @@ int svbi_step_localized(const setup_t* S, state_t* X, work_t* w) {
       }
     }
     localized_correct(S, w, X->P);
-    svbi_bridge_update(S, w);
+    svbi_bridge_update_histories(S, w);
     if (S->creep) svbi_creep_update(S, X, w);
   }
   return ST_OK;

@@ -95,6 +95,7 @@ static void carve(const setup_t* S, carver_t* c, work_t* w) {
   w->HG = take_d(c, NS);
   w->Z = take_d(c, S->method == 0 ? 0 : (NS + nc) * nd);
   w->piv = take_i(c, nm);
+  w->rpiv = take_d(c, S->method == 0 ? nm : 0);
   w->mpos = take_i(c, nm);
   w->slist = take_i(c, nc);
   w->sstart = take_i(c, spans + 1);
@@ -105,11 +106,11 @@ static void carve(const setup_t* S, carver_t* c, work_t* w) {
   w->afirst = take_i(c, S->ns + nc);
   w->alen = take_i(c, S->ns + nc);
   {
-    long padded = S->method == 0 ? (spans + SW - 1) / SW * SW : 0;
+    long padded = S->method == 0 ? (spans + LW - 1) / LW * LW : 0;
     w->TU = take_d(c, padded * nd);
     w->TV = take_d(c, padded * nd);
     w->TA = take_d(c, padded * nd);
-    w->qb = take_d(c, 2L * S->ns * (padded > 0 ? padded : SW));
+    w->qb = take_d(c, 2L * S->ns * (padded > 0 ? padded : LW));
     w->RF = take_d(c, padded * (long)S->nfree);
     if (S->method == 0) {
       /* the Newmark histories of the blocked state */
@@ -121,7 +122,19 @@ static void carve(const setup_t* S, carver_t* c, work_t* w) {
   w->freeidx = take_i(c, nd);
   w->lidx = take_i(c, spans);
   w->lspan = take_i(c, spans);
+  {
+    long nz = S->method == 0 ? (long)S->nfree * S->band_pf : 0;
+    w->fw_ptr = take_i(c, S->method == 0 ? S->nfree + 1 : 0);
+    w->fw_r = take_i(c, nz);
+    w->fw_c = take_d(c, nz);
+    w->bk_ptr = take_i(c, S->method == 0 ? S->nfree + 1 : 0);
+    w->bk_r = take_i(c, nz);
+    w->bk_c = take_d(c, nz);
+  }
   w->creepc = take_d(c, nv ? S->nw * SVBI_CREEP_NC : 0);
+  w->vnz_ptr = take_i(c, 4 * (nv + 1));
+  w->vnz_idx = take_i(c, 4 * nv * nv);
+  w->vnz_val = take_d(c, 4 * nv * nv);
 }
 
 int svbi_solver_workspace(const setup_t* S, long* n_double, long* n_int) {
@@ -146,6 +159,31 @@ int svbi_solver_init(const setup_t* S, double* work, int* iwork) {
   for (k = 0; k < S->nd; ++k) w.freeidx[k] = -1;
   for (k = 0; k < S->nfree; ++k) w.freeidx[S->free[k]] = k;
 #if !SVBI_MOVING_LOAD
+  if (!S->moving_load) {
+    /* the non-zeros of the car's constant matrices, column by column (vec_mat_nz) */
+    const double* mats[4];
+    int a, j, d;
+    mats[0] = S->V_K;
+    mats[1] = S->V_M;
+    mats[2] = S->V_C;
+    mats[3] = S->method == 0 ? S->V_kinv : 0;
+    for (a = 0; a < 4; ++a) {
+      int* ptr = w.vnz_ptr + a * (NV + 1);
+      int* idx = w.vnz_idx + a * NV * NV;
+      double* val = w.vnz_val + a * NV * NV;
+      int n = 0;
+      for (d = 0; d < NV; ++d) {
+        ptr[d] = n;
+        for (j = 0; mats[a] && j < NV; ++j) {
+          if (mats[a][j * NV + d] != 0.0) {
+            idx[n] = j;
+            val[n++] = mats[a][j * NV + d];
+          }
+        }
+      }
+      ptr[NV] = n;
+    }
+  }
   if (S->creep) {
     /* the parameter-only part of every wheel's creep law, once */
     for (k = 0; k < S->nw; ++k) {
@@ -193,6 +231,30 @@ int svbi_solver_init(const setup_t* S, double* work, int* iwork) {
     status = svbi_band_cholesky(w.Lff, S->nfree, S->band_pf);
     if (status) return status;
     for (k = 0; k < S->nfree; ++k) w.dinv[k] = 1.0 / w.Lff[(long)k * (S->band_pf + 1)];
+    {
+      /* the factor's non-zeros, row by row and column by column (work_t) */
+      int r, p = S->band_pf, n = S->nfree, nf = 0, nb = 0;
+      for (k = 0; k < n; ++k) {
+        w.fw_ptr[k] = nf;
+        for (r = k < p ? k : p; r >= 1; --r) {
+          double v = w.Lff[(long)(k - r) * (p + 1) + r];
+          if (v != 0.0) {
+            w.fw_r[nf] = r;
+            w.fw_c[nf++] = v;
+          }
+        }
+        w.bk_ptr[k] = nb;
+        for (r = 1; r <= p && k + r < n; ++r) {
+          double v = w.Lff[(long)k * (p + 1) + r];
+          if (v != 0.0) {
+            w.bk_r[nb] = r;
+            w.bk_c[nb++] = v;
+          }
+        }
+      }
+      w.fw_ptr[n] = nf;
+      w.bk_ptr[n] = nb;
+    }
   }
   return ST_OK;
 }
@@ -201,7 +263,7 @@ int svbi_solver_init(const setup_t* S, double* work, int* iwork) {
 static void bridge_view(const setup_t* S, state_t* X, work_t* w) {
   if (S->method == 0) {
     long s, i, nd = S->nd;
-    w->pad = (S->spans + SW - 1) / SW * SW;
+    w->pad = (S->spans + LW - 1) / LW * LW;
     w->nb = w->pad * nd;
     memset(w->TU, 0, sizeof(double) * (size_t)w->nb);
     memset(w->TV, 0, sizeof(double) * (size_t)w->nb);
@@ -218,11 +280,13 @@ static void bridge_view(const setup_t* S, state_t* X, work_t* w) {
     w->bv = w->TV;
     w->ba = w->TA;
     w->blocked = 1;
+    w->hist = 0;
   } else {
     w->bu = X->uB;
     w->bv = X->vB;
     w->ba = X->aB;
     w->blocked = 0;
+    w->hist = 0;
     w->nb = (long)S->spans * S->nd;
   }
 }

@@ -24,6 +24,23 @@ void svbi_vehicle_increment_load(const setup_t* S, const double* u, const double
   for (d = 0; d < NV; ++d) f[d] = S->V_F[d] - sk[d] + sm[d] + sc[d];
 }
 
+/* svbi_vehicle_increment_load over the matrices' non-zeros (the same result). */
+void svbi_vehicle_increment_load_nz(const setup_t* S, const work_t* w, const double* u, const double* v,
+                                    const double* a, double* Pt, double* Qt, double* PV, double* QV, double* f) {
+  double sm[NV], sc[NV], sk[NV];
+  int d;
+  for (d = 0; d < NV; ++d) {
+    Pt[d] = S->a2 * v[d] + a[d];
+    Qt[d] = v[d];
+    PV[d] = S->a0 * u[d] + Pt[d];
+    QV[d] = S->a1 * u[d] + Qt[d];
+  }
+  vec_mat_nz(w, 0, u, sk);
+  vec_mat_nz(w, 1, Pt, sm);
+  vec_mat_nz(w, 2, Qt, sc);
+  for (d = 0; d < NV; ++d) f[d] = S->V_F[d] - sk[d] + sm[d] + sc[d];
+}
+
 /* f += W_T^V F: the creep forces of t_n on the wheel spins of car k. */
 void svbi_creep_vehicle_load(const setup_t* S, const double* force, int k, double* f) {
   int i, j, d;
@@ -60,16 +77,16 @@ void svbi_creep_update(const setup_t* S, state_t* X, const work_t* w) {
         }
         xi = (wheel - rail) / v;
         if (X->P[c] > 0.0) {
-          const casadi_real* arg[SVBI_CREEP_SPLIT_MAX_SZ_ARG] = {0};
-          casadi_real* res[SVBI_CREEP_SPLIT_MAX_SZ_RES] = {0};
-          casadi_int iw[SVBI_CREEP_SPLIT_MAX_SZ_IW] = {0};
-          casadi_real wk[SVBI_CREEP_SPLIT_MAX_SZ_W];
-          casadi_real in_xi = xi, in_n = X->P[c], out_f = 0.0;
+          /* the law's powers of N are powers of its cube root (svbi.codegen.creep.split_creep_force): one cbrt */
+          casadi_real in_xi = xi, in_n = X->P[c], in_n3 = cbrt(X->P[c]), out_f = 0.0;
+          const casadi_real* arg[SVBI_CREEP_SPLIT_MAX_SZ_ARG];
+          casadi_real* res[SVBI_CREEP_SPLIT_MAX_SZ_RES];
           arg[0] = &in_xi;
           arg[1] = &in_n;
           arg[2] = w->creepc + CREEP_NC * i;
+          arg[3] = &in_n3;
           res[0] = &out_f;
-          svbi_creep_split_force(arg, res, iw, wk, 0);
+          svbi_creep_split_force(arg, res, 0, 0, 0); /* it needs no work arrays (sz_iw = sz_w = 0) */
           force = out_f;
         }
       }
