@@ -5,13 +5,16 @@ from __future__ import annotations
 import json
 import tomllib
 from enum import StrEnum
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
-import sympy as sp
 import typer
-from svbi.codegen import beam, constraints
-from svbi.codegen.topology import TopologyError, load_topology
-from svbi.codegen.vehicle import VehicleModel, a_split, derive_vehicle
+from svbi.codegen.plain_types import TopologyError
+
+if TYPE_CHECKING:
+    from svbi.codegen.vehicle import VehicleModel
+
+# SymPy and the symbolic core load inside the commands that use them: registering the commands
+# (every `svbi` invocation, `svbi run` included) must not import SymPy.
 
 BRIDGE_KEYS = {
     "span_length": 32.0,
@@ -31,6 +34,9 @@ class Format(StrEnum):
 
 def derivation(model: VehicleModel) -> dict[str, Any]:
     """Everything `svbi derive` prints, as SymPy objects keyed as in the JSON output."""
+    import sympy as sp
+    from svbi.codegen import constraints
+
     out: dict[str, Any] = {
         "model": model.name,
         "kind": model.kind,
@@ -74,12 +80,17 @@ def derivation(model: VehicleModel) -> dict[str, Any]:
 
 
 def _to_json(value: Any) -> Any:
+    import sympy as sp
+
     if isinstance(value, sp.MatrixBase):
         return [[str(e) for e in value.row(i)] for i in range(value.rows)]
     return value
 
 
 def _notes() -> str:
+    from svbi.codegen import beam
+    from svbi.codegen.vehicle import a_split
+
     return (
         f"Symbols: {a_split} = aux-point mass split, g = gravity, m_g = aux point mass, "
         f"{beam.xi} = position in the element (0..1), {beam.le} = element length, "
@@ -94,6 +105,8 @@ def derive(
     fmt: Format = typer.Option(Format.text, "--format", "-f", help="text, latex or json."),
 ) -> None:
     """Print the DOFs, matrices, contact directions, b-vectors and constraint masses of a vehicle."""
+    import sympy as sp
+
     vehicle = _load(model)
     data = derivation(vehicle)
     if fmt is Format.json:
@@ -168,6 +181,9 @@ def modes(
 
 
 def _load(model: str) -> VehicleModel:
+    from svbi.codegen.topology import load_topology
+    from svbi.codegen.vehicle import derive_vehicle
+
     try:
         return derive_vehicle(load_topology(model))
     except TopologyError as exc:

@@ -3,9 +3,10 @@
 * results carry ``setup_time_s`` (everything before the first step), ``loop_time_s`` (the time loop)
   and ``wall_time_s`` (all of it): positive, and set-up plus loop within the wall time;
 * ``svbi run`` prints the three on one line, the same numbers as in the file;
-* the command line and the run path up to the first step import neither matplotlib, scipy.signal,
-  dask nor xarray (checked in a fresh interpreter: ``sys.modules``); a whole run never imports
-  matplotlib (xarray loads dask.array when it builds the results, if dask is installed).
+* the command line (all its commands registered) and the run path up to the first step import
+  neither matplotlib, scipy.signal, dask, xarray, SymPy nor CasADi (checked in a fresh interpreter:
+  ``sys.modules``); a whole run never imports matplotlib, SymPy or CasADi (xarray loads dask.array
+  when it builds the results, if dask is installed).
 """
 
 from __future__ import annotations
@@ -61,7 +62,7 @@ duration = 0.05
 """
 
 METHODS = ("localized-dynamic", "coupled-dynamic", "coupled-classic")
-HEAVY = ("matplotlib", "scipy.signal", "dask", "xarray")
+HEAVY = ("matplotlib", "scipy.signal", "dask", "xarray", "sympy", "casadi")
 
 
 def test_results_carry_setup_loop_and_wall_time():
@@ -109,9 +110,10 @@ def test_cli_and_run_path_defer_heavy_imports():
     )
     assert not any(before_loop.values()), before_loop
     # xarray imports dask.array itself when it builds a Dataset (duck-array detection) if dask is
-    # installed (the optional [sweep] extra), so only matplotlib is checked over a whole run
+    # installed (the optional [sweep] extra), so only matplotlib and the symbolic tools are checked
+    # over a whole run
     whole = _fresh(f"import svbi\nsvbi.simulate({SCENARIO!r})\n")
-    assert not whole["matplotlib"], whole
+    assert not (whole["matplotlib"] or whole["sympy"] or whole["casadi"]), whole
 
 
 def test_demo_summary_compares_methods_by_loop_time():
