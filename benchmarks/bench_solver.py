@@ -34,7 +34,7 @@ import numpy as np
 from svbi.runtime.initial import initial_state
 from svbi.runtime.results import Recorder
 from svbi.runtime.scenario import load_scenario, validate_scenario
-from svbi.runtime.simulate import _Guard, _numpy_steppers, build_model
+from svbi.runtime.simulate import DivergenceGuard, build_model, numpy_steppers
 
 PAPER = Path(__file__).resolve().parents[1] / "examples" / "paper-2020.toml"
 METHODS = ("localized-dynamic", "coupled-dynamic", "coupled-classic")
@@ -112,7 +112,7 @@ def _stepper(model, backend: str, method: str):
         from svbi.runtime.casadi_backend import casadi_stepper
 
         return casadi_stepper(method)(model, state)
-    return _numpy_steppers()[method](model, state)
+    return numpy_steppers()[method](model, state)
 
 
 def per_step_us(scenario, backend: str, method: str, steps: int, warmup: int = 10) -> float:
@@ -128,7 +128,7 @@ def per_step_us(scenario, backend: str, method: str, steps: int, warmup: int = 1
     times = []
     if backend == "c":
         recorder = Recorder(model)
-        stepper.setup.force_limit = _Guard(model).force_limit
+        stepper.setup.force_limit = DivergenceGuard(model).force_limit
         out = stepper._outputs(recorder)
         n0 = 0
         stepper._call(out, n0, warmup)

@@ -19,7 +19,7 @@ Excitations reach the loop in one of two ways:
   the values. Slower, but it agrees with NumPy to round-off whatever the excitation is.
 
 A run that diverges in C stops with the step and the quantity; the message and the partial results
-are those of the NumPy backend (``simulate._Guard``). With no C compiler the backend falls back to
+are those of the NumPy backend (``simulate.DivergenceGuard``). With no C compiler the backend falls back to
 NumPy with one warning (:func:`c_stepper`).
 """
 
@@ -335,7 +335,7 @@ class CStepper:
     backend = "c"
 
     def __init__(self, model: Model, state: State, method: str) -> None:
-        from svbi.runtime.simulate import _numpy_steppers
+        from svbi.runtime.simulate import numpy_steppers
 
         self.model = model
         self.name = method
@@ -343,7 +343,7 @@ class CStepper:
         self.library = c_loop.load_loop(c_loop.loop_spec(model.train))
         # The NumPy stepper builds the constant matrices and the initial multipliers; coupled-classic
         # also ties each wheel to its aux point in the state.
-        self.reference = _numpy_steppers()[method](model, state)
+        self.reference = numpy_steppers()[method](model, state)
         self.state = state
         self.contacts = None
         self.keep: list[Any] = []
@@ -657,7 +657,7 @@ def c_stepper(method: str) -> Callable[[Model, State], Any]:
     def make(model: Model, state: State) -> Any:
         global _FALLBACK_WARNED
         from svbi.runtime.compiled import CompilerError
-        from svbi.runtime.simulate import BackendFallback, _numpy_steppers
+        from svbi.runtime.simulate import BackendFallback, numpy_steppers
 
         try:
             c_loop.load_loop(c_loop.loop_spec(model.train))
@@ -671,7 +671,7 @@ def c_stepper(method: str) -> Callable[[Model, State], Any]:
                     BackendFallback,
                     stacklevel=3,
                 )
-            stepper = _numpy_steppers()[method](model, state)
+            stepper = numpy_steppers()[method](model, state)
             stepper.backend = "numpy"
             return stepper
         return CStepper(model, state, method)

@@ -119,7 +119,7 @@ def scenario_files(
     from svbi.runtime.initial import initial_state
     from svbi.runtime.results import Recorder
     from svbi.runtime.scenario import validate_scenario
-    from svbi.runtime.simulate import _Guard, build_model
+    from svbi.runtime.simulate import DivergenceGuard, build_model
 
     if isinstance(scenario, dict):
         scenario = validate_scenario(scenario)
@@ -139,7 +139,7 @@ def scenario_files(
     recorder = Recorder(model)
     recorder.force(0, state.P)
     recorder.record(state, model.contacts(0.0), model.settings.method == "coupled-classic")
-    stepper.setup.force_limit = float(_Guard(model).force_limit)
+    stepper.setup.force_limit = float(DivergenceGuard(model).force_limit)
 
     known: dict[int, np.ndarray] = {}
     for a in [*stepper.keep, *stepper.excitation.keep]:

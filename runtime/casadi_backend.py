@@ -79,9 +79,9 @@ def casadi_stepper(method: str) -> Any:
     """Stepper factory: the NumPy stepper of ``method`` with CasADi-evaluated contact rows."""
 
     def make(model: Model, state: State) -> Any:
-        from svbi.runtime.simulate import _numpy_steppers
+        from svbi.runtime.simulate import numpy_steppers
 
-        stepper = _numpy_steppers()[method](model, state)
+        stepper = numpy_steppers()[method](model, state)
         old = stepper.rows
         kappa, zeta = (
             (0.0, 0.0) if method == "coupled-classic" else (model.settings.kappa, model.settings.zeta)

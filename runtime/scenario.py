@@ -441,7 +441,7 @@ def _parameter_key(topo: Any, key: str, overrides: Mapping[str, Any]) -> str:
 def _vehicle_problems(s: Scenario, values: dict[str, Any]) -> Iterable[tuple[str, str]]:
     from svbi.runtime.train import vehicle_model
 
-    vehicle = vehicle_model(_vehicle_ref(s)).numeric(values)
+    vehicle = vehicle_model(vehicle_ref(s)).numeric(values)
     if vehicle.nwheels and not (vehicle.wheel_masses > 0).all():
         yield "train.parameters", "every wheel needs a positive mass (the contact constraint carries it)"
     if not math.isfinite(float(abs(vehicle.M).sum())):
@@ -451,10 +451,10 @@ def _vehicle_problems(s: Scenario, values: dict[str, Any]) -> Iterable[tuple[str
 def vehicle_topology(s: Scenario):  # noqa: ANN201 - Topology, imported lazily
     from svbi.runtime.train import topology
 
-    return topology(_vehicle_ref(s))
+    return topology(vehicle_ref(s))
 
 
-def _vehicle_ref(s: Scenario) -> str:
+def vehicle_ref(s: Scenario) -> str:
     from svbi.codegen.plain_types import builtin_topologies
 
     name = s.train.vehicle
@@ -469,7 +469,7 @@ def time_step_warnings(s: Scenario) -> list[str]:
     topo = vehicle_topology(s)
     if topo.kind == "moving-load":
         return []
-    vehicle = vehicle_model(_vehicle_ref(s)).numeric(topo.values(s.train.parameters))
+    vehicle = vehicle_model(vehicle_ref(s)).numeric(topo.values(s.train.parameters))
     freqs = vehicle_modes(vehicle).frequencies_hz
     if not len(freqs):
         return []

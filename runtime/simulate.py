@@ -29,7 +29,7 @@ from svbi.runtime.creep import CreepParameters
 from svbi.runtime.initial import initial_state
 from svbi.runtime.model import Ground, GroundAtRest, Model, Settings, crossing_duration
 from svbi.runtime.results import Recorder
-from svbi.runtime.scenario import Scenario, _vehicle_ref, load_scenario, validate_scenario
+from svbi.runtime.scenario import Scenario, load_scenario, validate_scenario, vehicle_ref
 from svbi.runtime.train import Train, vehicle_model
 
 if TYPE_CHECKING:
@@ -72,7 +72,7 @@ def register_backend(name: str, steppers: Mapping[str, Callable[..., Any]]) -> N
     _BACKENDS[name] = dict(steppers)
 
 
-def _numpy_steppers() -> dict[str, Callable[..., Any]]:
+def numpy_steppers() -> dict[str, Callable[..., Any]]:
     from svbi.runtime.classic import CoupledClassic
     from svbi.runtime.coupled import CoupledDynamic
     from svbi.runtime.localized import LocalizedDynamic
@@ -87,7 +87,7 @@ def _numpy_steppers() -> dict[str, Callable[..., Any]]:
 def stepper_class(backend: str, method: str) -> tuple[str, Callable[..., Any]]:
     """The stepper for ``method`` on ``backend``, or the NumPy one (warning once)."""
     if "numpy" not in _BACKENDS:
-        register_backend("numpy", _numpy_steppers())
+        register_backend("numpy", numpy_steppers())
     if backend == "c" and "c" not in _BACKENDS:
         from svbi.runtime.c_backend import register  # the whole loop in C (docs/c-backend.md)
 
@@ -127,7 +127,7 @@ def build_model(scenario: Scenario, hold_train: bool = False) -> Model:
         bs.elements_per_span,
         bs.rail_height,
     )
-    ref = _vehicle_ref(scenario)
+    ref = vehicle_ref(scenario)
     model_sym = vehicle_model(ref)
     values = model_sym.topology.values(ts.parameters, where="train.parameters")
     if ts.hslm is not None:
@@ -256,7 +256,7 @@ def simulate(
     aux_is_wheel = s.method == "coupled-classic"
     recorder.force(0, state.P)
     recorder.record(state, model.contacts(0.0), aux_is_wheel)
-    guard = _Guard(model)
+    guard = DivergenceGuard(model)
     message = ""
     bar = _progress(s.steps) if progress else None
     t_loop = time.perf_counter()
@@ -344,7 +344,7 @@ def _drop_bad_rows(recorder: Recorder) -> None:
     recorder.count = k
 
 
-class _Guard:
+class DivergenceGuard:
     """Stops a run that has gone unstable, with the time, the quantity and the likely cause."""
 
     def __init__(self, model: Model) -> None:

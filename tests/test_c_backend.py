@@ -39,7 +39,7 @@ from svbi.runtime.excitation.synthetic import synthetic_record
 from svbi.runtime.initial import initial_state
 from svbi.runtime.results import Recorder
 from svbi.runtime.scenario import validate_scenario
-from svbi.runtime.simulate import BackendFallback, _Guard, build_model
+from svbi.runtime.simulate import BackendFallback, DivergenceGuard, build_model
 
 import svbi
 
@@ -245,7 +245,7 @@ def test_chunk_size_does_not_change_the_results():
         recorder = Recorder(model)
         recorder.force(0, state.P)
         recorder.record(state, model.contacts(0.0))
-        stepper.run_loop(recorder, _Guard(model), None, chunk=chunk)
+        stepper.run_loop(recorder, DivergenceGuard(model), None, chunk=chunk)
         assert recorder.steps_done == model.settings.steps
         rows.append(
             {k: v[: recorder.count].copy() for k, v in recorder.data.items()} | {"f": recorder.forces}
