@@ -29,9 +29,7 @@ def _private_uses(path: Path) -> list[str]:
         if isinstance(node, ast.ImportFrom) and (node.module or "").startswith("svbi"):
             for alias in node.names:
                 if alias.name.startswith("_") and not alias.name.startswith("__"):
-                    found.append(
-                        f"{path.relative_to(REPO)}:{node.lineno}: from {node.module} import {alias.name}"
-                    )
+                    found.append(f"{where}:{node.lineno}: from {node.module} import {alias.name}")
                 else:
                     aliases[alias.asname or alias.name] = f"{node.module}.{alias.name}"
         elif isinstance(node, ast.Import):
