@@ -89,84 +89,128 @@ static int multiplier_bandwidth(const setup_t* S, const work_t* w, int per_conta
   return bw;
 }
 
-/* Eliminate the span blocks: factor K^_B, y_s = K^-1 r_s, Z_a = K^-1 B_a; add -C Z to the Schur
- * complement and -C y to the multipliers' right-hand side. The attachments of span s are its
- * support multipliers and the aux-bridge (or contact) multipliers of the contacts on it; each has
- * a B column and a C row over the span DOFs afirst .. afirst + alen. */
-static int span_blocks(const setup_t* S, work_t* w, int per_contact, int bw, const double* DB_or_sC,
-                       int lamB_base) {
-  int s, nd = S->nd, ns = S->ns, p = S->band_p;
-  long zoff = 0;
-  for (s = 0; s < S->spans; ++s) {
-    double* y = w->xB + (long)s * nd;
-    int na = 0, a, b, m, k, q;
-    svbi_band_solve(w->Kb, nd, p, y); /* Kb: the span factor, set once at initialisation */
-    for (k = 0; k < ns; ++k, ++na) {
-      w->aid[na] = per_contact * S->nc + s * ns + k;
-      w->afirst[na] = S->sup[k];
-      w->alen[na] = 1;
-      w->ab[na * NE] = -w->DG[k];
-      w->ac[na * NE] = w->DG[k];
-    }
-    if (per_contact) {
-      for (m = w->sstart[s]; m < w->sstart[s + 1]; ++m, ++na) {
-        int c = w->slist[m];
-        const double* row = w->crow + (long)c * ROW_COLS;
-        w->aid[na] = lamB_base + c;
-        w->afirst[na] = w->cfirst[c];
-        w->alen[na] = NE;
-        for (q = 0; q < NE; ++q) {
-          w->ab[na * NE + q] = row[COL_N0 + q] * DB_or_sC[c];
-          w->ac[na * NE + q] = -row[COL_W_HAT + q] * DB_or_sC[c];
-        }
-      }
-    }
-    for (a = 0; a < na; ++a) {
-      double* z = w->Z + zoff + (long)a * nd;
-      memset(z, 0, sizeof(double) * (size_t)nd);
-      for (q = 0; q < w->alen[a]; ++q) z[w->afirst[a] + q] = w->ab[a * NE + q];
-      svbi_band_solve(w->Kb, nd, p, z);
-    }
-    for (a = 0; a < na; ++a) {
-      const double* ca = w->ac + a * NE;
-      const double* ya = y + w->afirst[a];
-      int ra = w->mpos[w->aid[a]];
-      double cy = 0.0;
-      for (q = 0; q < w->alen[a]; ++q) cy += ca[q] * ya[q];
-      w->rl[w->aid[a]] -= cy;
-      for (b = 0; b < na; ++b) {
-        const double* z = w->Z + zoff + (long)b * nd + w->afirst[a];
-        double cz = 0.0;
-        for (q = 0; q < w->alen[a]; ++q) cz += ca[q] * z[q];
-        svbi_gb_add(w->band, bw, ra, w->mpos[w->aid[b]], -cz);
-      }
-    }
-    zoff += (long)na * nd;
+/* Constants of the coupled steps, once: the dense inverse of the span block K^_B (every span block
+ * is the same constant; its Schur entries C_a K^-1 B_b then need no solve), the reciprocal diagonal
+ * of its factor (for the solves of all spans at once) and the car's inverse effective matrix. */
+int svbi_coupled_init(const setup_t* S, work_t* w) {
+  int i, j, nd = S->nd, p = S->band_p;
+  for (i = 0; i < nd; ++i) w->Kdinv[i] = 1.0 / w->Kb[(long)i * (p + 1)];
+  for (j = 0; j < nd; ++j) {
+    double* col = w->XB; /* scratch */
+    for (i = 0; i < nd; ++i) col[i] = i == j ? 1.0 : 0.0;
+    svbi_band_solve(w->Kb, nd, p, col);
+    for (i = 0; i < nd; ++i) w->Kinv[(long)i * nd + j] = col[i];
   }
+#if !SVBI_MOVING_LOAD
+  if (!S->moving_load) {
+    double e[NV];
+    int d;
+    for (j = 0; j < NV; ++j) {
+      for (d = 0; d < NV; ++d) e[d] = d == j ? 1.0 : 0.0;
+      svbi_dense_solve(w->Kv, NV, e);
+      for (d = 0; d < NV; ++d) w->Kvinv[d * NV + j] = e[d];
+    }
+  }
+#endif
   return ST_OK;
 }
 
-/* x_s = y_s - sum_a Z_a lambda_a for every span (same attachment order as span_blocks). */
-static void span_back(const setup_t* S, work_t* w, int per_contact, int lamB_base, state_t* X) {
-  int s, nd = S->nd, ns = S->ns, i;
-  long zoff = 0;
+/* Solve K^_B x_s = f_s for every span at once: f (span after span, nd each) is copied into XB, DOF
+ * after DOF over the spans padded to a multiple of SW, and solved there by one blocked solve. */
+static void span_solve(const setup_t* S, work_t* w, const double* f) {
+  int s, i, nd = S->nd, spans = S->spans;
+  long pad = (spans + SW - 1) / SW * SW;
+  for (i = 0; i < nd; ++i) {
+    double* x = w->XB + (long)i * pad;
+    for (s = 0; s < spans; ++s) x[s] = f[(long)s * nd + i];
+    for (; s < pad; ++s) x[s] = 0.0;
+  }
+  svbi_band_solve_blocked(w->Kb, w->Kdinv, nd, S->band_p, w->XB, pad / SW);
+}
+
+/* Eliminate the span blocks: y_s = K^-1 f_s (all spans at once, in XB); for the attachments a, b
+ * of span s add -C_a K^-1 B_b to the Schur complement (from the dense K^-1: no solve) and -C_a y_s
+ * to the multipliers' right-hand side. The attachments of span s are its support multipliers
+ * (B = -D_G e, C = D_G e at the support DOF) and the aux-bridge (or contact) multipliers of the
+ * contacts on it (B = D N0, C = -D W_hat over the element's DOFs; structural zeros skipped). */
+static void span_blocks(const setup_t* S, work_t* w, int per_contact, int bw, const double* DB_or_sC,
+                        int lamB_base) {
+  int s, j, k, m, n, q, r, nd = S->nd, ns = S->ns;
+  long pad = (S->spans + SW - 1) / SW * SW;
+  const double* Ki = w->Kinv;
+  span_solve(S, w, w->xB);
   for (s = 0; s < S->spans; ++s) {
-    double* y = w->xB + (long)s * nd;
-    int a = 0, k, m;
-    for (k = 0; k < ns; ++k, ++a) {
-      double lam = w->bsol[w->mpos[per_contact * S->nc + s * ns + k]];
-      const double* z = w->Z + zoff + (long)a * nd;
-      for (i = 0; i < nd; ++i) y[i] -= z[i] * lam;
+    int m0 = w->sstart[s], m1 = per_contact ? w->sstart[s + 1] : m0;
+    const double* y = w->XB + s;
+    for (m = m0; m < m1; ++m) {
+      /* the contacts' B and C entries (structural non-zeros only), by position in the span list */
+      int c = w->slist[m];
+      const double* row = w->crow + (long)c * ROW_COLS;
+      for (q = 0; q < NNZ_N0; ++q) w->ab[m * NE + q] = row[COL_N0 + nz_N0[q]] * DB_or_sC[c];
+      for (q = 0; q < NNZ_W_HAT; ++q) w->ac[m * NE + q] = -row[COL_W_HAT + nz_W_hat[q]] * DB_or_sC[c];
     }
-    if (per_contact) {
-      for (m = w->sstart[s]; m < w->sstart[s + 1]; ++m, ++a) {
-        double lam = w->bsol[w->mpos[lamB_base + w->slist[m]]];
-        const double* z = w->Z + zoff + (long)a * nd;
-        for (i = 0; i < nd; ++i) y[i] -= z[i] * lam;
+    for (j = 0; j < ns; ++j) {
+      int idj = per_contact * S->nc + s * ns + j, rj = w->mpos[idj], sj = S->sup[j];
+      double dj = w->DG[j];
+      w->rl[idj] -= dj * y[(long)sj * pad];
+      for (k = 0; k < ns; ++k)
+        svbi_gb_add(w->band, bw, rj, w->mpos[per_contact * S->nc + s * ns + k],
+                    dj * Ki[(long)sj * nd + S->sup[k]] * w->DG[k]);
+      for (n = m0; n < m1; ++n) {
+        int cb = w->slist[n];
+        const double* kr = Ki + (long)sj * nd + w->cfirst[cb];
+        double t = 0.0;
+        for (r = 0; r < NNZ_N0; ++r) t += kr[nz_N0[r]] * w->ab[n * NE + r];
+        svbi_gb_add(w->band, bw, rj, w->mpos[lamB_base + cb], -dj * t);
       }
     }
-    zoff += (long)a * nd;
-    memcpy(X->uB + (long)s * nd, y, sizeof(double) * (size_t)nd);
+    for (m = m0; m < m1; ++m) {
+      int ca = w->slist[m], ida = lamB_base + ca, ra = w->mpos[ida], fa = w->cfirst[ca];
+      const double* cq = w->ac + m * NE;
+      double cy = 0.0;
+      for (q = 0; q < NNZ_W_HAT; ++q) cy += cq[q] * y[(long)(fa + nz_W_hat[q]) * pad];
+      w->rl[ida] -= cy;
+      for (k = 0; k < ns; ++k) {
+        const double* kc = Ki + (long)S->sup[k] * nd + fa; /* K^-1 is symmetric: row for column */
+        double t = 0.0;
+        for (q = 0; q < NNZ_W_HAT; ++q) t += cq[q] * kc[nz_W_hat[q]];
+        svbi_gb_add(w->band, bw, ra, w->mpos[per_contact * S->nc + s * ns + k], t * w->DG[k]);
+      }
+      for (n = m0; n < m1; ++n) {
+        int cb = w->slist[n], fb = w->cfirst[cb];
+        const double* bq = w->ab + n * NE;
+        double t = 0.0;
+        for (q = 0; q < NNZ_W_HAT; ++q) {
+          const double* kr = Ki + (long)(fa + nz_W_hat[q]) * nd + fb;
+          double u = 0.0;
+          for (r = 0; r < NNZ_N0; ++r) u += kr[nz_N0[r]] * bq[r];
+          t += cq[q] * u;
+        }
+        svbi_gb_add(w->band, bw, ra, w->mpos[lamB_base + cb], -t);
+      }
+    }
+  }
+}
+
+/* x_s = K^-1 (f_s - sum_a B_a lambda_a) for every span at once (f_s still in xB). */
+static void span_back(const setup_t* S, work_t* w, int per_contact, int lamB_base, const double* DB_or_sC,
+                      state_t* X) {
+  int s, i, j, m, q, nd = S->nd, ns = S->ns;
+  long pad = (S->spans + SW - 1) / SW * SW;
+  for (s = 0; s < S->spans; ++s) {
+    double* f = w->xB + (long)s * nd;
+    for (j = 0; j < ns; ++j) f[S->sup[j]] += w->DG[j] * w->bsol[w->mpos[per_contact * S->nc + s * ns + j]];
+    for (m = w->sstart[s]; per_contact && m < w->sstart[s + 1]; ++m) {
+      int c = w->slist[m];
+      const double* N0 = w->crow + (long)c * ROW_COLS + COL_N0;
+      double lam = w->bsol[w->mpos[lamB_base + c]] * DB_or_sC[c];
+      for (q = 0; q < NNZ_N0; ++q) f[w->cfirst[c] + nz_N0[q]] -= N0[nz_N0[q]] * lam;
+    }
+  }
+  span_solve(S, w, w->xB);
+  for (i = 0; i < nd; ++i) {
+    const double* x = w->XB + (long)i * pad;
+    for (s = 0; s < S->spans; ++s) X->uB[(long)s * nd + i] = x[s];
   }
 }
 
@@ -297,15 +341,16 @@ int svbi_step_coupled(const setup_t* S, state_t* X, work_t* w, int classic) {
   if (bw > S->bw_max) return ST_BANDWIDTH;
   if (bw > nm - 1) bw = nm - 1;
   svbi_gb_zero(w->band, nm, bw);
-  status = span_blocks(S, w, per_contact, bw, w->dV, per_contact == 2 ? nc : 0);
-  if (status) return status;
+  span_blocks(S, w, per_contact, bw, w->dV, per_contact == 2 ? nc : 0);
 #if !SVBI_MOVING_LOAD
   if (!S->moving_load) {
     int k, d, a, b;
     double sc = S->sC;
     for (k = 0; k < S->cars; ++k) {
       double* y = w->xV + (long)k * NV;
-      svbi_dense_solve(w->Kv, NV, y);
+      double f[NV];
+      memcpy(f, y, sizeof f);
+      vec_mat(w->Kvinv, f, y); /* y = K^-1 f (K^-1 symmetric): independent axpys, no divisions */
       for (a = 0; a < NW; ++a) {
         int ca = k * NW + a;
         double wy = 0.0, sa = classic ? sc : S->d * S->mV[a];
@@ -341,7 +386,7 @@ int svbi_step_coupled(const setup_t* S, state_t* X, work_t* w, int classic) {
   svbi_gb_solve(w->band, nm, bw, w->piv, w->bsol);
 
   /* back-substitution and updates */
-  span_back(S, w, per_contact, per_contact == 2 ? nc : 0, X);
+  span_back(S, w, per_contact, per_contact == 2 ? nc : 0, w->dV, X);
   svbi_bridge_update(S, w);
   for (s = 0; s < S->spans; ++s)
     for (j = 0; j < ns; ++j)

@@ -142,6 +142,11 @@ typedef struct {
   int* aid;      /* ns + nc: attachments' multiplier */
   int* afirst;   /* ns + nc: first span DOF */
   int* alen;     /* ns + nc: number of entries */
+  /* ---- coupled methods (coupled.c; set once by svbi_coupled_init) ---- */
+  double* Kinv;  /* nd x nd: K^_B^-1, dense (row-major, symmetric) */
+  double* Kdinv; /* nd: reciprocal diagonal of the span factor Kb */
+  double* XB;    /* nd x pad: span right-hand sides, DOF after DOF over the spans padded to SW */
+  double* Kvinv; /* NV x NV: inverse of the car's effective matrix */
 } work_t;
 
 /* Element (s, i) of a bridge-state array: span after span, or DOF after DOF over the spans padded
@@ -174,6 +179,7 @@ void svbi_bridge_update(const setup_t* S, work_t* w);
 /* localized.c, coupled.c: one step of each method. */
 int svbi_step_localized(const setup_t* S, state_t* X, work_t* w);
 int svbi_step_coupled(const setup_t* S, state_t* X, work_t* w, int classic);
+int svbi_coupled_init(const setup_t* S, work_t* w); /* after Kb, Kv are factored */
 
 /* record.c, guard.c: outputs and the divergence guard. */
 int svbi_record(const setup_t* S, const state_t* X, const excitation_t* E, outputs_t* O, const work_t* w,

@@ -135,6 +135,14 @@ static void carve(const setup_t* S, carver_t* c, work_t* w) {
   w->vnz_ptr = take_i(c, 4 * (nv + 1));
   w->vnz_idx = take_i(c, 4 * nv * nv);
   w->vnz_val = take_d(c, 4 * nv * nv);
+  {
+    /* coupled methods (coupled.c) */
+    long on = S->method != 0, cpad = on ? (spans + SW - 1) / SW * SW : 0;
+    w->Kinv = take_d(c, on * nd * nd);
+    w->Kdinv = take_d(c, on * nd);
+    w->XB = take_d(c, cpad * nd);
+    w->Kvinv = take_d(c, on * nv * nv);
+  }
 }
 
 int svbi_solver_workspace(const setup_t* S, long* n_double, long* n_int) {
@@ -226,6 +234,10 @@ int svbi_solver_init(const setup_t* S, double* work, int* iwork) {
     }
   }
 #endif
+  if (S->method != 0) {
+    status = svbi_coupled_init(S, &w);
+    if (status) return status;
+  }
   if (S->method == 0) {
     memcpy(w.Lff, S->Khat_ff_band, sizeof(double) * (size_t)S->nfree * (size_t)(S->band_pf + 1));
     status = svbi_band_cholesky(w.Lff, S->nfree, S->band_pf);
