@@ -4,7 +4,7 @@
    Functions + C sources + templates (``c_emit.render_model``), then C compilation (``-O3``).
 2. Per-call cost of kernels at their sample inputs:
    * from C: a small timing harness linked against the generated sources (no Python at all);
-   * from Python: the ctypes wrapper of ``svbi.runtime.compiled`` (C backend);
+   * from Python: the ctypes wrapper of ``svbi.runtime.kernel_cache`` (C backend);
    * from Python: the CasADi backend (the serialized Function in CasADi's virtual machine).
    Medians of repeated runs; the ratio columns are measured in the same run.
 """
@@ -25,7 +25,7 @@ from pathlib import Path
 import numpy as np
 from svbi.codegen import c_emit
 from svbi.codegen.kernels import builtin_models, model_spec
-from svbi.runtime import compiled
+from svbi.runtime import kernel_cache
 
 KERNELS = [
     ("pioneer-2d", "mass_matrix"),
@@ -100,7 +100,7 @@ def c_harness_ns(folder: Path, kernel: dict, c_name: str, calls: int = 200_000) 
     return statistics.median(float(v) for v in out)
 
 
-def python_ns(kernel: compiled.Kernel, inputs: list[np.ndarray], number: int) -> float:
+def python_ns(kernel: kernel_cache.Kernel, inputs: list[np.ndarray], number: int) -> float:
     runs = timeit.repeat(lambda: kernel(*inputs), number=number, repeat=7)
     return 1e9 * statistics.median(runs) / number
 
@@ -117,7 +117,7 @@ def generation_table() -> None:
             t2 = time.perf_counter()
             manifest = json.loads(files["manifest.json"])
             sources = {n: files[n] for n in manifest["sources"] + manifest["headers"]}
-            compiled.build_library(sources, f"svbi_{manifest['c_name']}", cache_dir=cache)
+            kernel_cache.build_library(sources, f"svbi_{manifest['c_name']}", cache_dir=cache)
             t3 = time.perf_counter()
             size = sum(len(v) for v in files.values()) / 1024
             times = f"{t1 - t0:>10.2f}{t2 - t1:>10.2f}{t3 - t2:>10.2f}"
@@ -131,7 +131,10 @@ def call_table() -> None:
     loaded = {}
     for model, name in KERNELS:
         if model not in loaded:
-            loaded[model] = (compiled.load_kernels(model, "c"), compiled.load_kernels(model, "casadi"))
+            loaded[model] = (
+                kernel_cache.load_kernels(model, "c"),
+                kernel_cache.load_kernels(model, "casadi"),
+            )
         c_kernels, ca_kernels = loaded[model]
         manifest = json.loads((c_kernels.folder / "manifest.json").read_text())
         entry = next(k for k in manifest["kernels"] if k["name"] == name)

@@ -74,7 +74,7 @@ def _rest_state(model):
     initial state of ``svbi.runtime.initial`` solves dense full-system matrices, which do not fit in
     memory for a thousand spans.)"""
     from svbi.codegen.vehicle import GRAVITY
-    from svbi.runtime.model import State
+    from svbi.runtime.assembly import State
 
     b, tr = model.bridge, model.train
     nv = 0 if tr.moving_load else tr.ndof
@@ -105,7 +105,7 @@ def _stepper(model, backend: str, method: str):
     small = model.bridge.spans * model.bridge.ndof < 5000
     state = initial_state(model, "static") if small else _rest_state(model)
     if backend == "c":
-        from svbi.runtime.c_backend import CStepper
+        from svbi.runtime.c_steppers import CStepper
 
         return CStepper(model, state, method)
     if backend == "casadi":

@@ -6,9 +6,9 @@ pipeline or on a vehicle topology is rendered here, by ``svbi generate`` (Jinja2
 ``generated/`` for the built-in models:
 
 * ``generated/solver/svbi_solver_types.h``: the structs and status codes, from the field lists of
-  :mod:`svbi.runtime.c_loop` (which also build the ctypes mirrors: one definition);
+  :mod:`svbi.runtime.c_solver_build` (which also build the ctypes mirrors: one definition);
 * ``generated/frame2d/svbi_contact_rows.h``: the contact-row table of the bridge element (degree,
-  columns, structural non-zeros, the unrolled evaluation) from ``c_loop.row_structure``;
+  columns, structural non-zeros, the unrolled evaluation) from ``c_solver_build.row_structure``;
   ``generated/frame2d/creep_split*``: the creep law split into per-run coefficients and a per-step
   force (``svbi.codegen.creep.split_creep_force``), C from the CasADi emitter;
 * ``generated/<model>/svbi_topology.h``: the sizes of one vehicle topology (``moving-load`` too).
@@ -25,7 +25,7 @@ from typing import Any
 
 import jinja2
 import sympy as sp
-from svbi.runtime.c_loop import (
+from svbi.runtime.c_solver_build import (
     BRIDGE_FOLDER,
     CREEP_FILES,
     GLUE_NAMES,
@@ -116,32 +116,34 @@ def _render(template: str, context: dict[str, Any]) -> bytes:
 
 
 def solver_types() -> dict[str, bytes]:
-    """``svbi_solver_types.h``: the structs (``c_loop.STRUCTS``) and status codes."""
-    from svbi.runtime import c_loop
+    """``svbi_solver_types.h``: the structs (``c_solver_build.STRUCTS``) and status codes."""
+    from svbi.runtime import c_solver_build
 
     structs = {
-        k: [{"name": f.name, "ctype": c_loop.C_TYPES[f.kind], "doc": f.doc} for f in v]
-        for k, v in c_loop.STRUCTS.items()
+        k: [{"name": f.name, "ctype": c_solver_build.C_TYPES[f.kind], "doc": f.doc} for f in v]
+        for k, v in c_solver_build.STRUCTS.items()
     }
-    return {TYPES_HEADER: _render("types.h.j2", {"structs": structs, "status": c_loop.STATUS_CODES})}
+    return {TYPES_HEADER: _render("types.h.j2", {"structs": structs, "status": c_solver_build.STATUS_CODES})}
 
 
 def contact_rows() -> dict[str, bytes]:
     """``svbi_contact_rows.h``: the contact-row table of the bridge element."""
-    from svbi.runtime import c_loop
+    from svbi.runtime import c_solver_build
 
-    degree, nonzero = c_loop.row_structure()
+    degree, nonzero = c_solver_build.row_structure()
     powers = row_powers()
-    blocks = c_loop.ROW_BLOCKS
+    blocks = c_solver_build.ROW_BLOCKS
     context = {
         "row_powers": [list(p) for p in powers],
         "row_degree": degree,
-        "row_cols": c_loop.ROW_COLUMNS,
+        "row_cols": c_solver_build.ROW_COLUMNS,
         "row_blocks": [
             {"name": n, "first": 6 * i, "nonzero": [j for j in range(6) if nonzero[6 * i + j]]}
             for i, n in enumerate(blocks)
         ],
-        "row_scalars": [{"name": n, "col": 6 * len(blocks) + i} for i, n in enumerate(c_loop.ROW_SCALARS)],
+        "row_scalars": [
+            {"name": n, "col": 6 * len(blocks) + i} for i, n in enumerate(c_solver_build.ROW_SCALARS)
+        ],
     }
     return {ROWS_HEADER: _render("contact_rows.h.j2", context)}
 
@@ -153,7 +155,7 @@ def creep_split_sources(embedded: bool = False) -> dict[str, bytes]:
     from svbi.codegen import c_emit
     from svbi.codegen import creep as law
     from svbi.codegen.kernels import CREEP_SAMPLE, KernelSpec, ModelSpec, column
-    from svbi.runtime import c_loop
+    from svbi.runtime import c_solver_build
 
     coefs, reduced, symbols = law.split_creep_force()
     sample = {k: v for k, v in CREEP_SAMPLE.items() if k not in ("xi_x", "N_c")}
@@ -179,7 +181,9 @@ def creep_split_sources(embedded: bool = False) -> dict[str, bytes]:
         ),
     ]
     model = ModelSpec(
-        c_loop.CREEP_MODEL, "The creep law split into per-run coefficients and a per-step force.", kernels
+        c_solver_build.CREEP_MODEL,
+        "The creep law split into per-run coefficients and a per-step force.",
+        kernels,
     )
     files = c_emit.render_model(model, c_emit.EmitOptions.embedded() if embedded else c_emit.EmitOptions())
     return {n: files[n] for n in CREEP_FILES}

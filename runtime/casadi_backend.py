@@ -5,7 +5,7 @@ x-derivatives, and the discrete aux-bridge row ``(W_hat, h_B)`` of ``svbi.codege
 This backend evaluates them with the serialized CasADi Functions of the ``frame2d`` model
 (``load_kernels("frame2d", backend="casadi")``: ``contact_rows`` and ``discrete_bridge_row``),
 mapped over all contacts in one call per step, instead of the polynomial tables of
-``svbi.runtime.numeric``; everything else is the NumPy stepper. ``h_B`` is linear in the histories
+``svbi.runtime.contact_rows``; everything else is the NumPy stepper. ``h_B`` is linear in the histories
 and the irregularity, so its coefficients are the row evaluated at unit inputs (one mapped call).
 It exists to cross-check the CasADi Functions inside the loop; it is slow.
 """
@@ -16,8 +16,8 @@ from functools import cache
 from typing import Any
 
 import numpy as np
-from svbi.runtime.model import Model, State
-from svbi.runtime.numeric import ContactRows
+from svbi.runtime.assembly import Model, State
+from svbi.runtime.contact_rows import ContactRows
 
 UNIT_INPUTS = 2 + 6 + 6 + 3
 """history (P_ug, Q_ug), P_ue, Q_ue, track (r, r', r''): the inputs ``h_B`` is linear in."""
@@ -25,14 +25,14 @@ UNIT_INPUTS = 2 + 6 + 6 + 3
 
 @cache
 def _functions() -> tuple[Any, Any]:
-    from svbi.runtime.compiled import load_kernels
+    from svbi.runtime.kernel_cache import load_kernels
 
     k = load_kernels("frame2d", backend="casadi")
     return k["contact_rows"].function, k["discrete_bridge_row"].function
 
 
 class CasadiContactRows:
-    """Drop-in for :class:`svbi.runtime.numeric.ContactRowKernel`, evaluated by CasADi."""
+    """Drop-in for :class:`svbi.runtime.contact_rows.ContactRowKernel`, evaluated by CasADi."""
 
     def __init__(self, le: float, speed: float, dt: float, kappa: float, zeta: float) -> None:
         self.le, self.speed = le, speed
@@ -97,7 +97,7 @@ def casadi_stepper(method: str) -> Any:
 
 def register() -> None:
     """Register the ``"casadi"`` backend with :func:`svbi.runtime.simulate.register_backend`."""
-    from svbi.runtime.c_loop import METHOD_CODES
+    from svbi.runtime.c_solver_build import METHOD_CODES
     from svbi.runtime.simulate import register_backend
 
     register_backend("casadi", {m: casadi_stepper(m) for m in METHOD_CODES})

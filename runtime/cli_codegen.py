@@ -12,7 +12,7 @@ MAX_DIFF_LINES = 400
 
 
 def _generated_root() -> Path:
-    from svbi.runtime.compiled import generated_root
+    from svbi.runtime.kernel_cache import generated_root
 
     return generated_root()
 
@@ -225,8 +225,8 @@ def export(
         c_emit.write_files(exported, folder, prune=False)
         typer.echo(f"exported {name} to {folder} ({len(exported)} files): build with `make -C {folder}`")
         return
-    from svbi.runtime.c_export import PROGRAM, write_solver
     from svbi.runtime.scenario import ScenarioError, load_scenario
+    from svbi.runtime.solver_export import PROGRAM, write_solver
 
     # the solver's example replaces the kernels' example program and build files
     kernels = {n: d for n, d in exported.items() if n not in ("main.c", "Makefile", "CMakeLists.txt")}

@@ -30,9 +30,9 @@ import scipy.linalg as sla
 import scipy.sparse as sps
 import scipy.sparse.linalg as spla
 from svbi.codegen.plain_types import GRAVITY
-from svbi.runtime.coupled import Triplets
-from svbi.runtime.model import Model, State
-from svbi.runtime.numeric import ShapeKernel
+from svbi.runtime.assembly import Model, State
+from svbi.runtime.contact_rows import ShapeKernel
+from svbi.runtime.coupled_dynamic import Triplets
 from svbi.runtime.train import Train
 
 

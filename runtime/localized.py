@@ -24,9 +24,9 @@ from __future__ import annotations
 import numpy as np
 import scipy.linalg as sla
 from svbi.codegen.plain_types import GRAVITY
-from svbi.runtime.model import Contacts, Model, State
+from svbi.runtime.assembly import Contacts, Model, State
+from svbi.runtime.contact_rows import ContactRowKernel, ContactRows, point_row
 from svbi.runtime.newmark import Newmark
-from svbi.runtime.numeric import ContactRowKernel, ContactRows, point_row
 
 
 def _solve(A: np.ndarray, b: np.ndarray) -> np.ndarray:

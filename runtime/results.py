@@ -14,10 +14,10 @@ from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
+from svbi.runtime.assembly import Contacts, Model, State
 from svbi.runtime.atomic import write_atomic
 from svbi.runtime.bridge import SUPPORT_COMPONENTS
-from svbi.runtime.model import Contacts, Model, State
-from svbi.runtime.numeric import AxialShapeKernel, ShapeKernel
+from svbi.runtime.contact_rows import AxialShapeKernel, ShapeKernel
 
 if TYPE_CHECKING:
     import xarray as xr

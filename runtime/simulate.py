@@ -3,7 +3,7 @@
 Backends plug in through :func:`register_backend`: a backend maps a method name to a stepper class
 with ``__init__(model, state)``, ``step(n) -> State`` and a ``contacts`` attribute (the geometry of
 the last step). A stepper that also has ``run_loop(recorder, guard, bar)`` runs the whole loop
-itself (the ``"c"`` backend, ``svbi.runtime.c_backend``: chunks of steps in C); a ``backend``
+itself (the ``"c"`` backend, ``svbi.runtime.c_steppers``: chunks of steps in C); a ``backend``
 attribute on the stepper overrides the name recorded in the results (a fallback says so).
 ``"numpy"`` is the reference; ``"c"`` and ``"casadi"`` (``svbi.runtime.casadi_backend``) register
 themselves on first use.
@@ -24,10 +24,10 @@ from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
+from svbi.runtime.assembly import Ground, GroundAtRest, Model, Settings, crossing_duration
 from svbi.runtime.bridge import Bridge
-from svbi.runtime.creep import CreepParameters
+from svbi.runtime.creep_law import CreepParameters
 from svbi.runtime.initial import initial_state
-from svbi.runtime.model import Ground, GroundAtRest, Model, Settings, crossing_duration
 from svbi.runtime.results import Recorder
 from svbi.runtime.scenario import Scenario, load_scenario, validate_scenario, vehicle_ref
 from svbi.runtime.train import Train, vehicle_model
@@ -73,8 +73,8 @@ def register_backend(name: str, steppers: Mapping[str, Callable[..., Any]]) -> N
 
 
 def numpy_steppers() -> dict[str, Callable[..., Any]]:
-    from svbi.runtime.classic import CoupledClassic
-    from svbi.runtime.coupled import CoupledDynamic
+    from svbi.runtime.coupled_classic import CoupledClassic
+    from svbi.runtime.coupled_dynamic import CoupledDynamic
     from svbi.runtime.localized import LocalizedDynamic
 
     return {
@@ -89,7 +89,7 @@ def stepper_class(backend: str, method: str) -> tuple[str, Callable[..., Any]]:
     if "numpy" not in _BACKENDS:
         register_backend("numpy", numpy_steppers())
     if backend == "c" and "c" not in _BACKENDS:
-        from svbi.runtime.c_backend import register  # the whole loop in C (docs/c-backend.md)
+        from svbi.runtime.c_steppers import register  # the whole loop in C (docs/c-backend.md)
 
         register()
     if backend == "casadi" and "casadi" not in _BACKENDS:
@@ -162,7 +162,7 @@ def build_model(scenario: Scenario, hold_train: bool = False) -> Model:
 
 def _creep(scenario: Scenario) -> CreepParameters | None:
     """Creep-law parameters of ``[contact]`` (None when creep is off); the wheel radius comes from
-    the vehicle topology (``runtime.creep_forces``)."""
+    the vehicle topology (``runtime.wheel_creep``)."""
     c = scenario.contact
     if not c.creep:
         return None

@@ -15,7 +15,7 @@ import subprocess
 from pathlib import Path
 
 import pytest
-from svbi.runtime import c_loop, compiled
+from svbi.runtime import c_solver_build, kernel_cache
 
 ALLOCATORS = {
     "malloc",
@@ -38,13 +38,13 @@ ALLOCATORS = {
     "_Znam",
 }
 
-SPECS = (c_loop.LoopSpec("pioneer-2d", 14, 4), c_loop.LoopSpec("moving-load", 0, 0))
+SPECS = (c_solver_build.LoopSpec("pioneer-2d", 14, 4), c_solver_build.LoopSpec("moving-load", 0, 0))
 
 
-def _imports(spec: c_loop.LoopSpec) -> set[str]:
+def _imports(spec: c_solver_build.LoopSpec) -> set[str]:
     try:
-        library = c_loop.load_loop(spec)
-    except compiled.CompilerError:
+        library = c_solver_build.load_loop(spec)
+    except kernel_cache.CompilerError:
         pytest.skip("no working C compiler")
     path = Path(library._library._name)
     out = subprocess.run(
@@ -55,7 +55,7 @@ def _imports(spec: c_loop.LoopSpec) -> set[str]:
 
 @pytest.mark.skipif(shutil.which("nm") is None, reason="needs nm (binutils)")
 @pytest.mark.parametrize("spec", SPECS, ids=[s.model for s in SPECS])
-def test_loop_library_imports_no_allocator(spec: c_loop.LoopSpec) -> None:
+def test_loop_library_imports_no_allocator(spec: c_solver_build.LoopSpec) -> None:
     names = _imports(spec)
     assert "sqrt" in names  # the control: the table was read (the band Cholesky takes roots)
     assert not names & ALLOCATORS, sorted(names & ALLOCATORS)

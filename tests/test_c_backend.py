@@ -1,4 +1,4 @@
-"""The C backend (the whole Newmark loop in C, ``svbi.runtime.c_backend``) against the NumPy reference.
+"""The C backend (the whole Newmark loop in C, ``svbi.runtime.c_steppers``) against the NumPy reference.
 
 The NumPy backend is the truth: the C loop must reproduce every output variable of DESIGN.md section
 4 (and the creep and irregularity outputs) to round-off, for every method, on multi-car, multi-span
@@ -33,7 +33,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from svbi.runtime import c_backend, c_loop, compiled
+from svbi.runtime import c_solver_build, c_steppers, kernel_cache
 from svbi.runtime.excitation.ground import RecordGround, ground_motion
 from svbi.runtime.excitation.synthetic import synthetic_record
 from svbi.runtime.initial import initial_state
@@ -63,8 +63,8 @@ GAPS = ("gap_vehicle", "gap_bridge", "gap_support")
 
 def _compiler_works() -> bool:
     try:
-        c_loop.load_loop(c_loop.LoopSpec("moving-load", 0, 0))
-    except compiled.CompilerError:
+        c_solver_build.load_loop(c_solver_build.LoopSpec("moving-load", 0, 0))
+    except kernel_cache.CompilerError:
         return False
     return True
 
@@ -241,7 +241,7 @@ def test_chunk_size_does_not_change_the_results():
         sc = scenario("localized-dynamic", "c", cars=1, spans=2)
         model = build_model(sc)
         state = initial_state(model)
-        stepper = c_backend.CStepper(model, state, "localized-dynamic")
+        stepper = c_steppers.CStepper(model, state, "localized-dynamic")
         recorder = Recorder(model)
         recorder.force(0, state.P)
         recorder.record(state, model.contacts(0.0))
@@ -258,8 +258,8 @@ def test_chunk_size_does_not_change_the_results():
 def test_no_compiler_falls_back_to_numpy(monkeypatch, tmp_path):
     monkeypatch.setenv("CC", str(tmp_path / "no-such-compiler"))
     monkeypatch.setenv("SVBI_CACHE_DIR", str(tmp_path / "cache"))
-    monkeypatch.setattr(c_loop, "_LIBRARIES", {})
-    monkeypatch.setattr(c_backend, "_FALLBACK_WARNED", False)
+    monkeypatch.setattr(c_solver_build, "_LIBRARIES", {})
+    monkeypatch.setattr(c_steppers, "_FALLBACK_WARNED", False)
     sc = scenario(
         "localized-dynamic",
         "c",
@@ -293,16 +293,18 @@ def test_no_compiler_falls_back_to_numpy(monkeypatch, tmp_path):
 # the loop's sources: static C (runtime/csrc) and the generated glue
 
 
-@pytest.mark.parametrize("spec", [c_loop.LoopSpec("pioneer-2d", 14, 4), c_loop.LoopSpec("moving-load", 0, 0)])
+@pytest.mark.parametrize(
+    "spec", [c_solver_build.LoopSpec("pioneer-2d", 14, 4), c_solver_build.LoopSpec("moving-load", 0, 0)]
+)
 def test_loop_source_builds_with_the_strict_warning_set(spec, tmp_path):
     """The kernels' warning policy: -std=c99 -Wall -Wextra -Werror (and -pedantic) on the loop's
     static sources and glue (CasADi's creep-law file has its one documented exception)."""
-    files = c_loop.render_sources(spec)
+    files = c_solver_build.render_sources(spec)
     for name, data in files.items():
         (tmp_path / name).write_bytes(data)
     sources = sorted(n for n in files if n.endswith(".c") and not n.endswith("_kernels.c"))
     assert {"solver.c", "band.c", "tables.c", "localized.c", "coupled.c", "record.c"} <= set(sources)
-    cc = compiled.compiler_command()
+    cc = kernel_cache.compiler_command()
     done = subprocess.run(
         [*cc, "-std=c99", "-Wall", "-Wextra", "-Werror", "-pedantic", "-c", *sources],
         cwd=tmp_path,
@@ -318,9 +320,9 @@ def test_builtin_loop_imports_neither_jinja2_nor_casadi():
     imports no template engine and no CasADi (svbi.runtime.c_glue is for generation only)."""
     code = (
         "import sys\n"
-        "from svbi.runtime import c_loop\n"
-        "c_loop.load_loop(c_loop.LoopSpec('pioneer-2d', 14, 4))\n"
-        "c_loop.load_loop(c_loop.LoopSpec('moving-load', 0, 0))\n"
+        "from svbi.runtime import c_solver_build\n"
+        "c_solver_build.load_loop(c_solver_build.LoopSpec('pioneer-2d', 14, 4))\n"
+        "c_solver_build.load_loop(c_solver_build.LoopSpec('moving-load', 0, 0))\n"
         "print(sorted(m for m in ('jinja2', 'casadi', 'svbi.runtime.c_glue') if m in sys.modules))\n"
     )
     done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
@@ -332,13 +334,15 @@ def test_committed_glue_is_what_a_topology_file_gets():
     is byte for byte the committed header, and the rest of the glue is the committed files."""
     from svbi.runtime import c_glue
 
-    spec = c_loop.LoopSpec("pioneer-2d", 14, 4)
-    committed = c_loop.glue_sources(spec)
+    spec = c_solver_build.LoopSpec("pioneer-2d", 14, 4)
+    committed = c_solver_build.glue_sources(spec)
     assert committed[c_glue.TOPOLOGY_HEADER] == c_glue.topology("pioneer-2d", 14, 4)[c_glue.TOPOLOGY_HEADER]
     assert committed[c_glue.TYPES_HEADER] == c_glue.solver_types()[c_glue.TYPES_HEADER]
     assert committed[c_glue.ROWS_HEADER] == c_glue.contact_rows()[c_glue.ROWS_HEADER]
     # a topology that is not built in (or disagrees with the committed header) gets its own
-    other = c_loop.glue_sources(c_loop.LoopSpec("pioneer-2d", 12, 2))[c_glue.TOPOLOGY_HEADER].decode()
+    other = c_solver_build.glue_sources(c_solver_build.LoopSpec("pioneer-2d", 12, 2))[
+        c_glue.TOPOLOGY_HEADER
+    ].decode()
     assert "#define SVBI_NV 12 " in other and "#define SVBI_NW 2 " in other
 
 
@@ -346,16 +350,16 @@ def test_workspace_is_sized_up_front():
     """One workspace for the whole run, its size known before the first step (docs/c-backend.md)."""
     sc = scenario("coupled-dynamic", "c", cars=3, spans=4)
     model = build_model(sc)
-    stepper = c_backend.CStepper(model, initial_state(model), "coupled-dynamic")
+    stepper = c_steppers.CStepper(model, initial_state(model), "coupled-dynamic")
     doubles = stepper.work.size
     assert 0 < doubles < 10 * (model.bridge.spans * model.bridge.ndof) ** 2
     assert math.isfinite(float(stepper.work.sum()))
 
 
 def test_render_is_deterministic():
-    spec = c_loop.LoopSpec("pioneer-2d", 14, 4)
-    assert c_loop.render_sources(spec) == c_loop.render_sources(spec)
-    assert Path(compiled.generated_root(), "frame2d", "frame2d_kernels.c").is_file()
+    spec = c_solver_build.LoopSpec("pioneer-2d", 14, 4)
+    assert c_solver_build.render_sources(spec) == c_solver_build.render_sources(spec)
+    assert Path(kernel_cache.generated_root(), "frame2d", "frame2d_kernels.c").is_file()
 
 
 # --------------------------------------------------------------------------------------------------
@@ -368,7 +372,7 @@ def test_exported_solver_builds_with_make_and_reproduces_svbi_run(tmp_path):
     writes the same numbers as `svbi run` on the scenario baked into it."""
     import tomli_w
     import xarray as xr
-    from svbi.runtime import c_export, cli
+    from svbi.runtime import cli, solver_export
     from typer.testing import CliRunner
 
     cli._register()
@@ -381,13 +385,13 @@ def test_exported_solver_builds_with_make_and_reproduces_svbi_run(tmp_path):
     assert "-Werror" in build.stdout
     csv = tmp_path / "out.csv"
     ran = subprocess.run(
-        [str(folder / c_export.PROGRAM), str(csv)], capture_output=True, text=True, check=False
+        [str(folder / solver_export.PROGRAM), str(csv)], capture_output=True, text=True, check=False
     )
     assert ran.returncode == 0, ran.stderr
     table = np.genfromtxt(csv, delimiter=",", names=True)
 
     scenario_file = tmp_path / "example.toml"
-    scenario_file.write_text(tomli_w.dumps(c_export.example_scenario("pioneer-2d")))
+    scenario_file.write_text(tomli_w.dumps(solver_export.example_scenario("pioneer-2d")))
     results = tmp_path / "run.nc"
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")

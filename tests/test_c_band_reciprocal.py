@@ -14,7 +14,7 @@ from functools import cache
 import numpy as np
 import pytest
 import scipy.linalg
-from svbi.runtime import c_loop, compiled
+from svbi.runtime import c_solver_build, kernel_cache
 
 DP = ctypes.POINTER(ctypes.c_double)
 IP = ctypes.POINTER(ctypes.c_int)
@@ -22,11 +22,11 @@ IP = ctypes.POINTER(ctypes.c_int)
 
 @cache
 def library() -> ctypes.CDLL:
-    static = c_loop.static_sources()
+    static = c_solver_build.static_sources()
     sources = {n: static[n] for n in ("band.c", "band.h")}
-    glue = c_loop.glue_sources(c_loop.LoopSpec("moving-load", 0, 0))
-    sources[c_loop.TYPES_HEADER] = glue[c_loop.TYPES_HEADER]
-    lib = compiled.load_library(sources, "svbi_test_c_band_reciprocal", flags=c_loop.LOOP_FLAGS)
+    glue = c_solver_build.glue_sources(c_solver_build.LoopSpec("moving-load", 0, 0))
+    sources[c_solver_build.TYPES_HEADER] = glue[c_solver_build.TYPES_HEADER]
+    lib = kernel_cache.load_library(sources, "svbi_test_c_band_reciprocal", flags=c_solver_build.LOOP_FLAGS)
     lib.svbi_gb_factor.argtypes = [DP, ctypes.c_int, ctypes.c_int, IP]
     lib.svbi_gb_factor_r.argtypes = [DP, ctypes.c_int, ctypes.c_int, IP, DP]
     lib.svbi_gb_solve_r.argtypes = [DP, ctypes.c_int, ctypes.c_int, IP, DP, DP]
@@ -37,7 +37,7 @@ def library() -> ctypes.CDLL:
 def _compiler_works() -> bool:
     try:
         library()
-    except compiled.CompilerError:
+    except kernel_cache.CompilerError:
         return False
     return True
 
@@ -83,9 +83,9 @@ def test_reciprocal_pivot_lu_matches_scipy(n: int, bw: int) -> None:
         a[0, 0] = 0.7
     ab = lapack_band(a, bw)
     piv, rpiv = np.zeros(n, dtype=np.int32), np.zeros(n)
-    assert library().svbi_gb_factor_r(dp(ab), n, bw, ip(piv), dp(rpiv)) == c_loop.STATUS_OK
+    assert library().svbi_gb_factor_r(dp(ab), n, bw, ip(piv), dp(rpiv)) == c_solver_build.STATUS_OK
     ref, ref_piv = lapack_band(a, bw), np.zeros(n, dtype=np.int32)
-    assert library().svbi_gb_factor(dp(ref), n, bw, ip(ref_piv)) == c_loop.STATUS_OK
+    assert library().svbi_gb_factor(dp(ref), n, bw, ip(ref_piv)) == c_solver_build.STATUS_OK
     np.testing.assert_array_equal(piv, ref_piv)  # the same pivoting
     if n > 1:
         assert np.any(piv != np.arange(n))  # it did pivot
@@ -107,4 +107,4 @@ def test_reciprocal_pivot_lu_reports_a_singular_matrix() -> None:
     a[:, 4] = 0.0
     ab = lapack_band(a, 2)
     piv, rpiv = np.zeros(8, dtype=np.int32), np.zeros(8)
-    assert library().svbi_gb_factor_r(dp(ab), 8, 2, ip(piv), dp(rpiv)) == c_loop.STATUS_SINGULAR
+    assert library().svbi_gb_factor_r(dp(ab), 8, 2, ip(piv), dp(rpiv)) == c_solver_build.STATUS_SINGULAR

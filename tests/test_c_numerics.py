@@ -5,7 +5,7 @@ Cholesky) and ``runtime/csrc/tables.c`` (piecewise-polynomial tables) depend on 
 are compiled here on their own, with the generated ``svbi_solver_types.h``, into a small library
 and called through ctypes. The same library carries a helper that reports ``sizeof`` and
 ``offsetof`` of every generated struct, which must equal the ctypes mirrors of
-``svbi.runtime.c_loop`` (both come from its field lists).
+``svbi.runtime.c_solver_build`` (both come from its field lists).
 
 Truth: ``scipy.linalg.cholesky_banded`` / ``cho_solve_banded`` / ``solve_banded``,
 ``numpy.linalg.solve`` and ``scipy.interpolate.PPoly``. Tolerances are round-off of the condition
@@ -21,16 +21,16 @@ import numpy as np
 import pytest
 import scipy.interpolate
 import scipy.linalg
-from svbi.runtime import c_loop, compiled
+from svbi.runtime import c_solver_build, kernel_cache
 
 SW = 4  # spans per block of band_solve_blocked (runtime/csrc/band.h)
 STRUCTS = {
-    "svbi_ppoly": ("ppoly", c_loop.PPoly),
-    "svbi_solver_setup": ("setup", c_loop.Setup),
-    "svbi_solver_state": ("state", c_loop.State),
-    "svbi_solver_excitation": ("excitation", c_loop.Excitation),
-    "svbi_solver_outputs": ("outputs", c_loop.Outputs),
-    "svbi_solver_info": ("info", c_loop.Info),
+    "svbi_ppoly": ("ppoly", c_solver_build.PPoly),
+    "svbi_solver_setup": ("setup", c_solver_build.Setup),
+    "svbi_solver_state": ("state", c_solver_build.State),
+    "svbi_solver_excitation": ("excitation", c_solver_build.Excitation),
+    "svbi_solver_outputs": ("outputs", c_solver_build.Outputs),
+    "svbi_solver_info": ("info", c_solver_build.Info),
 }
 
 DP = ctypes.POINTER(ctypes.c_double)
@@ -41,7 +41,7 @@ def _layout_source() -> bytes:
     """C that reports sizeof and offsetof of every struct member of svbi_solver_types.h."""
     lines = ["#include <stddef.h>", '#include "svbi_solver_types.h"', ""]
     for ctype, (key, _) in STRUCTS.items():
-        fields = c_loop.STRUCTS[key]
+        fields = c_solver_build.STRUCTS[key]
         values = [f"(long)sizeof({ctype})"] + [f"(long)offsetof({ctype}, {f.name})" for f in fields]
         lines.append(f"const long svbi_layout_{key}[{len(values)}] = {{{', '.join(values)}}};")
     return ("\n".join(lines) + "\n").encode()
@@ -49,12 +49,14 @@ def _layout_source() -> bytes:
 
 @cache
 def library() -> ctypes.CDLL:
-    static = c_loop.static_sources()
+    static = c_solver_build.static_sources()
     sources = {n: static[n] for n in ("band.c", "band.h", "tables.c", "tables.h")}
-    types = c_loop.glue_sources(c_loop.LoopSpec("moving-load", 0, 0))[c_loop.TYPES_HEADER]
-    sources[c_loop.TYPES_HEADER] = types
+    types = c_solver_build.glue_sources(c_solver_build.LoopSpec("moving-load", 0, 0))[
+        c_solver_build.TYPES_HEADER
+    ]
+    sources[c_solver_build.TYPES_HEADER] = types
     sources["layout.c"] = _layout_source()
-    lib = compiled.load_library(sources, "svbi_test_c_numerics", flags=c_loop.LOOP_FLAGS)
+    lib = kernel_cache.load_library(sources, "svbi_test_c_numerics", flags=c_solver_build.LOOP_FLAGS)
     lib.svbi_band_cholesky.argtypes = [DP, ctypes.c_int, ctypes.c_int]
     lib.svbi_band_solve.argtypes = [DP, ctypes.c_int, ctypes.c_int, DP]
     lib.svbi_band_solve_blocked.argtypes = [DP, DP, ctypes.c_int, ctypes.c_int, DP, ctypes.c_long]
@@ -62,7 +64,7 @@ def library() -> ctypes.CDLL:
     lib.svbi_dense_solve.argtypes = [DP, ctypes.c_int, DP]
     lib.svbi_gb_factor.argtypes = [DP, ctypes.c_int, ctypes.c_int, IP]
     lib.svbi_gb_solve.argtypes = [DP, ctypes.c_int, ctypes.c_int, IP, DP]
-    lib.svbi_ppoly_eval.argtypes = [ctypes.POINTER(c_loop.PPoly), ctypes.c_double, DP]
+    lib.svbi_ppoly_eval.argtypes = [ctypes.POINTER(c_solver_build.PPoly), ctypes.c_double, DP]
     for name in ("svbi_band_solve", "svbi_band_solve_blocked", "svbi_dense_solve", "svbi_gb_solve"):
         lib[name].restype = None
     lib.svbi_ppoly_eval.restype = None
@@ -72,7 +74,7 @@ def library() -> ctypes.CDLL:
 def _compiler_works() -> bool:
     try:
         library()
-    except compiled.CompilerError:
+    except kernel_cache.CompilerError:
         return False
     return True
 
@@ -115,7 +117,7 @@ def lower_band(a: np.ndarray, p: int) -> np.ndarray:
 @pytest.mark.parametrize("ctype", sorted(STRUCTS))
 def test_generated_structs_match_the_ctypes_mirrors(ctype: str) -> None:
     key, mirror = STRUCTS[ctype]
-    fields = c_loop.STRUCTS[key]
+    fields = c_solver_build.STRUCTS[key]
     values = (ctypes.c_long * (len(fields) + 1)).in_dll(library(), f"svbi_layout_{key}")
     assert values[0] == ctypes.sizeof(mirror)
     for i, f in enumerate(fields):
@@ -132,7 +134,7 @@ def test_band_cholesky_and_solve_match_scipy(n: int, p: int) -> None:
     a = spd_band(rng, n, p)
     ab = lower_band(a, p)
     factor = np.array(ab.T, order="C")  # band.h: L[j * (p + 1) + (i - j)] = column j, row i
-    assert library().svbi_band_cholesky(dp(factor), n, p) == c_loop.STATUS_OK
+    assert library().svbi_band_cholesky(dp(factor), n, p) == c_solver_build.STATUS_OK
     np.testing.assert_allclose(factor.T, scipy.linalg.cholesky_banded(ab, lower=True), rtol=1e-13, atol=1e-14)
     b = rng.standard_normal(n)
     x = b.copy()
@@ -150,7 +152,7 @@ def test_band_solve_blocked_solves_every_right_hand_side(nblk: int) -> None:
     a = spd_band(rng, n, p)
     ab = lower_band(a, p)
     factor = np.array(ab.T, order="C")
-    assert library().svbi_band_cholesky(dp(factor), n, p) == c_loop.STATUS_OK
+    assert library().svbi_band_cholesky(dp(factor), n, p) == c_solver_build.STATUS_OK
     dinv = np.ascontiguousarray(1.0 / factor[:, 0])
     b = rng.standard_normal((n, m))
     x = b.copy()
@@ -163,7 +165,7 @@ def test_band_cholesky_reports_a_matrix_that_is_not_positive_definite() -> None:
     a = spd_band(np.random.default_rng(5), 10, 2)
     a[6, 6] = -1.0
     factor = np.array(lower_band(a, 2).T, order="C")
-    assert library().svbi_band_cholesky(dp(factor), 10, 2) == c_loop.STATUS_NOT_SPD
+    assert library().svbi_band_cholesky(dp(factor), 10, 2) == c_solver_build.STATUS_NOT_SPD
 
 
 # --------------------------------------------------------------------------------------------------
@@ -197,7 +199,7 @@ def test_banded_lu_matches_scipy_solve_banded(n: int, bw: int) -> None:
         a[0, 0] = 0.7
     ab = lapack_band(a, bw)
     piv = np.zeros(n, dtype=np.int32)
-    assert library().svbi_gb_factor(dp(ab), n, bw, ip(piv)) == c_loop.STATUS_OK
+    assert library().svbi_gb_factor(dp(ab), n, bw, ip(piv)) == c_solver_build.STATUS_OK
     if n > 1:
         assert np.any(piv != np.arange(n))  # it did pivot
     b = rng.standard_normal(n)
@@ -218,7 +220,7 @@ def test_banded_lu_reports_a_singular_matrix() -> None:
     a[:, 4] = 0.0
     ab = lapack_band(a, 2)
     piv = np.zeros(8, dtype=np.int32)
-    assert library().svbi_gb_factor(dp(ab), 8, 2, ip(piv)) == c_loop.STATUS_SINGULAR
+    assert library().svbi_gb_factor(dp(ab), 8, 2, ip(piv)) == c_solver_build.STATUS_SINGULAR
 
 
 # --------------------------------------------------------------------------------------------------
@@ -231,28 +233,28 @@ def test_dense_cholesky_solve_matches_numpy(n: int) -> None:
     m = rng.standard_normal((n, n))
     a = m @ m.T + n * np.eye(n)
     factor = np.array(a, order="C")
-    assert library().svbi_dense_cholesky(dp(factor), n) == c_loop.STATUS_OK
+    assert library().svbi_dense_cholesky(dp(factor), n) == c_solver_build.STATUS_OK
     np.testing.assert_allclose(np.tril(factor), np.linalg.cholesky(a), rtol=1e-13, atol=1e-14)
     b = rng.standard_normal(n)
     x = b.copy()
     library().svbi_dense_solve(dp(factor), n, dp(x))
     np.testing.assert_allclose(x, np.linalg.solve(a, b), rtol=1e-12, atol=1e-14)
     a[0, 0] = -1.0
-    assert library().svbi_dense_cholesky(dp(np.ascontiguousarray(a)), n) == c_loop.STATUS_NOT_SPD
+    assert library().svbi_dense_cholesky(dp(np.ascontiguousarray(a)), n) == c_solver_build.STATUS_NOT_SPD
 
 
 # --------------------------------------------------------------------------------------------------
 # piecewise-polynomial tables
 
 
-def table(pp: scipy.interpolate.PPoly, uniform: bool, keep: list) -> c_loop.PPoly:
+def table(pp: scipy.interpolate.PPoly, uniform: bool, keep: list) -> c_solver_build.PPoly:
     """The C table of ``pp`` (tables.h: c[i][m] = PPoly.c[m, i]), constant beyond both ends."""
     x = np.ascontiguousarray(pp.x, dtype=float)
     c = np.ascontiguousarray(pp.c.T, dtype=float)
     keep += [x, c]
     left = [float(pp(x[0], nu)) for nu in range(3)]
     right = [float(pp(x[-1], nu)) for nu in range(3)]
-    return c_loop.PPoly(
+    return c_solver_build.PPoly(
         n=len(x) - 1,
         k=pp.c.shape[0] - 1,
         uniform=int(uniform),
@@ -268,7 +270,7 @@ def table(pp: scipy.interpolate.PPoly, uniform: bool, keep: list) -> c_loop.PPol
     )
 
 
-def evaluate(p: c_loop.PPoly, x: float) -> np.ndarray:
+def evaluate(p: c_solver_build.PPoly, x: float) -> np.ndarray:
     out = np.zeros(3)
     library().svbi_ppoly_eval(ctypes.byref(p), x, dp(out))
     return out
@@ -307,7 +309,7 @@ def test_ppoly_without_intervals_is_a_step() -> None:
     """n = 0: a step at x[0] from the left values to the right values."""
     x = np.array([2.0])
     c = np.zeros(1)
-    p = c_loop.PPoly(n=0, k=0, uniform=0, h=0.0, x=x.ctypes.data, c=c.ctypes.data)
+    p = c_solver_build.PPoly(n=0, k=0, uniform=0, h=0.0, x=x.ctypes.data, c=c.ctypes.data)
     p.left0, p.left1, p.left2, p.right0, p.right1, p.right2 = 1.0, 2.0, 3.0, 4.0, 5.0, 6.0
     np.testing.assert_array_equal(evaluate(p, 1.0), [1.0, 2.0, 3.0])
     np.testing.assert_array_equal(evaluate(p, 2.0), [1.0, 2.0, 3.0])

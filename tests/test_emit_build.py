@@ -18,7 +18,7 @@ import sympy as sp
 import typer
 from svbi.codegen import c_emit
 from svbi.codegen.kernels import model_spec
-from svbi.runtime import cli_codegen, compiled
+from svbi.runtime import cli_codegen, kernel_cache
 from typer.testing import CliRunner
 
 REPO = Path(__file__).resolve().parents[1]
@@ -249,7 +249,7 @@ def test_export_solver_flag_adds_the_time_loop(tmp_path: Path) -> None:
 
 @pytest.fixture
 def fresh_warnings(monkeypatch: pytest.MonkeyPatch) -> None:
-    monkeypatch.setattr(compiled, "_warned", set())
+    monkeypatch.setattr(kernel_cache, "_warned", set())
 
 
 def _sources(model: str = "sprung-mass") -> tuple[dict[str, bytes], str]:
@@ -264,12 +264,12 @@ def test_broken_compiler_falls_back_to_casadi_and_warns_once(
     tmp_path: Path, monkeypatch: pytest.MonkeyPatch, fresh_warnings: None, cc: str
 ) -> None:
     monkeypatch.setenv("CC", cc)
-    with pytest.warns(compiled.BackendFallbackWarning, match="CasADi backend"):
-        kernels = compiled.load_kernels("sprung-mass", cache_dir=tmp_path)
+    with pytest.warns(kernel_cache.BackendFallbackWarning, match="CasADi backend"):
+        kernels = kernel_cache.load_kernels("sprung-mass", cache_dir=tmp_path)
     assert kernels.backend == "casadi"
     with warnings.catch_warnings():
         warnings.simplefilter("error")  # the second fallback is silent
-        again = compiled.load_kernels("sprung-mass", cache_dir=tmp_path)
+        again = kernel_cache.load_kernels("sprung-mass", cache_dir=tmp_path)
     assert again.backend == "casadi"
     m = kernels.mass_matrix(kernels.defaults)
     values = dict(zip(kernels.parameters, kernels.defaults, strict=True))
@@ -284,9 +284,9 @@ def test_unwritable_cache_uses_a_temporary_folder(
     blocker.write_text("a file where the cache folder should be")
     fallback = tmp_path / "tmp"
     fallback.mkdir()
-    monkeypatch.setattr(compiled.tempfile, "gettempdir", lambda: str(fallback))
-    with pytest.warns(compiled.CacheWarning, match="not writable"):
-        kernels = compiled.load_kernels("sprung-mass", cache_dir=blocker / "cache")
+    monkeypatch.setattr(kernel_cache.tempfile, "gettempdir", lambda: str(fallback))
+    with pytest.warns(kernel_cache.CacheWarning, match="not writable"):
+        kernels = kernel_cache.load_kernels("sprung-mass", cache_dir=blocker / "cache")
     assert kernels.backend == "c"
     assert any(p.name.startswith("svbi-cache-") for p in fallback.iterdir())
 
@@ -295,27 +295,27 @@ def test_cache_entry_is_reused_until_the_sources_change(
     tmp_path: Path, monkeypatch: pytest.MonkeyPatch
 ) -> None:
     sources, name = _sources()
-    first = compiled.build_library(sources, name, cache_dir=tmp_path)
+    first = kernel_cache.build_library(sources, name, cache_dir=tmp_path)
 
     def no_compiler(*args: object, **kwargs: object) -> None:
         raise AssertionError("recompiled although nothing changed")
 
-    monkeypatch.setattr(compiled, "_compile", no_compiler)
-    assert compiled.build_library(sources, name, cache_dir=tmp_path) == first
+    monkeypatch.setattr(kernel_cache, "_compile", no_compiler)
+    assert kernel_cache.build_library(sources, name, cache_dir=tmp_path) == first
     monkeypatch.undo()
     changed = dict(sources)
     changed["sprung_mass_model.c"] += b"\n/* changed */\n"
-    second = compiled.build_library(changed, name, cache_dir=tmp_path)
+    second = kernel_cache.build_library(changed, name, cache_dir=tmp_path)
     assert second != first and second.is_file()
-    marker = json.loads((second.parent / compiled.MARKER).read_text())
+    marker = json.loads((second.parent / kernel_cache.MARKER).read_text())
     assert marker["key"] == second.parent.name
 
 
 def test_corrupt_library_is_detected_and_rebuilt(tmp_path: Path, fresh_warnings: None) -> None:
     sources, name = _sources()
-    library = compiled.build_library(sources, name, cache_dir=tmp_path)
+    library = kernel_cache.build_library(sources, name, cache_dir=tmp_path)
     library.write_bytes(b"\x7fELF garbage")  # marker hash no longer matches
-    kernels = compiled.load_kernels("sprung-mass", cache_dir=tmp_path)
+    kernels = kernel_cache.load_kernels("sprung-mass", cache_dir=tmp_path)
     assert kernels.backend == "c"
     assert library.read_bytes().startswith(b"\x7fELF") and len(library.read_bytes()) > 1000
 
@@ -323,15 +323,15 @@ def test_corrupt_library_is_detected_and_rebuilt(tmp_path: Path, fresh_warnings:
 def test_library_rejected_by_dlopen_is_rebuilt(tmp_path: Path, fresh_warnings: None) -> None:
     """A corrupt library whose marker was rewritten to match still cannot crash the loader."""
     sources, name = _sources()
-    library = compiled.build_library(sources, name, cache_dir=tmp_path)
+    library = kernel_cache.build_library(sources, name, cache_dir=tmp_path)
     library.write_bytes(b"not a shared object at all")
-    marker_path = library.parent / compiled.MARKER
+    marker_path = library.parent / kernel_cache.MARKER
     marker = json.loads(marker_path.read_text())
-    marker["sha256"] = compiled._sha256_file(library)
+    marker["sha256"] = kernel_cache._sha256_file(library)
     marker_path.write_text(json.dumps(marker))
-    kernels = compiled.load_kernels("sprung-mass", cache_dir=tmp_path)
+    kernels = kernel_cache.load_kernels("sprung-mass", cache_dir=tmp_path)
     assert kernels.backend == "c"
     np.testing.assert_array_equal(
         kernels.stiffness_matrix(kernels.defaults),
-        compiled.load_kernels("sprung-mass", "casadi").stiffness_matrix(kernels.defaults),
+        kernel_cache.load_kernels("sprung-mass", "casadi").stiffness_matrix(kernels.defaults),
     )

@@ -18,7 +18,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 from svbi.codegen.casadi_emit import SympyToCasadi, UnsupportedExpression, build_function, load_function
 from svbi.codegen.kernels import KernelError, KernelSpec, ModelSpec
-from svbi.runtime import compiled
+from svbi.runtime import kernel_cache
 
 x, y = sp.symbols("x y", real=True)
 p = sp.Symbol("p", positive=True)
@@ -73,8 +73,8 @@ def toy_kernels(tmp_path_factory: pytest.TempPathFactory) -> tuple:
     cache = tmp_path_factory.mktemp("toy-cache")
     with warnings.catch_warnings():
         warnings.simplefilter("error")
-        c_kernels = compiled.load_kernels(model, "c", cache_dir=cache)
-    return spec, c_kernels, compiled.load_kernels(model, "casadi", cache_dir=cache)
+        c_kernels = kernel_cache.load_kernels(model, "c", cache_dir=cache)
+    return spec, c_kernels, kernel_cache.load_kernels(model, "casadi", cache_dir=cache)
 
 
 def _check(spec: KernelSpec, outputs: list[np.ndarray], inputs: list[np.ndarray], what: str) -> None:

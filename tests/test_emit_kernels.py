@@ -18,7 +18,7 @@ import sympy as sp
 from hypothesis import given, settings
 from hypothesis import strategies as st
 from svbi.codegen.kernels import KernelSpec, builtin_models, model_spec
-from svbi.runtime import compiled
+from svbi.runtime import kernel_cache
 
 RTOL = 1e-12
 
@@ -76,8 +76,8 @@ def builtin(emit_cache: Path) -> dict[str, tuple]:
     for name in builtin_models():
         with warnings.catch_warnings():
             warnings.simplefilter("error")  # the C backend must be used here, not the fallback
-            c_kernels = compiled.load_kernels(name, "c", cache_dir=emit_cache)
-        out[name] = (model_spec(name), c_kernels, compiled.load_kernels(name, "casadi"))
+            c_kernels = kernel_cache.load_kernels(name, "c", cache_dir=emit_cache)
+        out[name] = (model_spec(name), c_kernels, kernel_cache.load_kernels(name, "casadi"))
     return out
 
 
@@ -223,7 +223,7 @@ def test_user_topology_end_to_end(tmp_path: Path, emit_cache: Path) -> None:
     path.write_text(WAGON, encoding="utf-8")
     with warnings.catch_warnings():
         warnings.simplefilter("error")
-        kernels = compiled.load_kernels(path, "c", cache_dir=emit_cache)
+        kernels = kernel_cache.load_kernels(path, "c", cache_dir=emit_cache)
     assert kernels.backend == "c" and kernels.name == "two-axle-wagon"
     assert kernels.sizes == {"n_dofs": 4, "n_wheels": 2}
     values = dict(zip(kernels.parameters, kernels.defaults, strict=True))
@@ -243,6 +243,6 @@ def test_user_topology_end_to_end(tmp_path: Path, emit_cache: Path) -> None:
     w_n, w_t = kernels.contact_directions(kernels.defaults)
     np.testing.assert_array_equal(w_n, [[0, 0], [0, 0], [1, 0], [0, 1]])
     np.testing.assert_array_equal(w_t, np.zeros((4, 2)))  # axles without a spin DOF
-    casadi_kernels = compiled.load_kernels(path, "casadi", cache_dir=emit_cache)
+    casadi_kernels = kernel_cache.load_kernels(path, "casadi", cache_dir=emit_cache)
     p = kernels.parameter_vector({"k": 2.0e6})
     np.testing.assert_allclose(kernels.stiffness_matrix(p), casadi_kernels.stiffness_matrix(p), rtol=1e-15)

@@ -27,10 +27,10 @@ import numpy as np
 import pytest
 import scipy.signal as sig
 from scipy.integrate import solve_ivp
+from svbi.runtime.assembly import FunctionGround
 from svbi.runtime.excitation import make_irregularity, process_record, read_record, synthetic_record
 from svbi.runtime.excitation.synthetic import synthetic_motion
 from svbi.runtime.hslm import hslm_train
-from svbi.runtime.model import FunctionGround
 from svbi.runtime.scenario import ScenarioError, validate_scenario
 from svbi.runtime.simulate import build_model
 

@@ -22,7 +22,7 @@ import sympy as sp
 from svbi.codegen import kernels
 from svbi.codegen.kernels import KernelSpec
 from svbi.codegen.vehicle import derive_vehicle
-from svbi.runtime import c_loop
+from svbi.runtime import c_solver_build
 from svbi.runtime.kernel_modules import load
 
 RTOL = 1e-12
@@ -77,18 +77,18 @@ def test_generated_functions_equal_sympy(model: str) -> None:
 
 
 def test_row_tables_equal_the_symbolic_rows() -> None:
-    """``c_loop.row_coefficients`` (generated tables) against ``c_glue.row_expressions`` (SymPy)."""
+    """``c_solver_build.row_coefficients`` (generated tables) against ``c_glue.row_expressions`` (SymPy)."""
     from svbi.codegen import beam, constraints
 
     rng = np.random.default_rng(7)
     from svbi.runtime import c_glue
 
     exprs = c_glue.row_expressions()
-    degree, nonzero = c_loop.row_structure()
+    degree, nonzero = c_solver_build.row_structure()
     assert nonzero == tuple(sp.expand(e) != 0 for e in exprs)
     assert degree == max(sp.Poly(sp.expand(e), beam.xi).degree() for e in exprs if sp.expand(e) != 0)
     for le, v, dt, kappa, zeta, h in [(2.0, 83.3, 1e-4, 1.0, 1.0, 0.5), (1.3, 0.0, 2e-3, 0.0, 0.0, 0.0)]:
-        table = c_loop.row_coefficients(le, v, dt, kappa, zeta, h)
+        table = c_solver_build.row_coefficients(le, v, dt, kappa, zeta, h)
         subs = {beam.le: le, constraints.v: v, constraints.dt: dt, constraints.kappa: kappa}
         subs |= {constraints.zeta: zeta, beam.h: h}
         for xi in rng.uniform(0, 1, 3):
@@ -180,7 +180,7 @@ def _run_probe(vehicle: str, backend: str, method: str, env: dict[str, str] | No
 def _svbi_importers(imported: dict[str, str]) -> dict[str, str]:
     """The heavy imports made by svbi itself. Jinja2 may come through third-party code (xarray's
     chunk-manager discovery loads dask, whose widgets import Jinja2): that is not svbi's doing."""
-    roots = {Path(kernels.__file__).resolve().parent, Path(c_loop.__file__).resolve().parent}
+    roots = {Path(kernels.__file__).resolve().parent, Path(c_solver_build.__file__).resolve().parent}
     return {k: v for k, v in imported.items() if Path(v).resolve().parent in roots}
 
 

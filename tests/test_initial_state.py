@@ -26,8 +26,8 @@ import scipy.linalg as sla
 import scipy.sparse as sps
 import scipy.sparse.linalg as spla
 from svbi.runtime import initial
-from svbi.runtime.model import FunctionGround, Model
-from svbi.runtime.numeric import ShapeKernel
+from svbi.runtime.assembly import FunctionGround, Model
+from svbi.runtime.contact_rows import ShapeKernel
 from svbi.runtime.scenario import validate_scenario
 from svbi.runtime.simulate import build_model
 

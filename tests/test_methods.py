@@ -98,7 +98,7 @@ def test_coupled_dynamic_with_kappa_zero_is_classic():
 
     The partitioned solve (forces as unknowns) reproduces classic to round-off. The monolithic
     coupled-dynamic keeps the paper's multipliers lambda as unknowns; with kappa = 0, lambda grows
-    like t^2 (method-notes pitfall 7). Solving for their increments (runtime/coupled.py) leaves
+    like t^2 (method-notes pitfall 7). Solving for their increments (runtime/coupled_dynamic.py) leaves
     lambda' growing like t in ``a0 dlambda - a2 lambda'``: measured over this 1000-step run, 1e-11 on
     the bridge and the contact force, 1.5e-9 on the car-body pitch (5e-7 in the total form).
     """

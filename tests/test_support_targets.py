@@ -20,8 +20,8 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from svbi.runtime.assembly import newmark_targets, support_hat
 from svbi.runtime.excitation import process_record, read_record
-from svbi.runtime.model import newmark_targets, support_hat
 from svbi.runtime.scenario import validate_scenario
 
 import svbi

@@ -5,7 +5,7 @@
  * The contact-row table of svbi's C time loop for the bridge element frame2d: the rows W_N^B, the
  * discrete aux-bridge row (W_hat and the coefficients of h_B) and the tangential rows W_T^B and
  * their x-derivative are polynomials in the local coordinate xi of degree ROW_DEG
- * (svbi.runtime.c_loop.row_expressions); their coefficients arrive at run time in setup->rows,
+ * (svbi.runtime.c_solver_build.row_expressions); their coefficients arrive at run time in setup->rows,
  * (ROW_DEG + 1) x ROW_COLS in ascending powers of xi. Which entries are structurally non-zero is
  * known from the symbolic pipeline (row_structure), so the evaluation below is unrolled over them.
  */
@@ -43,7 +43,7 @@ static const int nz_T0[6] = { 0, 1, 2, 3, 4, 5 };
 static const int nz_T1[6] = { 0, 1, 2, 3, 4, 5 };
 
 /* row[0 .. ROW_COLS) = sum_p pw[p] cf[p * ROW_COLS + col], pw[p] = xi^p (pw[0] = 1), over the powers
- * whose coefficient is structurally non-zero (c_loop.row_powers: 77 of the 164 terms for frame2d;
+ * whose coefficient is structurally non-zero (c_solver_build.row_powers: 77 of the 164 terms for frame2d;
  * the others are exact zeros, so the sums are the same); structural zeros are stored as 0. */
 static inline void svbi_contact_rows(const double* pw, const double* cf, double* row) {
   row[COL_N0 + 0] = 0.0;

@@ -3,7 +3,7 @@
  * `svbi generate --all` (`make generate` in the svbi repository).
  *
  * The structs and status codes of svbi's C time loop (runtime/csrc/solver.h), written from the
- * field lists of svbi.runtime.c_loop, which also give Python's ctypes mirrors: one definition, so
+ * field lists of svbi.runtime.c_solver_build, which also give Python's ctypes mirrors: one definition, so
  * the two cannot disagree (`svbi generate --check` and tests/test_c_numerics.py hold them equal).
  */
 #ifndef SVBI_SOLVER_TYPES_H
@@ -59,7 +59,7 @@ typedef struct {
   int mid_first; /* first span DOF of the midspan element */
   int carbody_z; /* vehicle DOF of the car-body bounce (-1: none) */
   int carbody_theta; /* vehicle DOF of the car-body pitch (-1: none) */
-  int creep; /* 1: explicit creep forces (svbi.runtime.creep_forces) */
+  int creep; /* 1: explicit creep forces (svbi.runtime.wheel_creep) */
   int creep_ground; /* 1: off the bridge the wheels creep against the moving ground */
   int mb_num_n; /* coefficients of the numerator of Eq. (31) in xi */
   int mb_den_n; /* coefficients of the denominator of Eq. (31) in xi */

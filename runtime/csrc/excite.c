@@ -37,7 +37,7 @@ static void ground_at(const setup_t* S, const excitation_t* E, int which, double
   }
 }
 
-/* Newmark-consistent target q, q', q'' of one support at x (svbi.runtime.model.newmark_targets,
+/* Newmark-consistent target q, q', q'' of one support at x (svbi.runtime.assembly.newmark_targets,
  * docs/method.md "Support targets"): h = q - dt^2/4 q'' at t - dt, t, t + dt, combined so that the
  * targets of consecutive steps satisfy Newmark's relations exactly. */
 static void support_target(const setup_t* S, const excitation_t* E, int which, double t, double x,

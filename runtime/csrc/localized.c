@@ -103,7 +103,7 @@ static void localized_predictor(const setup_t* S, work_t* w, const double* creep
   }
 #if !SVBI_MOVING_LOAD
   if (creep) {
-    /* the creep forces of t_n load the rail: -W_T^B F (svbi.runtime.creep_forces) */
+    /* the creep forces of t_n load the rail: -W_T^B F (svbi.runtime.wheel_creep) */
     int i, q;
     for (i = 0; i < S->nc; ++i) {
       if (w->con[i] && creep[i] != 0.0) {

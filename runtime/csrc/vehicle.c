@@ -51,7 +51,7 @@ void svbi_creep_vehicle_load(const setup_t* S, const double* force, int k, doubl
   for (d = 0; d < NV; ++d) f[d] += load[d];
 }
 
-/* Creepage and creep force of every contact at the new state (svbi.runtime.creep_forces): the
+/* Creepage and creep force of every contact at the new state (svbi.runtime.wheel_creep): the
  * creepage (W_T^V' u_V' - rail') / v, rail' following the contact (on the bridge
  * W_T^B' u_B' + v W_T^B'' u_B, off it the longitudinal ground), and the force from the generated
  * creep law (Kalker, Shen-Hedrick-Elkins) under the normal load P. It loads the next step. */

@@ -1,11 +1,11 @@
 """``svbi export MODEL DIR --solver``: the C time loop plus one scenario baked into C, no Python.
 
 The scenario is assembled exactly as the C backend does for ``svbi run`` (the same
-:class:`~svbi.runtime.c_backend.CStepper`), and every number the loop receives is written into a
+:class:`~svbi.runtime.c_steppers.CStepper`), and every number the loop receives is written into a
 generated ``scenario_data.c`` with ``repr`` (which reads back to the same bits): the setup, the
 initial state, the excitation tables, the output buffers (with the initial row 0) and a static
 workspace of the size the loop asks for. The loop's own files are those the C backend compiles: the
-static C of ``runtime/csrc/`` and the generated glue of the model (``c_loop.render_sources``).
+static C of ``runtime/csrc/`` and the generated glue of the model (``c_solver_build.render_sources``).
 ``main.c`` runs it and writes a CSV; the Makefile builds it with the kernels' warning policy
 (``-std=c99 -Wall -Wextra -Werror``).
 """
@@ -19,12 +19,12 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
-from svbi.runtime import c_loop
+from svbi.runtime import c_solver_build
 
-GENERATOR = "svbi.runtime.c_export"
+GENERATOR = "svbi.runtime.solver_export"
 PER_LINE = 4
 PROGRAM = "svbi_solver_example"
-OUTPUT_NAMES = c_loop.OUTPUT_NAMES
+OUTPUT_NAMES = c_solver_build.OUTPUT_NAMES
 
 
 def example_scenario(vehicle: str) -> dict[str, Any]:
@@ -100,7 +100,7 @@ class _Baker:
 
     def ppoly(self, p: Any, name: str) -> str:
         fields = []
-        for f in c_loop.PPOLY_FIELDS:
+        for f in c_solver_build.PPOLY_FIELDS:
             value = getattr(p, f.name)
             if f.kind == "double*":
                 fields.append(self.array(value, f"{name}_{f.name}"))
@@ -127,7 +127,7 @@ def scenario_files(
         warnings.simplefilter("ignore", UserWarning)
         model = build_model(scenario)
     state = initial_state(model)
-    from svbi.runtime.c_backend import CStepper
+    from svbi.runtime.c_steppers import CStepper
 
     stepper = CStepper(model, state, model.settings.method)
     if stepper.excitation.streamed:
@@ -153,7 +153,7 @@ def scenario_files(
     baker = _Baker(known)
 
     setup = []
-    for f in c_loop.SETUP_FIELDS:
+    for f in c_solver_build.SETUP_FIELDS:
         value = getattr(stepper.setup, f.name)
         if f.kind in ("int*", "double*"):
             setup.append({"name": f.name, "value": baker.array(value, f"setup_{f.name}")})
@@ -162,7 +162,7 @@ def scenario_files(
         else:
             setup.append({"name": f.name, "value": str(int(value)) + ("L" if f.kind == "long" else "")})
     st = []
-    for f in c_loop.STATE_FIELDS:
+    for f in c_solver_build.STATE_FIELDS:
         value = getattr(stepper.cstate, f.name)
         if f.kind == "double":
             st.append({"name": f.name, "value": _double(value)})
@@ -171,7 +171,7 @@ def scenario_files(
     exc = []
     ppolys = []
     e = stepper.excitation.struct
-    for f in c_loop.EXCITATION_FIELDS:
+    for f in c_solver_build.EXCITATION_FIELDS:
         value = getattr(e, f.name)
         if f.kind == "ppoly":
             ppolys.append(
@@ -181,7 +181,7 @@ def scenario_files(
         elif f.kind == "ppoly*":
             if value:
                 count = model.bridge.spans + 1
-                items = (c_loop.PPoly * count).from_address(value)
+                items = (c_solver_build.PPoly * count).from_address(value)
                 ppolys.append(
                     {
                         "name": f"exc_{f.name}",
@@ -240,7 +240,7 @@ def scenario_files(
     from svbi.runtime.c_glue import environment
 
     env = environment()
-    files = {**(extra or {}), **c_loop.render_sources(spec, embedded=embedded)}
+    files = {**(extra or {}), **c_solver_build.render_sources(spec, embedded=embedded)}
     for template, name in (
         ("solver/scenario_data.c.j2", "scenario_data.c"),
         ("solver/scenario.h.j2", "scenario_data.h"),

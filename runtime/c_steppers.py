@@ -1,4 +1,4 @@
-"""The ``"c"`` backend: the whole Newmark loop in C (``svbi.runtime.c_loop``), in chunks of steps.
+"""The ``"c"`` backend: the whole Newmark loop in C (``svbi.runtime.c_solver_build``), in chunks of steps.
 
 The numeric model is built exactly as for the NumPy backend: the NumPy stepper of the method is
 constructed first (it factors the constant matrices, sets the initial multipliers of the coupled
@@ -35,10 +35,10 @@ from typing import Any
 import numpy as np
 from scipy.interpolate import PPoly
 from svbi.codegen.plain_types import GRAVITY
-from svbi.runtime import c_loop
-from svbi.runtime.model import FlatTrack, GroundAtRest, Model, State
+from svbi.runtime import c_solver_build
+from svbi.runtime.assembly import FlatTrack, GroundAtRest, Model, State
+from svbi.runtime.contact_rows import AxialShapeKernel, ShapeKernel
 from svbi.runtime.newmark import Newmark
-from svbi.runtime.numeric import AxialShapeKernel, ShapeKernel
 
 CHUNK_SECONDS = 0.1
 """Target wall time of one call into C: progress and Ctrl-C are handled between calls."""
@@ -105,7 +105,7 @@ def _ppoly_struct(
     c: np.ndarray,
     left: tuple[float, float, float],
     right: tuple[float, float, float],
-) -> c_loop.PPoly:
+) -> c_solver_build.PPoly:
     x = np.ascontiguousarray(x, dtype=float)
     # one interval's coefficients side by side: an evaluation reads one cache line, not k + 1
     c = np.ascontiguousarray(np.asarray(c, dtype=float).T)
@@ -115,7 +115,7 @@ def _ppoly_struct(
     # "uniform" only seeds the interval search, which then steps to the exact interval, so breaks
     # equally spaced up to round-off (a table over [250, 283.37] steps by h (1 +- 3e-12)) qualify
     uniform = bool(n > 0 and np.allclose(steps, steps[0], rtol=1e-6, atol=0.0))
-    return c_loop.PPoly(
+    return c_solver_build.PPoly(
         n=n,
         k=(c.shape[1] - 1) if n else 0,
         uniform=int(uniform),
@@ -131,8 +131,8 @@ def _ppoly_struct(
     )
 
 
-def _empty_ppoly() -> c_loop.PPoly:
-    return c_loop.PPoly()
+def _empty_ppoly() -> c_solver_build.PPoly:
+    return c_solver_build.PPoly()
 
 
 def _as_ppoly(spline: Any) -> PPoly:
@@ -168,7 +168,7 @@ class ExcitationInput:
     def __init__(self, model: Model) -> None:
         self.model = model
         self.keep: list[Any] = []
-        self.struct = c_loop.Excitation()
+        self.struct = c_solver_build.Excitation()
         self.irr_stream = False
         self.ground_stream = False
         self._irregularity()
@@ -234,7 +234,9 @@ class ExcitationInput:
                     travelling = motion.apparent_velocity is not None
                     modes.append((2 if travelling else 1, self._history(comp.histories[0]), None))
                 elif comp.positions is not None and np.array_equal(comp.positions, lines):
-                    tables = (c_loop.PPoly * len(comp.histories))(*[self._history(h) for h in comp.histories])
+                    tables = (c_solver_build.PPoly * len(comp.histories))(
+                        *[self._history(h) for h in comp.histories]
+                    )
                     self.keep.append(tables)
                     modes.append((4, _empty_ppoly(), tables))
                 else:
@@ -253,7 +255,7 @@ class ExcitationInput:
         e.gv_mode = e.gh_mode = 3
         self.ground_stream = True
 
-    def _history(self, h: Any) -> c_loop.PPoly:
+    def _history(self, h: Any) -> c_solver_build.PPoly:
         """A processed record (``MotionHistory``) as the piecewise cubic of its integration."""
         dt = h.dt
         a0, a1 = h.accel[:-1], h.accel[1:]
@@ -340,7 +342,7 @@ class CStepper:
         self.model = model
         self.name = method
         self.method = method
-        self.library = c_loop.load_loop(c_loop.loop_spec(model.train))
+        self.library = c_solver_build.load_loop(c_solver_build.loop_spec(model.train))
         # The NumPy stepper builds the constant matrices and the initial multipliers; coupled-classic
         # also ties each wheel to its aux point in the state.
         self.reference = numpy_steppers()[method](model, state)
@@ -358,8 +360,8 @@ class CStepper:
         self.iwork = np.zeros(n_int.value, dtype=np.int32)
         status = self.library.init(ctypes.byref(self.setup), self.work.ctypes.data, self.iwork.ctypes.data)
         if status:
-            raise CLoopError(f"C loop set-up failed: {c_loop.STATUS_NAMES.get(status, status)}")
-        self.info = c_loop.Info()
+            raise CLoopError(f"C loop set-up failed: {c_solver_build.STATUS_NAMES.get(status, status)}")
+        self.info = c_solver_build.Info()
         self._scratch: dict[str, np.ndarray] = {}
 
     # ----------------------------------------------------------------------------------------------
@@ -390,7 +392,7 @@ class CStepper:
         for name in ("creepage", "creep_force"):
             value = getattr(st, name, None)
             setattr(st, name, np.zeros(nc) if value is None else np.array(value, dtype=float, order="C"))
-        self.cstate = c_loop.State(
+        self.cstate = c_solver_build.State(
             t=st.t,
             **{
                 k: getattr(st, k).ctypes.data
@@ -417,12 +419,12 @@ class CStepper:
         m, ref = self.model, self.reference
         b, tr, s = m.bridge, m.train, m.settings
         nm = Newmark(s.time_step)
-        code = c_loop.METHOD_CODES[self.method]
+        code = c_solver_build.METHOD_CODES[self.method]
         classic = self.method == "coupled-classic"
         kappa, zeta = (0.0, 0.0) if classic else (s.kappa, s.zeta)
         point = ref.point
         nc, nw = tr.contacts, tr.wheels
-        S = c_loop.Setup()
+        S = c_solver_build.Setup()
         S.method, S.moving_load = code, int(tr.moving_load)
         S.cars, S.nw, S.nc = tr.cars, nw, nc
         S.spans, S.elements, S.nd, S.ns = b.spans, b.elements, b.ndof, b.nsupport
@@ -449,7 +451,9 @@ class CStepper:
         S.order, S.offsets = self._arr(order, np.int32), self._arr(tr.offsets)
         S.axle_loads = self._arr(tr.axle_loads if tr.moving_load else np.zeros(nc))
         S.rows = self._arr(
-            c_loop.row_coefficients(b.element_length, tr.speed, s.time_step, kappa, zeta, b.rail_height)
+            c_solver_build.row_coefficients(
+                b.element_length, tr.speed, s.time_step, kappa, zeta, b.rail_height
+            )
         )
 
         # one span
@@ -552,10 +556,10 @@ class CStepper:
     # ----------------------------------------------------------------------------------------------
     def _outputs(self, recorder: Any) -> Any:
         d = recorder.data
-        out = c_loop.Outputs(row=recorder.count, nout=recorder.nout)
-        for name in c_loop.OUTPUT_NAMES:
-            setattr(out, name, c_loop.pointer(d[name]))
-        out.forces = c_loop.pointer(recorder.forces)
+        out = c_solver_build.Outputs(row=recorder.count, nout=recorder.nout)
+        for name in c_solver_build.OUTPUT_NAMES:
+            setattr(out, name, c_solver_build.pointer(d[name]))
+        out.forces = c_solver_build.pointer(recorder.forces)
         return out
 
     def _call(self, out: Any, n0: int, count: int) -> int:
@@ -602,9 +606,9 @@ class CStepper:
 
         info, st = self.info, self.state
         st.t = self.cstate.t
-        if status in (c_loop.STATUS_NOT_FINITE, c_loop.STATUS_FORCE_LIMIT):
+        if status in (c_solver_build.STATUS_NOT_FINITE, c_solver_build.STATUS_FORCE_LIMIT):
             guard.check_finite(st)  # raises Diverged with the NumPy backend's message
-        elif status == c_loop.STATUS_GAP_LIMIT:
+        elif status == c_solver_build.STATUS_GAP_LIMIT:
             k = recorder.count - 1
             gaps = {
                 "support": recorder.data["gap_support"][k],
@@ -612,12 +616,16 @@ class CStepper:
                 "bridge": recorder.data["gap_bridge"][k].reshape(-1),
             }
             guard.check_gaps(st, gaps)
-        elif status == c_loop.STATUS_SINGULAR:
+        elif status == c_solver_build.STATUS_SINGULAR:
             raise np.linalg.LinAlgError(
                 f"singular interface matrix at t = {st.t:.6g} s (C loop, step {info.step})"
             )
-        name = c_loop.STATUS_NAMES.get(status, str(status))
-        if status in (c_loop.STATUS_NOT_FINITE, c_loop.STATUS_FORCE_LIMIT, c_loop.STATUS_GAP_LIMIT):
+        name = c_solver_build.STATUS_NAMES.get(status, str(status))
+        if status in (
+            c_solver_build.STATUS_NOT_FINITE,
+            c_solver_build.STATUS_FORCE_LIMIT,
+            c_solver_build.STATUS_GAP_LIMIT,
+        ):
             raise Diverged(f"run diverged at t = {st.t:.6g} s: {name} ({info.value:.4g})")
         raise CLoopError(f"C loop stopped at t = {st.t:.6g} s (step {info.step}): {name}")
 
@@ -628,7 +636,7 @@ class CStepper:
         if "forces" not in self._scratch:
             nc = self.model.train.contacts
             self._scratch["forces"] = np.zeros((s.steps + 2, nc))
-        out = c_loop.Outputs(row=0, nout=0, forces=self._scratch["forces"].ctypes.data)
+        out = c_solver_build.Outputs(row=0, nout=0, forces=self._scratch["forces"].ctypes.data)
         every = self.setup.output_every
         self.setup.output_every = 1 << 30
         try:
@@ -637,8 +645,8 @@ class CStepper:
             self.setup.output_every = every
         self.state.t = self.cstate.t
         if status:
-            name = c_loop.STATUS_NAMES.get(status, str(status))
-            if status not in (c_loop.STATUS_NOT_FINITE, c_loop.STATUS_FORCE_LIMIT):
+            name = c_solver_build.STATUS_NAMES.get(status, str(status))
+            if status not in (c_solver_build.STATUS_NOT_FINITE, c_solver_build.STATUS_FORCE_LIMIT):
                 raise CLoopError(f"C loop stopped at t = {self.state.t:.6g} s: {name}")
         self.contacts = self.model.contacts(self.state.t)
         return self.state
@@ -656,11 +664,11 @@ def c_stepper(method: str) -> Callable[[Model, State], Any]:
 
     def make(model: Model, state: State) -> Any:
         global _FALLBACK_WARNED
-        from svbi.runtime.compiled import CompilerError
+        from svbi.runtime.kernel_cache import CompilerError
         from svbi.runtime.simulate import BackendFallback, numpy_steppers
 
         try:
-            c_loop.load_loop(c_loop.loop_spec(model.train))
+            c_solver_build.load_loop(c_solver_build.loop_spec(model.train))
         except CompilerError as exc:
             if not _FALLBACK_WARNED:
                 _FALLBACK_WARNED = True
@@ -684,4 +692,4 @@ def register() -> None:
     """Register the ``"c"`` backend with :func:`svbi.runtime.simulate.register_backend`."""
     from svbi.runtime.simulate import register_backend
 
-    register_backend("c", {m: c_stepper(m) for m in c_loop.METHOD_CODES})
+    register_backend("c", {m: c_stepper(m) for m in c_solver_build.METHOD_CODES})

@@ -13,12 +13,12 @@ mirrors are both built from those lists, so they cannot disagree.
 
 Every formula the C loop evaluates comes from the symbolic pipeline: the contact rows (``W_N^B``
 and the discrete aux-bridge row of ``svbi.codegen.constraints``) are passed as the coefficients of
-their polynomials in the local coordinate ``xi`` (as ``svbi.runtime.numeric`` evaluates them), the
+their polynomials in the local coordinate ``xi`` (as ``svbi.runtime.contact_rows`` evaluates them), the
 point rows (supports, off-bridge contacts) as their coefficients, the constraint mass of Eq. (31) as
 the two polynomials of its ratio. The loop itself is Newmark's average-acceleration scheme and
 linear algebra.
 
-The library is compiled through :mod:`svbi.runtime.compiled` (per-user cache keyed by the content
+The library is compiled through :mod:`svbi.runtime.kernel_cache` (per-user cache keyed by the content
 hash of every source and the flags, ``-O3``), with the strict warning set of the kernels
 (``-std=c99 -Wall -Wextra -Werror``). ``$SVBI_CFLAGS`` appends flags, e.g. ``-march=native`` for a
 machine-specific build.
@@ -175,7 +175,7 @@ SETUP_FIELDS = [
     F("mid_first", "int", "first span DOF of the midspan element"),
     F("carbody_z", "int", "vehicle DOF of the car-body bounce (-1: none)"),
     F("carbody_theta", "int", "vehicle DOF of the car-body pitch (-1: none)"),
-    F("creep", "int", "1: explicit creep forces (svbi.runtime.creep_forces)"),
+    F("creep", "int", "1: explicit creep forces (svbi.runtime.wheel_creep)"),
     F("creep_ground", "int", "1: off the bridge the wheels creep against the moving ground"),
     F("mb_num_n", "int", "coefficients of the numerator of Eq. (31) in xi"),
     F("mb_den_n", "int", "coefficients of the denominator of Eq. (31) in xi"),
@@ -376,7 +376,7 @@ Info = _structure("Info", INFO_FIELDS)
 
 
 _ROW_TABLES = ("N0", "W_hat", "c_P_ue", "c_Q_ue", "T0", "T1", "c_scalars")
-"""Generated tables (``svbi.runtime.numeric``) of the ``ROW_BLOCKS`` and ``ROW_SCALARS`` columns."""
+"""Generated tables (``svbi.runtime.contact_rows``) of the ``ROW_BLOCKS`` and ``ROW_SCALARS`` columns."""
 
 
 @cache
@@ -399,8 +399,8 @@ def row_coefficients(
     le: float, speed: float, dt: float, kappa: float, zeta: float, rail_height: float = 0.0
 ) -> np.ndarray:
     """``(degree + 1, ROW_COLUMNS)`` coefficients of every column in ascending powers of xi, from
-    the generated tables of the bridge element (``svbi.runtime.numeric``)."""
-    from svbi.runtime.numeric import bridge_row_tables, shape_tables
+    the generated tables of the bridge element (``svbi.runtime.contact_rows``)."""
+    from svbi.runtime.contact_rows import bridge_row_tables, shape_tables
 
     _, rows = bridge_row_tables(le, speed, dt, kappa, zeta)
     tables = {**shape_tables(le, rail_height), **rows}
@@ -468,7 +468,7 @@ def static_sources() -> dict[str, bytes]:
 
 def _committed(folder: str, names: tuple[str, ...]) -> dict[str, bytes] | None:
     """Files of ``generated/<folder>/``, or None when one is missing."""
-    from svbi.runtime.compiled import generated_root
+    from svbi.runtime.kernel_cache import generated_root
 
     root = generated_root() / folder
     paths = [root / n for n in names]
@@ -558,13 +558,13 @@ their one exception (svbi.codegen.c_flags)."""
 def load_loop(spec: LoopSpec) -> LoopLibrary:
     """Collect the sources, compile them (cached) and load the loop library of a topology.
 
-    Raises :class:`svbi.runtime.compiled.CompilerError` when no C compiler works.
+    Raises :class:`svbi.runtime.kernel_cache.CompilerError` when no C compiler works.
     """
     if spec not in _LIBRARIES:
-        from svbi.runtime import compiled
+        from svbi.runtime import kernel_cache
 
         flags = (*LOOP_FLAGS, *shlex.split(os.environ.get("SVBI_CFLAGS", "")))
-        library = compiled.load_library(render_sources(spec), f"svbi_{spec.c_name}_solver", flags=flags)
+        library = kernel_cache.load_library(render_sources(spec), f"svbi_{spec.c_name}_solver", flags=flags)
         _LIBRARIES[spec] = LoopLibrary(spec, library)
     return _LIBRARIES[spec]
 

@@ -29,15 +29,15 @@ import numpy as np
 import scipy.sparse as sps
 import scipy.sparse.linalg as spla
 from svbi.codegen.plain_types import GRAVITY
-from svbi.runtime.model import Contacts, Model, State
-from svbi.runtime.newmark import Newmark
-from svbi.runtime.numeric import (
+from svbi.runtime.assembly import Contacts, Model, State
+from svbi.runtime.contact_rows import (
     BridgeConstraintMass,
     ContactRowKernel,
     point_row,
     support_constraint_masses,
     vehicle_constraint_masses,
 )
+from svbi.runtime.newmark import Newmark
 
 
 class Triplets:
@@ -95,7 +95,7 @@ def support_reactions(model: Model, state: State, contacts: Contacts, P: np.ndar
     b = model.bridge
     _, q1, _ = model.supports(state.t)
     f = state.aB @ b.M + (state.vB - q1 @ b.T.T) @ b.C + state.uB @ b.K
-    from svbi.runtime.numeric import ShapeKernel
+    from svbi.runtime.contact_rows import ShapeKernel
 
     (N0,) = ShapeKernel(b.element_length)(contacts.loc.xi)
     idx = contacts.element_dofs()

@@ -14,7 +14,7 @@ import pytest
 import sympy as sp
 from svbi.codegen import beam, constraints
 from svbi.runtime.bridge import Bridge
-from svbi.runtime.numeric import (
+from svbi.runtime.contact_rows import (
     BridgeConstraintMass,
     ContactRowKernel,
     ShapeKernel,

@@ -12,7 +12,7 @@ where ``W_T^B''`` is the x-derivative of the tangential row: ``rail'`` is the ra
 longitudinal displacement *following the contact*, as in Eq. (16), and the longitudinal rail
 irregularity ``r_T`` is zero (the German spectra describe the vertical profile and the alignment).
 The creep force ``F = F_x(xi, N)`` follows Kalker with Shen-Hedrick-Elkins saturation
-(:mod:`svbi.runtime.creep`) under the normal load ``N = P`` (the contact force, compression
+(:mod:`svbi.runtime.creep_law`) under the normal load ``N = P`` (the contact force, compression
 positive); it is the force on the wheel, opposite to its slip, so ``F xi <= 0`` and creep only
 dissipates. It acts on the vehicle as ``+W_T^V F`` and on the rail as ``-W_T^B F``. (The paper writes
 ``-W_T^V F_x`` and ``+W_T^B F_x`` with ``F_x = -eps f33 xi``; with the creepage of Eq. (16) those
@@ -33,9 +33,9 @@ from __future__ import annotations
 from dataclasses import replace
 
 import numpy as np
-from svbi.runtime.creep import CreepLaw, CreepParameters
-from svbi.runtime.model import Contacts, Model, State
-from svbi.runtime.numeric import TangentialKernel
+from svbi.runtime.assembly import Contacts, Model, State
+from svbi.runtime.contact_rows import TangentialKernel
+from svbi.runtime.creep_law import CreepLaw, CreepParameters
 
 STABILITY_LIMIT = 1.0
 """Largest ``k dt`` (creep damping rate of a wheelset spin times the time step, at the static wheel
@@ -143,7 +143,7 @@ class CreepForces:
 
 
 def _at_rest(ground: object, component: str) -> bool:
-    from svbi.runtime.model import GroundAtRest
+    from svbi.runtime.assembly import GroundAtRest
 
     if isinstance(ground, GroundAtRest):
         return True

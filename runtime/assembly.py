@@ -11,7 +11,7 @@ change when new ones arrive:
   ``recorded`` for the output), adapting a ground-motion object
   (``svbi.runtime.excitation.ground.RecordGround``).
 
-Creep forces (``[contact]``) are the :class:`~svbi.runtime.creep_forces.CreepForces` of
+Creep forces (``[contact]``) are the :class:`~svbi.runtime.wheel_creep.CreepForces` of
 :attr:`Model.creep`, explicit loads of the next step (``docs/method.md`` section 3b).
 """
 
@@ -23,7 +23,7 @@ from typing import Any, Protocol
 
 import numpy as np
 from svbi.runtime.bridge import Bridge, Location
-from svbi.runtime.creep import CreepParameters
+from svbi.runtime.creep_law import CreepParameters
 from svbi.runtime.train import Train
 
 Triple = tuple[np.ndarray, np.ndarray, np.ndarray]
@@ -255,10 +255,10 @@ class Model:
 
     @property
     def creep(self) -> Any:
-        """The :class:`~svbi.runtime.creep_forces.CreepForces` of this run, or None (no creep: not
+        """The :class:`~svbi.runtime.wheel_creep.CreepForces` of this run, or None (no creep: not
         asked for, a moving load, a held train, or no wheel spin DOF in the vehicle)."""
         if self._creep is None and self.creep_parameters is not None:
-            from svbi.runtime.creep_forces import CreepForces
+            from svbi.runtime.wheel_creep import CreepForces
 
             self._creep = CreepForces(self, self.creep_parameters) if CreepForces.applies(self) else False
         return self._creep or None

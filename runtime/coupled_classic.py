@@ -15,10 +15,10 @@ constraint rows are ~1 against ~a0 M in the dynamic rows and the LU pivots badly
 from __future__ import annotations
 
 import numpy as np
-from svbi.runtime.coupled import Triplets, solve_sparse
-from svbi.runtime.model import Contacts, Model, State
+from svbi.runtime.assembly import Contacts, Model, State
+from svbi.runtime.contact_rows import ContactRowKernel, point_row, support_constraint_masses
+from svbi.runtime.coupled_dynamic import Triplets, solve_sparse
 from svbi.runtime.newmark import Newmark
-from svbi.runtime.numeric import ContactRowKernel, point_row, support_constraint_masses
 
 
 class CoupledClassic:
