@@ -1,11 +1,11 @@
 """The C loop's numerical building blocks, function by function, against SciPy and NumPy.
 
-``runtime/csrc/band.c`` (banded Cholesky and its solves, banded LU with partial pivoting, dense
-Cholesky) and ``runtime/csrc/tables.c`` (piecewise-polynomial tables) depend on no topology: they
-are compiled here on their own, with the generated ``svbi_solver_types.h``, into a small library
-and called through ctypes. The same library carries a helper that reports ``sizeof`` and
-``offsetof`` of every generated struct, which must equal the ctypes mirrors of
-``svbi.runtime.c_solver_build`` (both come from its field lists).
+``runtime/csrc/band.c`` (banded Cholesky and its solves, banded LU with partial pivoting and its
+reciprocal-pivot variant, dense Cholesky) and ``runtime/csrc/tables.c`` (piecewise-polynomial
+tables) depend on no topology: they are compiled here on their own, with the generated
+``svbi_solver_types.h``, into a small library and called through ctypes. The same library carries
+a helper that reports ``sizeof`` and ``offsetof`` of every generated struct, which must equal the
+ctypes mirrors of ``svbi.runtime.c_solver_build`` (both come from its field lists).
 
 Truth: ``scipy.linalg.cholesky_banded`` / ``cho_solve_banded`` / ``solve_banded``,
 ``numpy.linalg.solve`` and ``scipy.interpolate.PPoly``. Tolerances are round-off of the condition
@@ -64,8 +64,16 @@ def library() -> ctypes.CDLL:
     lib.svbi_dense_solve.argtypes = [DP, ctypes.c_int, DP]
     lib.svbi_gb_factor.argtypes = [DP, ctypes.c_int, ctypes.c_int, IP]
     lib.svbi_gb_solve.argtypes = [DP, ctypes.c_int, ctypes.c_int, IP, DP]
+    lib.svbi_gb_factor_r.argtypes = [DP, ctypes.c_int, ctypes.c_int, IP, DP]
+    lib.svbi_gb_solve_r.argtypes = [DP, ctypes.c_int, ctypes.c_int, IP, DP, DP]
     lib.svbi_ppoly_eval.argtypes = [ctypes.POINTER(c_solver_build.PPoly), ctypes.c_double, DP]
-    for name in ("svbi_band_solve", "svbi_band_solve_blocked", "svbi_dense_solve", "svbi_gb_solve"):
+    for name in (
+        "svbi_band_solve",
+        "svbi_band_solve_blocked",
+        "svbi_dense_solve",
+        "svbi_gb_solve",
+        "svbi_gb_solve_r",
+    ):
         lib[name].restype = None
     lib.svbi_ppoly_eval.restype = None
     return lib
@@ -221,6 +229,44 @@ def test_banded_lu_reports_a_singular_matrix() -> None:
     ab = lapack_band(a, 2)
     piv = np.zeros(8, dtype=np.int32)
     assert library().svbi_gb_factor(dp(ab), 8, 2, ip(piv)) == c_solver_build.STATUS_SINGULAR
+
+
+# the reciprocal-pivot variant of the localized interface (svbi_gb_factor_r / svbi_gb_solve_r)
+
+
+@pytest.mark.parametrize(("n", "bw"), [(1, 0), (6, 1), (40, 5), (33, 7)])
+def test_reciprocal_pivot_lu_matches_scipy(n: int, bw: int) -> None:
+    rng = np.random.default_rng(7 * n + bw)
+    a = general_band(rng, n, bw)
+    if n == 1:
+        a[0, 0] = 0.7
+    ab = lapack_band(a, bw)
+    piv, rpiv = np.zeros(n, dtype=np.int32), np.zeros(n)
+    assert library().svbi_gb_factor_r(dp(ab), n, bw, ip(piv), dp(rpiv)) == c_solver_build.STATUS_OK
+    ref, ref_piv = lapack_band(a, bw), np.zeros(n, dtype=np.int32)
+    assert library().svbi_gb_factor(dp(ref), n, bw, ip(ref_piv)) == c_solver_build.STATUS_OK
+    np.testing.assert_array_equal(piv, ref_piv)  # the same pivoting
+    if n > 1:
+        assert np.any(piv != np.arange(n))  # it did pivot
+    b = rng.standard_normal(n)
+    x = b.copy()
+    library().svbi_gb_solve_r(dp(ab), n, bw, ip(piv), dp(rpiv), dp(x))
+    scipy_ab = np.zeros((2 * bw + 1, n))
+    for c in range(n):
+        for r in range(max(0, c - bw), min(n, c + bw + 1)):
+            scipy_ab[bw + r - c, c] = a[r, c]
+    expected = scipy.linalg.solve_banded((bw, bw), scipy_ab, b)
+    cond = np.linalg.cond(a)
+    np.testing.assert_allclose(x, expected, rtol=1e-14 * cond, atol=1e-14 * cond * np.abs(expected).max())
+    np.testing.assert_allclose(x, np.linalg.solve(a, b), rtol=1e-14 * cond, atol=1e-14 * cond)
+
+
+def test_reciprocal_pivot_lu_reports_a_singular_matrix() -> None:
+    a = general_band(np.random.default_rng(3), 8, 2)
+    a[:, 4] = 0.0
+    ab = lapack_band(a, 2)
+    piv, rpiv = np.zeros(8, dtype=np.int32), np.zeros(8)
+    assert library().svbi_gb_factor_r(dp(ab), 8, 2, ip(piv), dp(rpiv)) == c_solver_build.STATUS_SINGULAR
 
 
 # --------------------------------------------------------------------------------------------------
