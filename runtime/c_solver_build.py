@@ -423,7 +423,7 @@ SOLVER_FOLDER = "solver"
 BRIDGE_FOLDER = "frame2d"
 """``generated/frame2d/``: the glue of the bridge element (contact rows, the split creep law)."""
 MOVING_LOAD_FOLDER = "moving-load"
-CREEP_FILES = ("creep_split_kernels.c", "creep_split_kernels.h", "creep_split.h")
+CREEP_FILES = ("creep_split_kernels.c", "creep_split_kernels.h", "creep_split.h", "creep_split_model.c")
 GLUE_NAMES = frozenset({TYPES_HEADER, ROWS_HEADER, TOPOLOGY_HEADER, *CREEP_FILES})
 """File names of the loop's glue inside generated model folders (not part of a kernels-only export)."""
 

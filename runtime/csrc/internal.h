@@ -22,6 +22,9 @@
 #if !SVBI_MOVING_LOAD
 #include "creep_split.h" /* the generated creep law, split (svbi.codegen.creep.split_creep_force) */
 #define CREEP_NC SVBI_CREEP_SPLIT_COEFFICIENTS_OUT_C_ROWS /* coefficients of the split creep law */
+/* The loop reaches the generated creep law through its model table (the acados pattern): another
+ * law emitted with the same kernel names and signatures drops in without touching the loop. */
+#define CREEP_KERNEL(k) (svbi_creep_split_model_table.kernels[SVBI_CREEP_SPLIT_K_##k].eval)
 #define NV SVBI_NV
 #define NW SVBI_NW
 #endif

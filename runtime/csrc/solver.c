@@ -201,7 +201,7 @@ int svbi_solver_init(const setup_t* S, double* work, int* iwork) {
       casadi_real wk[SVBI_CREEP_SPLIT_MAX_SZ_W];
       arg[0] = S->creep_params + 8 * k;
       res[0] = w.creepc + CREEP_NC * k;
-      status = svbi_creep_split_coefficients(arg, res, iw, wk, 0);
+      status = CREEP_KERNEL(COEFFICIENTS)(arg, res, iw, wk, 0);
       if (status) return ST_NOT_FINITE;
     }
   }

@@ -86,7 +86,7 @@ void svbi_creep_update(const setup_t* S, state_t* X, const work_t* w) {
           arg[2] = w->creepc + CREEP_NC * i;
           arg[3] = &in_n3;
           res[0] = &out_f;
-          svbi_creep_split_force(arg, res, 0, 0, 0); /* it needs no work arrays (sz_iw = sz_w = 0) */
+          CREEP_KERNEL(FORCE)(arg, res, 0, 0, 0); /* it needs no work arrays (sz_iw = sz_w = 0) */
           force = out_f;
         }
       }
