@@ -15,6 +15,7 @@
 
 from __future__ import annotations
 
+import contextlib
 import errno
 import os
 import resource
@@ -209,7 +210,16 @@ def test_a_diverged_run_keeps_the_previous_results_and_writes_incomplete_beside(
         out = tmp_path / "run.nc"
         out.write_bytes(PREVIOUS)
         result = _invoke(
-            [str(scenario), "-o", str(out), "-q", "--set", "solver.backend=casadi", "--set", "solver.output_every=1"]
+            [
+                str(scenario),
+                "-o",
+                str(out),
+                "-q",
+                "--set",
+                "solver.backend=casadi",
+                "--set",
+                "solver.output_every=1",
+            ]
         )
     finally:
         sim._BACKENDS.pop("casadi", None)
@@ -392,7 +402,9 @@ def test_sigterm_during_an_atomic_write_leaves_no_temporary_file(tmp_path: Path)
             write_atomic({str(target)!r}, slow)
         """
     )
-    proc = subprocess.Popen([sys.executable, "-c", code], stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    proc = subprocess.Popen(
+        [sys.executable, "-c", code], stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True
+    )
     try:
         assert proc.stdout.readline().strip() == "writing"
         assert len(_debris(tmp_path)) == 1  # the temporary file is there now
@@ -410,11 +422,13 @@ def test_sigterm_during_an_atomic_write_leaves_no_temporary_file(tmp_path: Path)
 
 
 SLOW_CC = """\
-import sys, time
+import os, sys, time
 if "--version" in sys.argv:
     print("slow-cc 1.0")
     sys.exit(0)
-print("compiling", flush=True)
+with open(os.environ["SLOW_CC_MARK"] + ".tmp", "w") as f:  # the compile has started: its pid
+    f.write(str(os.getpid()))
+os.replace(os.environ["SLOW_CC_MARK"] + ".tmp", os.environ["SLOW_CC_MARK"])
 time.sleep(120)
 """
 
@@ -427,18 +441,26 @@ def test_a_compile_killed_part_way_leaves_no_build_folder_for_good(tmp_path: Pat
     code = textwrap.dedent(
         f"""
         from svbi.runtime import kernel_cache
-        kernel_cache.build_library({{"a.c": b"int f(void) {{ return 1; }}\\n"}}, "probe", cache_dir={str(cache)!r})
+        source = {{"a.c": b"int f(void) {{ return 1; }}\\n"}}
+        kernel_cache.build_library(source, "probe", cache_dir={str(cache)!r})
         """
     )
-    env = dict(os.environ, CC=f"{sys.executable} {cc}")
-    proc = subprocess.Popen([sys.executable, "-c", code], env=env, stdout=subprocess.PIPE, text=True)
+    mark = tmp_path / "compiling"
+    env = dict(os.environ, CC=f"{sys.executable} {cc}", SLOW_CC_MARK=str(mark))
+    proc = subprocess.Popen([sys.executable, "-c", code], env=env)
     try:
-        assert proc.stdout.readline().strip() == "compiling"
+        end = time.monotonic() + 120
+        while not mark.exists() and time.monotonic() < end and proc.poll() is None:
+            time.sleep(0.05)
+        assert mark.exists()
         proc.kill()  # SIGKILL: no finally clause runs
         proc.wait(timeout=30)
     finally:
         if proc.poll() is None:
             proc.kill()
+        if mark.exists():  # the orphaned compiler
+            with contextlib.suppress(ProcessLookupError):
+                os.kill(int(mark.read_text()), signal.SIGKILL)
     stale = [p for p in cache.iterdir() if p.name.startswith(".build-")]
     assert len(stale) == 1  # what the killed compile left
 
