@@ -25,17 +25,20 @@ DEFAULT_SHARE = 0.5
 """Default limit: this share of the memory available (``MemAvailable``, else physical memory)."""
 
 F64 = 8
-FILTER_COPIES = 6.0
-"""Working arrays of the zero-phase force filter (``scipy.signal.sosfiltfilt``: padded input, the
-forward and backward passes and their reversed copies), in units of the force buffer. Measured."""
-TABLE_BYTES_PER_POINT = 330.0
-"""Peak bytes per grid point while the rail profile is tabulated (exact r, r', r'' at the grid, the
-banded quintic spline system, the piecewise-polynomial coefficients and their C copy). Measured."""
+FILTER_COPIES = 3.0
+"""Peak working arrays of the zero-phase force filter (``scipy.signal.sosfiltfilt``: padded input,
+forward and backward passes), in units of the force buffer: measured 3.00 for 1 to 40 wheels."""
+TABLE_BYTES_PER_POINT = 120.0
+"""Bytes per grid point of the stored rail-profile table: quintic coefficients and breaks, and the
+C loop's transposed copy (``c_steppers._ppoly_struct``)."""
+TABULATION_BYTES_PER_POINT = 400.0
+"""Transient bytes per grid point while the table is made (exact r, r', r'' at the grid, the banded
+quintic spline system, the coefficients): measured 370-395 at 2e5 points, beside the spectral chunk."""
 SPECTRAL_BYTES_PER_FREQUENCY = 250.0
 """Bytes per frequency of the spectral sample (amplitudes, phases, complex coefficients, blocks)."""
-SPECTRAL_CHUNK_BYTES = 3 * 16 * (1 << 22)
-"""The spectral sum's work arrays per chunk of points (``excitation.irregularity._CHUNK`` complex
-elements, three of them alive at once)."""
+SPECTRAL_CHUNK = 1 << 22
+"""Complex elements of one chunk of the spectral sum (``excitation.irregularity``: its ``_CHUNK``):
+per point of a chunk, the (points x frequency blocks) products alive at once."""
 GROUND_BYTES_PER_SAMPLE = 400.0
 """Bytes per record sample and component once processed (acceleration, velocity, displacement,
 filter copies, cubic table). Generous: records are short next to the other arrays."""
@@ -109,10 +112,12 @@ class MemoryEstimate:
 
     parts: dict[str, int] = field(default_factory=dict)
     drivers: dict[str, str] = field(default_factory=dict)
+    phases: dict[str, int] = field(default_factory=dict)
 
     @property
     def total(self) -> int:
-        return sum(self.parts.values())
+        """The peak: the largest phase (set-up of the tables, loop and force filter, write)."""
+        return max(self.phases.values(), default=sum(self.parts.values()))
 
     def largest(self, count: int = 2) -> list[tuple[str, int]]:
         return sorted(self.parts.items(), key=lambda kv: -kv[1])[:count]
@@ -138,17 +143,27 @@ def estimate_memory(scenario: Scenario) -> MemoryEstimate:
     est.parts["force filter"] = int(FILTER_COPIES * est.parts["force buffer"]) if filtered else 0
     # the stored results again with the filtered force, as the NetCDF image of the write
     est.parts["NetCDF image"] = est.parts["results"] + nout * nc * F64
-    est.parts["irregularity table"] = _irregularity_bytes(scenario, train, duration, steps)
+    table, tabulation = _irregularity_bytes(scenario, train, duration, steps)
+    est.parts["irregularity table"] = table
+    est.parts["irregularity tabulation"] = tabulation
     est.parts["ground motion"] = _ground_bytes(scenario, duration)
     est.parts["bridge and stepper"] = int(
         F64 * (WORKSPACE_PER_SPAN_DOF * spans * bridge.ndof + (nsup + nc) * bridge.ndof * 4 + 200 * nc)
     )
+    p = est.parts
+    fixed = p["ground motion"] + p["bridge and stepper"]
+    # not all parts live at once: the run's peak is the largest of its three phases
+    est.phases = {
+        "tables": fixed + table + tabulation,
+        "loop and filter": fixed + table + p["results"] + p["force buffer"] + p["force filter"],
+        "write": p["results"] + nout * nc * F64 + p["NetCDF image"],
+    }
     est.drivers = {
         "solver.time_step": f"{ss.time_step:g} s",
         "solver.duration": f"{duration:g} s" + ("" if ss.duration is not None else " (crossing)"),
         "solver.output_every": str(every),
         "bridge.spans": str(spans),
-        "train.cars": f"{cars} ({nc} wheels)",
+        "train.cars": f"{cars} ({nc} wheel{'s' if nc != 1 else ''} in all)",
         "steps": str(steps),
     }
     if scenario.track.irregularity != "none":
@@ -164,12 +179,13 @@ def _uniform_ground(scenario: Scenario) -> bool:
     return not per_support and eq.apparent_velocity is None
 
 
-def _irregularity_bytes(scenario: Scenario, train: object, duration: float, steps: int) -> int:
-    """The table of ``simulate._irregularity``: grid of ``wavelength_min / 50`` over the distance
-    the train travels, and the spectral sample it is computed from."""
+def _irregularity_bytes(scenario: Scenario, train: object, duration: float, steps: int) -> tuple[int, int]:
+    """Stored and transient bytes of the table of ``simulate._irregularity``: a grid of
+    ``wavelength_min / 50`` over the distance the train travels, evaluated by the blocked spectral sum
+    of ``SpectralIrregularity.evaluate_unramped`` (N frequencies as ``n_low`` x ``n_high`` blocks)."""
     spec = scenario.track
     if spec.irregularity == "none":
-        return 0
+        return 0, 0
     from svbi.runtime.simulate import IRREGULARITY_TABLE_DIVISIONS
 
     speed = float(getattr(train, "speed", 0.0))
@@ -177,11 +193,13 @@ def _irregularity_bytes(scenario: Scenario, train: object, duration: float, step
     end_time = steps * scenario.solver.time_step
     points = (max(speed * end_time, 1.0) + 4 * dx) / dx + 1
     length = max(speed * duration, 1.0)
-    frequencies = max(1024, 2 ** math.ceil(math.log2(max(length / spec.wavelength_min, 1.0))))
-    spectral = frequencies * SPECTRAL_BYTES_PER_FREQUENCY + min(
-        SPECTRAL_CHUNK_BYTES, 3 * 16 * points * math.sqrt(frequencies)
-    )
-    return int(points * TABLE_BYTES_PER_POINT + spectral)
+    # N: the smallest power of two >= 1024 whose period (about N wavelength_min) covers the length
+    n = max(1024, 2 ** math.ceil(math.log2(max(length / spec.wavelength_min, 1.0))))
+    n_low = 1 << max(0, math.ceil(math.log2(n) / 2))
+    n_high = -(-n // n_low)
+    chunk = min(points, max(1, SPECTRAL_CHUNK // (3 * n_high)))
+    spectral = n * SPECTRAL_BYTES_PER_FREQUENCY + chunk * 16 * (4 * n_high + n_low)
+    return int(points * TABLE_BYTES_PER_POINT), int(points * TABULATION_BYTES_PER_POINT + spectral)
 
 
 def _ground_bytes(scenario: Scenario, duration: float) -> int:
@@ -220,12 +238,17 @@ def check_memory(scenario: Scenario, max_memory: str | None = None) -> MemoryEst
     limit, how = memory_limit(max_memory)
     est = estimate_memory(scenario)
     if est.total > limit:
-        big = ", ".join(f"{name} {format_size(size)}" for name, size in est.largest())
+        big = ", ".join(f"{name} {format_size(size)}" for name, size in est.largest() if size)
         keys = ", ".join(f"{k} = {v}" for k, v in est.drivers.items())
+        larger = (
+            "solver.time_step, solver.output_every or track.wavelength_min"
+            if "track.wavelength_min" in est.drivers
+            else "solver.time_step or solver.output_every"
+        )
         raise MemoryLimitError(
             f"the run would need about {format_size(est.total)} of memory ({big}), above the limit of "
-            f"{format_size(limit)} ({how}); it is driven by {keys}: use a larger solver.time_step or "
-            "solver.output_every, a shorter solver.duration, fewer bridge.spans or train.cars, or "
+            f"{format_size(limit)} ({how}); it is driven by {keys}: use a larger {larger}, "
+            "a shorter solver.duration, fewer bridge.spans or train.cars, or "
             "raise the limit with --max-memory"
         )
     return est
