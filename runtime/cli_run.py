@@ -57,21 +57,30 @@ def run(
     previous file is kept); 130 / 143 interrupted by SIGINT (Ctrl-C) / SIGTERM.
     """
     started = time.perf_counter()  # set-up counts from here: the scenario load is part of it
+    from svbi.runtime.run_output import RunInterrupted, signal_name, signals_interrupt
+
+    with signals_interrupt():  # from here on SIGTERM, like Ctrl-C, unwinds: finally clauses clean up
+        try:
+            _run(scenario, output, set_ or [], max_memory, quiet, started)
+        except RunInterrupted as exc:  # before or after the loop: no results to keep
+            typer.echo(f"error: interrupted by {exc.signal_name}; nothing written", err=True)
+            raise typer.Exit(exc.exit_code) from None
+        except KeyboardInterrupt as exc:  # Python's own Ctrl-C (SIGINT inherited as ignored: never)
+            typer.echo(f"error: interrupted by {signal_name(exc)}; nothing written", err=True)
+            raise typer.Exit(130) from None
+
+
+def _run(
+    scenario: Path, output: str, set_: list[str], max_memory: str | None, quiet: bool, started: float
+) -> None:
     from svbi.runtime.resources import check_memory
-    from svbi.runtime.run_output import (
-        RunInterrupted,
-        check_output,
-        incomplete_path,
-        run_inputs,
-        signal_name,
-        signals_interrupt,
-    )
+    from svbi.runtime.run_output import RunInterrupted, check_output, incomplete_path, run_inputs
     from svbi.runtime.scenario import ScenarioError, ScenarioWarning, load_scenario
 
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always")
         try:
-            sc = load_scenario(scenario, overrides=set_ or [])
+            sc = load_scenario(scenario, overrides=set_)
         except ScenarioError as exc:
             typer.echo(f"error: {exc}", err=True)
             raise typer.Exit(EXIT_INVALID) from None
@@ -86,27 +95,20 @@ def run(
         typer.echo(f"error: {exc}", err=True)
         raise typer.Exit(EXIT_INVALID) from None
 
-    with signals_interrupt():
-        try:
-            ds = _simulate(sc, quiet, started)
-        except RunInterrupted as exc:
-            if exc.results is None:
-                typer.echo(
-                    f"error: interrupted by {exc.signal_name} before the time loop; nothing written", err=True
-                )
-                raise typer.Exit(exc.exit_code) from None
-            partial = _write(exc.results, incomplete_path(path))
-            typer.echo(
-                f"error: {exc.results.attrs['incomplete']}; partial results written to {partial}", err=True
-            )
-            raise typer.Exit(exc.exit_code) from None
-        except KeyboardInterrupt as exc:  # Python's own Ctrl-C before or after the loop
-            typer.echo(f"error: interrupted by {signal_name(exc)}; nothing written", err=True)
-            raise typer.Exit(130) from None
+    try:
+        ds = _simulate(sc, quiet, started)
+    except RunInterrupted as exc:
+        if exc.results is None:
+            raise
+        partial = _write(exc.results, incomplete_path(path))
+        typer.echo(
+            f"error: {exc.results.attrs['incomplete']}; partial results written to {partial}", err=True
+        )
+        raise typer.Exit(exc.exit_code) from None
 
-        attrs = ds.attrs
-        complete = bool(attrs.get("complete", 1))
-        written = _write(ds, path if complete else incomplete_path(path))
+    attrs = ds.attrs
+    complete = bool(attrs.get("complete", 1))
+    written = _write(ds, path if complete else incomplete_path(path))
     if not complete:
         typer.echo(
             f"error: {attrs.get('incomplete', 'run did not complete')}; partial results written to {written}",

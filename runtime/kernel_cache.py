@@ -180,9 +180,10 @@ def _pid_alive(pid: int) -> bool:
 
 def remove_stale_builds(root: Path) -> None:
     """Remove build folders that no build in progress owns: made on this machine by a process that
-    is gone (a compile killed part-way, a SIGKILL), or older than :data:`STALE_BUILD_S`."""
+    is gone (a compile killed part-way, a SIGKILL), or older than :data:`STALE_BUILD_S` (also the
+    ``.gen-`` folders of generated models and the ``.stale-`` entries being deleted)."""
     try:
-        folders = [p for p in root.iterdir() if p.name.startswith((BUILD_PREFIX, ".stale-"))]
+        folders = [p for p in root.iterdir() if p.name.startswith((BUILD_PREFIX, ".stale-", ".gen-"))]
     except OSError:
         return
     host, now = _host_tag(), time.time()
@@ -547,6 +548,7 @@ def _generate_into_cache(spec: Any, cache_dir: str | os.PathLike[str] | None) ->
         (final / n).is_file() and (final / n).read_bytes() == d for n, d in files.items()
     ):
         return final
+    remove_stale_builds(root)
     build = Path(tempfile.mkdtemp(prefix=".gen-", dir=root))
     c_emit.write_files(files, build)
     _discard(final)

@@ -588,3 +588,40 @@ def test_the_estimate_of_the_stored_arrays_is_what_the_run_allocates(tmp_path: P
     assert estimate.parts["results"] == stored
     assert estimate.parts["force buffer"] == rec.forces.nbytes
     assert 0.5 * peak <= estimate.total <= 2.0 * peak, (estimate.parts, peak)
+
+
+def test_sigterm_during_the_compile_stops_in_one_line_and_leaves_no_build_folder(tmp_path: Path) -> None:
+    """`svbi run` with an empty compile cache and a slow compiler, stopped while it compiles."""
+    cache = tmp_path / "cache"
+    cc = tmp_path / "slowcc.py"
+    cc.write_text(SLOW_CC, encoding="utf-8")
+    mark = tmp_path / "compiling"
+    out = tmp_path / "run.nc"
+    out.write_bytes(PREVIOUS)
+    scenario = _scenario(tmp_path)
+    env = dict(os.environ, CC=f"{sys.executable} {cc}", SLOW_CC_MARK=str(mark), SVBI_CACHE_DIR=str(cache))
+    proc = subprocess.Popen(
+        [*_svbi_command(), "run", str(scenario), "-o", str(out), "-q"],
+        env=env,
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        text=True,
+    )
+    try:
+        end = time.monotonic() + 120
+        while not mark.exists() and time.monotonic() < end and proc.poll() is None:
+            time.sleep(0.05)
+        assert mark.exists(), proc.stderr.read() if proc.poll() is not None else "no compile"
+        proc.send_signal(signal.SIGTERM)
+        _, stderr = proc.communicate(timeout=60)
+    finally:
+        if proc.poll() is None:
+            proc.kill()
+        if mark.exists():
+            with contextlib.suppress(ProcessLookupError, ValueError):
+                os.kill(int(mark.read_text()), signal.SIGKILL)
+    assert proc.returncode == 143, stderr[-3000:]
+    assert _error_line(stderr) == "error: interrupted by SIGTERM; nothing written"
+    assert out.read_bytes() == PREVIOUS
+    assert not list(tmp_path.glob("run.incomplete.nc"))
+    assert not [p for p in cache.iterdir() if p.name.startswith(".build-")]
