@@ -231,7 +231,11 @@ def write_netcdf(ds: xr.Dataset, path: str | Path) -> Path:
         for name in ("support_component",):
             if name in out.coords:
                 out.coords[name] = out.coords[name].astype(str)
-        image = out.to_netcdf(engine="h5netcdf")
+        try:
+            image = out.to_netcdf(engine="h5netcdf")
+        except ValueError:  # xarray < 2025.8 writes h5netcdf only to a path (HDF5 handles short writes)
+            out.to_netcdf(tmp, engine="h5netcdf")
+            return
         with open(tmp, "wb") as f:
             f.write(image)
             f.flush()
