@@ -12,7 +12,8 @@ The C backend compiles the model's sources with the system compiler (``$CC``, de
 flags ``-O3 -fPIC -shared``) into ``$SVBI_CACHE_DIR`` or ``~/.cache/svbi/<sha256>/``, where the
 hash covers the sources, the compiler command, its version text and the flags. An entry is built in
 a temporary folder and renamed into place, so a crash or a concurrent build never leaves a
-half-written entry. A marker file records the sha256 of the library; an entry whose marker or
+half-written entry; a build folder left by a killed compile is removed by the next build
+(:func:`remove_stale_builds`). A marker file records the sha256 of the library; an entry whose marker or
 library does not match, or that ``dlopen`` rejects, is rebuilt. With no working compiler the loader
 falls back to the CasADi backend and warns once; with an unwritable cache folder it builds in a
 temporary folder and says so.
@@ -30,6 +31,7 @@ import shlex
 import shutil
 import subprocess
 import tempfile
+import time
 import uuid
 import warnings
 from collections.abc import Mapping, Sequence
@@ -44,6 +46,10 @@ DEFAULT_FLAGS: tuple[str, ...] = ("-O3", "-fPIC", "-shared")
 MARKER = "svbi-build.json"
 MANIFEST = "manifest.json"
 COMPILE_TIMEOUT_S = 600
+STALE_BUILD_S = 2 * COMPILE_TIMEOUT_S
+"""A build folder older than this belongs to no build in progress (a compile is killed after
+COMPILE_TIMEOUT_S), whoever made it: the next build removes it."""
+BUILD_PREFIX = ".build-"
 
 
 class CompilerError(RuntimeError):
@@ -148,6 +154,56 @@ def _discard(path: Path) -> None:
     shutil.rmtree(aside, ignore_errors=True)
 
 
+def _host_tag() -> str:
+    """Short tag of this machine: a cache folder may be shared, and a pid means something only on the
+    machine that made the folder."""
+    import socket
+
+    return hashlib.sha256(socket.gethostname().encode()).hexdigest()[:8]
+
+
+def new_build_folder(root: Path, key: str) -> Path:
+    """A fresh build folder ``.build-<key>-<host>-<pid>-<random>`` in ``root``: its owner can be told
+    dead or alive by :func:`remove_stale_builds`."""
+    return Path(tempfile.mkdtemp(prefix=f"{BUILD_PREFIX}{key[:12]}-{_host_tag()}-{os.getpid()}-", dir=root))
+
+
+def _pid_alive(pid: int) -> bool:
+    try:
+        os.kill(pid, 0)
+    except ProcessLookupError:
+        return False
+    except (PermissionError, OSError):
+        return True  # exists, owned by someone else
+    return True
+
+
+def remove_stale_builds(root: Path) -> None:
+    """Remove build folders that no build in progress owns: made on this machine by a process that
+    is gone (a compile killed part-way, a SIGKILL), or older than :data:`STALE_BUILD_S` (also the
+    ``.gen-`` folders of generated models and the ``.stale-`` entries being deleted)."""
+    try:
+        folders = [p for p in root.iterdir() if p.name.startswith((BUILD_PREFIX, ".stale-", ".gen-"))]
+    except OSError:
+        return
+    host, now = _host_tag(), time.time()
+    for folder in folders:
+        parts = folder.name[len(BUILD_PREFIX) :].split("-")
+        dead = (
+            folder.name.startswith(BUILD_PREFIX)
+            and len(parts) >= 4
+            and parts[1] == host
+            and parts[2].isdigit()
+            and not _pid_alive(int(parts[2]))
+        )
+        try:
+            old = now - folder.stat().st_mtime > STALE_BUILD_S
+        except OSError:
+            continue
+        if dead or old:
+            shutil.rmtree(folder, ignore_errors=True)
+
+
 def _compile(
     cc: list[str], flags: Sequence[str], sources: Mapping[str, bytes], build: Path, name: str
 ) -> None:
@@ -194,7 +250,8 @@ def build_library(
     if not rebuild and _valid_entry(entry, key, name):
         return entry / _library_name(name)
 
-    build = Path(tempfile.mkdtemp(prefix=f".build-{key[:12]}-", dir=root))
+    remove_stale_builds(root)
+    build = new_build_folder(root, key)
     try:
         _compile(cc, flags, sources, build, name)
         marker = {
@@ -491,6 +548,7 @@ def _generate_into_cache(spec: Any, cache_dir: str | os.PathLike[str] | None) ->
         (final / n).is_file() and (final / n).read_bytes() == d for n, d in files.items()
     ):
         return final
+    remove_stale_builds(root)
     build = Path(tempfile.mkdtemp(prefix=".gen-", dir=root))
     c_emit.write_files(files, build)
     _discard(final)

@@ -10,6 +10,7 @@ peaks scale as 1/dt (DESIGN.md section 5), and subsampling them first would alia
 
 from __future__ import annotations
 
+import os
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
@@ -209,7 +210,8 @@ class Recorder:
             sos = sig.butter(FILTER_ORDER, fc, btype="low", fs=fs, output="sos")
             padlen = min(3 * (2 * len(sos) + 1), n - 1)
             out = sig.sosfiltfilt(sos, raw, axis=0, padlen=padlen)
-        return out[::every][:k].reshape(-1, tr.cars, tr.wheels)
+        # a copy: a view would keep the whole full-rate filtered array alive with the results
+        return out[::every][:k].reshape(-1, tr.cars, tr.wheels).copy()
 
 
 def _a(units: str, long_name: str) -> dict[str, str]:
@@ -217,13 +219,26 @@ def _a(units: str, long_name: str) -> dict[str, str]:
 
 
 def write_netcdf(ds: xr.Dataset, path: str | Path) -> Path:
-    """Write atomically: a temporary file in the same folder, then ``os.replace``."""
+    """Write atomically: a temporary file in the same folder, then ``os.replace``.
+
+    The NetCDF image is built in memory first and written with plain file I/O: a short write (full
+    disk, file-size limit) is then an ``OSError`` naming the cause, where HDF5 writing to the file
+    itself crashed the process. On any error the previous file at ``path`` is untouched.
+    """
 
     def write(tmp: Path) -> None:
         out = ds.copy()
         for name in ("support_component",):
             if name in out.coords:
                 out.coords[name] = out.coords[name].astype(str)
-        out.to_netcdf(tmp, engine="h5netcdf")
+        try:
+            image = out.to_netcdf(engine="h5netcdf")
+        except ValueError:  # xarray < 2025.8 writes h5netcdf only to a path (HDF5 handles short writes)
+            out.to_netcdf(tmp, engine="h5netcdf")
+            return
+        with open(tmp, "wb") as f:
+            f.write(image)
+            f.flush()
+            os.fsync(f.fileno())  # a delayed allocation failure shows here, before the rename
 
     return write_atomic(path, write)

@@ -11,12 +11,15 @@ themselves on first use.
 A run that goes unstable (NaN or Inf, a runaway gap, an absurd contact force) stops with a message
 naming the time, the quantity and the likely cause. What was computed until then is returned,
 marked ``complete = 0`` with the message in the ``incomplete`` attribute; nothing non-finite is
-stored.
+stored. Ctrl-C (or SIGTERM under ``svbi run``) during the loop raises
+:class:`~svbi.runtime.run_output.RunInterrupted` carrying the results computed so far, marked the
+same way.
 """
 
 from __future__ import annotations
 
 import math
+import signal
 import time
 import warnings
 from collections.abc import Callable, Mapping
@@ -29,6 +32,7 @@ from svbi.runtime.bridge import Bridge
 from svbi.runtime.creep_law import CreepParameters
 from svbi.runtime.initial import initial_state
 from svbi.runtime.results import Recorder
+from svbi.runtime.run_output import RunInterrupted, signal_name
 from svbi.runtime.scenario import Scenario, load_scenario, validate_scenario, vehicle_ref
 from svbi.runtime.train import Train, vehicle_model
 
@@ -113,8 +117,9 @@ def stepper_class(backend: str, method: str) -> tuple[str, Callable[..., Any]]:
 # model assembly
 
 
-def build_model(scenario: Scenario, hold_train: bool = False) -> Model:
-    """Numbers for everything: bridge, train, excitations and solver settings."""
+def run_extent(scenario: Scenario, hold_train: bool = False) -> tuple[Bridge, Train, float, int]:
+    """Bridge, train, duration (s) and number of steps of a run: the cheap part of
+    :func:`build_model`, which sizes the run (``svbi.runtime.resources``) before the tables exist."""
     bs, ts, ss = scenario.bridge, scenario.train, scenario.solver
     bridge = Bridge(
         bs.spans,
@@ -139,6 +144,13 @@ def build_model(scenario: Scenario, hold_train: bool = False) -> Model:
     if not math.isfinite(duration):
         raise ValueError("a held train needs solver.duration")
     steps = max(int(math.ceil(duration / ss.time_step - 1e-9)), 1)
+    return bridge, train, duration, steps
+
+
+def build_model(scenario: Scenario, hold_train: bool = False) -> Model:
+    """Numbers for everything: bridge, train, excitations and solver settings."""
+    ss = scenario.solver
+    bridge, train, duration, steps = run_extent(scenario, hold_train)
     settings = Settings(
         method=ss.method,
         backend=ss.backend,
@@ -258,6 +270,7 @@ def simulate(
     recorder.record(state, model.contacts(0.0), aux_is_wheel)
     guard = DivergenceGuard(model)
     message = ""
+    interrupted: KeyboardInterrupt | None = None
     bar = _progress(s.steps) if progress else None
     t_loop = time.perf_counter()
     t_end_loop = t_loop
@@ -277,6 +290,13 @@ def simulate(
     except Diverged as exc:
         message = str(exc)
         _drop_bad_rows(recorder)
+    except KeyboardInterrupt as exc:  # Ctrl-C, or SIGTERM under `svbi run`: keep what was computed
+        interrupted = exc
+        _drop_bad_rows(recorder)  # the signal may fall between a chunk's rows and its step count
+        message = (
+            f"interrupted by {signal_name(exc)} at t = {recorder.steps_done * s.time_step:.6g} s "
+            f"(step {recorder.steps_done} of {s.steps})"
+        )
     finally:
         t_end_loop = time.perf_counter()
         if bar is not None:
@@ -303,6 +323,8 @@ def simulate(
         attrs["incomplete"] = message
     ds = recorder.dataset(attrs)
     ds.attrs["wall_time_s"] = time.perf_counter() - t_start
+    if interrupted is not None:  # the caller gets the exception, and the partial results with it
+        raise RunInterrupted(getattr(interrupted, "signum", signal.SIGINT), ds) from None
     if message:
         warnings.warn(message, SimulationIncomplete, stacklevel=2)
     return ds

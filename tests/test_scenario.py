@@ -338,7 +338,8 @@ def test_cli_run_stops_a_diverging_run_and_keeps_what_it_had(tmp_path):
     assert result.exit_code == 3
     assert "diverged at t = 0.026 s" in result.output and "contact_force" in result.output
     assert "time step" in result.output  # the likely cause
-    with xr.open_dataset(out, engine="h5netcdf") as ds:
+    assert not out.exists()  # incomplete results never take the -o name (issue 15)
+    with xr.open_dataset(tmp_path / "run.incomplete.nc", engine="h5netcdf") as ds:
         assert ds.attrs["complete"] == 0 and "diverged" in ds.attrs["incomplete"]
         assert ds.sizes["time"] == 13  # t = 0 and the 12 good steps
         assert np.isfinite(ds.contact_force).all() and np.isfinite(ds.contact_force_filtered).all()
