@@ -6,7 +6,9 @@
 * the command line (all its commands registered) and the run path up to the first step import
   neither matplotlib, scipy.signal, dask, xarray, SymPy nor CasADi (checked in a fresh interpreter:
   ``sys.modules``); a whole run never imports matplotlib, SymPy or CasADi (xarray loads dask.array
-  when it builds the results, if dask is installed).
+  when it builds the results, if dask is installed);
+* a compiled (C) run imports the results' modules (scipy.signal, xarray) in a background thread
+  started at the loop, so that they overlap it, and the C run path imports none of them before.
 """
 
 from __future__ import annotations
@@ -114,6 +116,45 @@ def test_cli_and_run_path_defer_heavy_imports():
     # over a whole run
     whole = _fresh(f"import svbi\nsvbi.simulate({SCENARIO!r})\n")
     assert not (whole["matplotlib"] or whole["sympy"] or whole["casadi"]), whole
+
+
+def test_compiled_run_imports_the_results_modules_during_the_loop():
+    """A C-backend run imports scipy.signal and xarray in the background thread that it starts at the
+    loop (``results.ImportAhead``; the C loop releases the GIL), and not before the loop: the
+    run-path check above holds for the C stepper too. Recorded in a fresh interpreter by a
+    meta-path hook that notes which thread first asked for each module."""
+    from svbi.runtime import c_solver_build, kernel_cache
+
+    try:
+        c_solver_build.load_loop(c_solver_build.LoopSpec("moving-load", 0, 0))
+    except kernel_cache.CompilerError:
+        pytest.skip("no working C compiler: no compiled loop to overlap")
+    c_run = {**SCENARIO, "solver": {**SCENARIO["solver"], "backend": "c"}}
+    before_loop = _fresh(
+        "from svbi.runtime.initial import initial_state\n"
+        "from svbi.runtime.results import Recorder\n"
+        "from svbi.runtime.simulate import build_model, stepper_class, validate_scenario\n"
+        f"model = build_model(validate_scenario({c_run!r}))\n"
+        "_, cls = stepper_class('c', model.settings.method)\n"
+        "cls(model, initial_state(model))\n"
+        "Recorder(model)\n"
+    )
+    assert not any(before_loop.values()), before_loop
+    probe = (
+        "import json, sys, threading\n"
+        "first = {}\n"
+        "class Probe:\n"
+        "    def find_spec(self, name, path=None, target=None):\n"
+        "        first.setdefault(name, threading.current_thread().name)\n"
+        "sys.meta_path.insert(0, Probe())\n"
+        "import svbi\n"
+        f"ds = svbi.simulate({c_run!r})\n"
+        "assert ds.attrs['backend'] == 'c', ds.attrs['backend']\n"
+        "print(json.dumps({m: first.get(m) for m in ('scipy.signal', 'xarray')}))\n"
+    )
+    done = subprocess.run([sys.executable, "-c", probe], capture_output=True, text=True, check=True)
+    threads = json.loads(done.stdout.strip().splitlines()[-1])
+    assert threads == {"scipy.signal": "svbi-import-ahead", "xarray": "svbi-import-ahead"}, threads
 
 
 def test_demo_summary_compares_methods_by_loop_time():
