@@ -110,6 +110,8 @@ def main() -> int:
     parser.add_argument("--big-output-every", type=int, default=100, help="output_every of 100 x 1000")
     opts = parser.parse_args()
     repeats = 1 if opts.quick else 3
+    # other jobs on the machine stretch the loop and the rest differently: say how busy it was
+    print("load average (1, 5, 15 min) at the start: {:.1f} {:.1f} {:.1f}".format(*os.getloadavg()))
     print(f"{'case':<40}{'process':>9}{'set-up':>9}{'loop':>9}{'wall':>9}{'proc/loop':>11}{'peak':>9}")
     print(f"{'':<40}{'s':>9}{'s':>9}{'s':>9}{'s':>9}{'':>11}{'GiB':>9}")
     run([str(PAPER)])  # warm the compile cache and the OS file cache
@@ -137,6 +139,7 @@ def main() -> int:
             f"set-up {big.setup_s:.2f} s (target <= 10), before the clock and after the loop "
             f"{post:.1f} s; peak memory {big.peak_gib:.2f} GiB, results file {big.file_gib:.2f} GiB"
         )
+    print("load average (1, 5, 15 min) at the end: {:.1f} {:.1f} {:.1f}".format(*os.getloadavg()))
     return 0
 
 
