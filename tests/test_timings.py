@@ -91,6 +91,36 @@ def test_svbi_run_prints_the_timings(tmp_path: Path):
         assert ds.attrs["setup_time_s"] + ds.attrs["loop_time_s"] <= ds.attrs["wall_time_s"]
 
 
+def test_console_script_freezes_gc_at_exit_and_keeps_exit_status(tmp_path: Path, monkeypatch):
+    """``svbi`` (``cli.main``) freezes the garbage collector as the process ends, so that shutdown
+    skips the cyclic collections over the libraries' objects; the exit status and the results file
+    are those of the command: 0 and a complete file, 2 for an invalid scenario."""
+    import gc
+
+    from svbi.runtime import cli
+
+    scenario = tmp_path / "s.toml"
+    scenario.write_text(TOML)
+    out = tmp_path / "r.nc"
+    monkeypatch.setattr(sys, "argv", ["svbi", "run", str(scenario), "-o", str(out), "-q"])
+    try:
+        with pytest.raises(SystemExit) as done:
+            cli.main()
+        assert gc.get_freeze_count() > 0
+    finally:
+        gc.unfreeze()
+    assert done.value.code in (0, None)
+    with xr.open_dataset(out, engine="h5netcdf") as ds:
+        assert ds.attrs["complete"] == 1 and ds.attrs["steps"] == 50
+        assert ds.sizes["time"] == 50 // ds.attrs["output_every"] + 1
+    bad = tmp_path / "bad.toml"
+    bad.write_text(TOML.replace("duration = 0.05", "duration = -1.0"))
+    argv = ["svbi", "run", str(bad), "-o", str(tmp_path / "x.nc")]
+    probe = f"import sys\nfrom svbi.runtime.cli import main\nsys.argv = {argv!r}\nmain()\n"
+    failed = subprocess.run([sys.executable, "-c", probe], capture_output=True, text=True)
+    assert failed.returncode == 2 and "duration" in failed.stderr, failed.stderr
+
+
 def _fresh(code: str) -> dict[str, bool]:
     """Run ``code`` in a fresh interpreter; which HEAVY modules it left in ``sys.modules``."""
     probe = f"import json, sys\n{code}\nprint(json.dumps({{m: m in sys.modules for m in {HEAVY!r}}}))"
