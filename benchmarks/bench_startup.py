@@ -1,6 +1,6 @@
 """End-to-end cost of ``svbi run`` as a user meets it: a fresh process, the README's command.
 
-    .venv/bin/python benchmarks/bench_startup.py [--quick] [--big-output-every N]
+    .venv/bin/python benchmarks/bench_startup.py [--quick | --no-crossing] [--big-output-every N]
 
 1. **Paper scenario** (``svbi run examples/paper-2020.toml``), a fresh process each time, warm
    compile cache: the process's wall time against the ``setup_time_s`` / ``loop_time_s`` /
@@ -14,7 +14,7 @@
    steps), results every ``--big-output-every`` steps (default 100, i.e. every 0.1 s: the contact
    forces are kept at every step for the filter anyway). Targets: set-up <= 10 s, the whole process
    faster than real time. The scenario is the paper file with ``--set`` overrides (nothing written
-   to the repository); ``--quick`` skips it.
+   to the repository); ``--quick`` (one warm run) and ``--no-crossing`` skip it.
 
 Peak memory is each child's maximum resident set size (``os.wait4``, what ``/usr/bin/time -v``
 reports as "Maximum resident set size").
@@ -107,6 +107,7 @@ def line(label: str, r: Run) -> None:
 def main() -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--quick", action="store_true", help="one warm run, no 100 x 1000 crossing")
+    parser.add_argument("--no-crossing", action="store_true", help="the paper runs only (3 warm, 1 cold)")
     parser.add_argument("--big-output-every", type=int, default=100, help="output_every of 100 x 1000")
     opts = parser.parse_args()
     repeats = 1 if opts.quick else 3
@@ -127,7 +128,7 @@ def main() -> int:
         f"{statistics.median(r.loop_s for r in samples):.2f} s; a cold cache adds "
         f"{cold.process_s - median.process_s:.1f} s once"
     )
-    if not opts.quick:
+    if not (opts.quick or opts.no_crossing):
         sets = [*BIG, f"solver.output_every={opts.big_output_every}"]
         big = run([str(PAPER), *[arg for s in sets for arg in ("--set", s)]])
         line("100 cars x 1000 spans, dt 1e-3, crossing", big)
