@@ -195,8 +195,9 @@ class ExcitationInput:
                 pp = _as_ppoly(irr.spline)
                 x, c = np.asarray(pp.x), np.asarray(pp.c)
                 keep = np.flatnonzero(np.diff(x) > 0)
-                x = np.concatenate([x[keep], [x[keep[-1] + 1]]])
-                c = c[:, keep]
+                if keep.size < x.size - 1:  # drop zero-length pieces (a copy: only when there are any)
+                    x = np.concatenate([x[keep], [x[keep[-1] + 1]]])
+                    c = c[:, keep]
                 lo = (
                     float(irr.spline(irr.x_min)),
                     float(irr.spline(irr.x_min, 1)),

@@ -6,6 +6,8 @@ modules stay independent of each other.
 
 from __future__ import annotations
 
+import gc
+
 import typer
 
 app = typer.Typer(
@@ -36,7 +38,15 @@ def _register() -> None:
 def main() -> None:
     """Console-script entry point."""
     _register()
-    app()
+    try:
+        app()
+    finally:
+        # The process ends here. Left alone, the interpreter's shutdown runs cyclic garbage
+        # collections over every object of the imported libraries (about 125,000 once SciPy, xarray
+        # and dask are loaded: 0.3 s, a quarter of the paper example's loop). Freezing them (a
+        # public gc API) skips those passes; objects are still released by reference counting,
+        # atexit handlers and weakref finalizers still run, and the results file is already closed.
+        gc.freeze()
 
 
 if __name__ == "__main__":  # pragma: no cover

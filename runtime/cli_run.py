@@ -19,6 +19,8 @@ import typer
 EXIT_INVALID = 2
 EXIT_DIVERGED = 3
 EXIT_WRITE = 4
+NETCDF_MODULES = ("h5netcdf", "xarray.backends.h5netcdf_")
+"""What ``results.write_netcdf`` imports: loaded while the loop runs (``simulate(import_ahead=...)``)."""
 
 
 def run(
@@ -129,7 +131,7 @@ def _simulate(sc, quiet: bool, started: float):  # noqa: ANN001, ANN202 - Scenar
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always")
         try:
-            ds = simulate(sc, progress=not quiet, clock_start=started)
+            ds = simulate(sc, progress=not quiet, clock_start=started, import_ahead=NETCDF_MODULES)
         except (ValueError, NotImplementedError, FileNotFoundError) as exc:
             typer.echo(f"error: {exc}", err=True)
             raise typer.Exit(EXIT_INVALID) from None

@@ -10,7 +10,11 @@ peaks scale as 1/dt (DESIGN.md section 5), and subsampling them first would alia
 
 from __future__ import annotations
 
+import importlib
+import importlib.util
 import os
+import threading
+from collections.abc import Iterable
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
@@ -24,6 +28,40 @@ if TYPE_CHECKING:
     import xarray as xr
 
 FILTER_ORDER = 4
+FILTER_BLOCK = 1 << 22  # samples (32 MiB) of forces filtered at once
+
+
+class ImportAhead:
+    """Imports modules in a background thread: the ones the results need only after the time loop.
+
+    ``scipy.signal`` (the force filter), xarray (the Dataset) and the NetCDF writer take about a
+    second to import, with nothing to do with the loop. A compiled loop runs in C through ctypes,
+    which releases the GIL, so on a second core these imports overlap it instead of following it
+    (``simulate`` starts this just before a compiled loop). :meth:`join` waits for the thread and
+    re-raises its exception, if any, in the caller's thread; call it before using the modules. The
+    imports are the ordinary ones (``importlib.import_module``): Python's per-module import locks
+    make a later ``import`` of the same module in the main thread wait for the background one.
+    """
+
+    def __init__(self, names: Iterable[str]) -> None:
+        self.names = tuple(names)
+        self._error: BaseException | None = None
+        self._thread = threading.Thread(target=self._run, name="svbi-import-ahead", daemon=True)
+        self._thread.start()
+
+    def _run(self) -> None:
+        try:
+            for name in self.names:
+                importlib.import_module(name)
+        except BaseException as exc:  # noqa: BLE001 - handed to the caller's thread by join()
+            self._error = exc
+
+    def join(self) -> None:
+        """Wait until every module is imported; raise here what the background import raised."""
+        self._thread.join()
+        if self._error is not None:
+            error, self._error = self._error, None
+            raise error
 
 
 class Recorder:
@@ -62,6 +100,20 @@ class Recorder:
         }
         self.forces = np.zeros((s.steps + 1, tr.contacts))
         self.steps_done = 0
+
+    def modules_after_loop(self) -> list[str]:
+        """What :meth:`dataset` will import: scipy.signal when the forces are filtered, xarray, and
+        dask.array when dask is installed (xarray imports it itself when it builds a Dataset: its
+        ``as_compatible_data`` checks every array against ``dask.array.Array``)."""
+        names = ["scipy.signal"] if self._filters() else []
+        names.append("xarray")
+        if importlib.util.find_spec("dask") is not None:
+            names.append("dask.array")
+        return names
+
+    def _filters(self) -> bool:
+        """Whether the contact forces get the low-pass filter (a cutoff below the Nyquist rate)."""
+        return self.model.settings.force_filter_hz < 0.5 / self.model.dt
 
     # ----------------------------------------------------------------------------------------------
     def force(self, n: int, P: np.ndarray) -> None:
@@ -202,16 +254,21 @@ class Recorder:
         raw = self.forces[:n]
         fs = 1.0 / m.dt
         fc = m.settings.force_filter_hz
-        if n < 2 or fc >= 0.5 * fs:
-            out = raw
-        else:
-            import scipy.signal as sig  # 1 s of imports (scipy.stats): only once the run is done
+        if n < 2 or not self._filters():
+            return raw[::every][:k].reshape(-1, tr.cars, tr.wheels).copy()  # no view of the full-rate array
+        import scipy.signal as sig  # 1 s of imports (scipy.stats): only once the run is done
 
-            sos = sig.butter(FILTER_ORDER, fc, btype="low", fs=fs, output="sos")
-            padlen = min(3 * (2 * len(sos) + 1), n - 1)
-            out = sig.sosfiltfilt(sos, raw, axis=0, padlen=padlen)
-        # a copy: a view would keep the whole full-rate filtered array alive with the results
-        return out[::every][:k].reshape(-1, tr.cars, tr.wheels).copy()
+        sos = sig.butter(FILTER_ORDER, fc, btype="low", fs=fs, output="sos")
+        padlen = min(3 * (2 * len(sos) + 1), n - 1)
+        rows = raw[::every][:k]
+        out = np.empty_like(rows)
+        # a few contacts at a time: sosfiltfilt holds several full-rate copies of what it filters
+        # (3 GB for 100 cars over a 32 km viaduct at dt = 1e-3 s), each column is filtered alone
+        width = max(1, FILTER_BLOCK // n)
+        for j in range(0, raw.shape[1], width):
+            block = sig.sosfiltfilt(sos, raw[:, j : j + width], axis=0, padlen=padlen)
+            out[:, j : j + width] = block[::every][:k]
+        return out.reshape(-1, tr.cars, tr.wheels)
 
 
 def _a(units: str, long_name: str) -> dict[str, str]:

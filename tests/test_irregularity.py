@@ -7,13 +7,16 @@ import math
 import numpy as np
 import pytest
 from scipy import integrate, signal
+from scipy.interpolate import BPoly
 from svbi.runtime.excitation.irregularity import (
     GermanSpectrum,
     NoIrregularity,
     OnsetRamp,
     SampledIrregularity,
     SpectralIrregularity,
+    horner,
     make_irregularity,
+    quintic_hermite,
 )
 
 # German high-speed spectra, written out here from shared/data/vehicles.md (not imported).
@@ -131,6 +134,115 @@ def test_tabulated_profile_matches_exact() -> None:
     x = np.random.default_rng(0).uniform(0.0, 200.0, 500)
     for got, ref in zip(table.evaluate(x), profile.evaluate(x), strict=True):
         np.testing.assert_allclose(got, ref, atol=1e-5 * np.abs(ref).max())
+
+
+def _direct_sum_extended(profile: SpectralIrregularity, x: np.ndarray) -> list[np.ndarray]:
+    """r, r', r'' of the stored realisation (frequencies, amplitudes, phases) summed term by term
+    in extended precision (``np.longdouble``), so that the reference's own round-off is far below
+    the double-precision values compared with it."""
+    ld = np.longdouble
+    w, a, phi = (v.astype(ld) for v in (profile.frequencies, profile.amplitudes, profile.phases))
+    out = [np.empty(x.size, dtype=ld) for _ in range(3)]
+    for i in range(0, x.size, 256):
+        arg = np.multiply.outer(x[i : i + 256].astype(ld), w) + phi
+        cos, sin = np.cos(arg), np.sin(arg)
+        out[0][i : i + 256] = cos @ a
+        out[1][i : i + 256] = -(sin @ (a * w))
+        out[2][i : i + 256] = -(cos @ (a * w * w))
+    return [v.astype(float) for v in out]
+
+
+@pytest.mark.parametrize(
+    ("length", "x_min", "x_max", "allow_roundoff"),
+    [
+        (200.0, -30.0, 205.0, False),  # N = 1024, period 515 m: the grid within one period
+        (2000.0, -80.0, 2300.0, True),  # N = 4096, period 2061 m: the grid wraps past one period
+    ],
+)
+def test_fft_table_nodes_equal_direct_sum(length: float, x_min: float, x_max: float, allow_roundoff: bool):
+    """The FFT evaluation of the set-up gives the realisation's exact sums at the table nodes.
+
+    Reference: the direct sum over the stored frequencies, amplitudes and phases, written here.
+    Tolerance 1e-12 of each series' RMS. On the long track a round-off allowance is added: every
+    term's phase Ω_k x is fixed by double inputs only to about ε Ω_k |x| (x and Ω_k are rounded to
+    ε), which at Ω_max = 4π rad/m and |x| = 2300 m is 6e-12; any double evaluation, the direct sum
+    included, carries it. An index or frequency off by one node or bin errs by 1e-2 or more.
+    """
+    profile = SpectralIrregularity(GermanSpectrum("high"), seed=3, length=length)
+    dx = 0.5 / 50
+    x, values = profile.table_nodes(x_min, x_max, dx)
+    h = np.diff(x)
+    assert x[0] <= x_min and x[-1] >= x_max and x[1] - x[0] <= dx
+    np.testing.assert_allclose(h, h[0], rtol=1e-9)
+    assert (x[-1] - x[0] > profile.period) == allow_roundoff  # the long grid wraps
+    pick = np.random.default_rng(0).choice(x.size, 1500, replace=False)
+    wrap = np.searchsorted(x, profile.period)
+    pick = np.unique(np.concatenate([pick, [0, 1, x.size - 2, x.size - 1], np.arange(wrap - 2, wrap + 2)]))
+    pick = pick[(pick >= 0) & (pick < x.size)]
+    reference = _direct_sum_extended(profile, x[pick])
+    tol = 1e-12
+    if allow_roundoff:
+        tol += 2.0 * np.finfo(float).eps * profile.frequencies[-1] * np.abs(x).max()
+    for got, ref in zip(values, reference, strict=True):
+        rms = math.sqrt(np.mean(got**2))
+        assert np.abs(got[pick] - ref).max() <= tol * rms
+
+
+def test_table_setup_never_evaluates_the_direct_sum(monkeypatch) -> None:
+    """The run path (``tabulate``) is O(K log K + M): it must not fall back to the O(N M) sum."""
+    profile = SpectralIrregularity(GermanSpectrum("low"), seed=1, length=300.0)
+
+    def forbidden(self, x):  # noqa: ANN001, ANN202
+        raise AssertionError("tabulate evaluated the direct sum")
+
+    monkeypatch.setattr(SpectralIrregularity, "evaluate_unramped", forbidden)
+    table = profile.tabulate(-30.0, 300.0)
+    assert table.x_min <= -30.0 and table.x_max >= 300.0
+
+
+def test_table_error_at_solver_spacing() -> None:
+    """The quintic table at λ_min/50 against the exact sum between the nodes (docs/excitations.md:
+    at most 7e-13, 5.7e-10 and 1.7e-7 of the RMS measured for r, r', r'')."""
+    profile = SpectralIrregularity(GermanSpectrum("high"), seed=3, length=400.0)
+    table = profile.tabulate(-30.0, 400.0)
+    x = np.random.default_rng(1).uniform(0.0, 400.0, 3000)
+    got = table.spline(x), table.spline(x, 1), table.spline(x, 2)  # unramped
+    for g, ref, tol in zip(got, _direct_sum_extended(profile, x), (1e-12, 1e-9, 3e-7), strict=True):
+        assert np.abs(g - ref).max() <= tol * math.sqrt(np.mean(ref**2))
+
+
+def test_tabulated_profile_keeps_the_onset_ramp() -> None:
+    """The table is ramped like the exact profile: zero up to the start, the same C2 onset after."""
+    ramp = OnsetRamp(start=-30.0, length=20.0)
+    profile = SpectralIrregularity(GermanSpectrum("high"), seed=6, length=300.0, ramp=ramp)
+    table = profile.tabulate(-30.0, 280.0)
+    assert table.ramp == ramp
+    before = np.linspace(-200.0, -30.0, 40)
+    for v in table.evaluate(before):
+        assert np.all(v == 0.0)
+    x = np.linspace(-30.0, 0.0, 301)  # the ramp and just after it
+    base = horner(table.spline, x)  # what the loops evaluate: Horner on the table's pieces
+    for got, ref in zip(table.evaluate(x), ramp.apply(x, base), strict=True):
+        np.testing.assert_array_equal(got, ref)
+    for got, ref in zip(table.evaluate(x), profile.evaluate(x), strict=True):
+        np.testing.assert_allclose(got, ref, rtol=0, atol=1e-6 * np.abs(ref).max())
+
+
+def test_quintic_hermite_reproduces_quintics_and_matches_scipy() -> None:
+    """A quintic is its own Hermite interpolant (any breaks); on other data the pieces equal
+    ``scipy.interpolate.BPoly.from_derivatives`` of the same value, slope and curvature."""
+    rng = np.random.default_rng(4)
+    x = np.cumsum(rng.uniform(0.05, 0.3, 40)) - 2.0
+    poly = np.polynomial.Polynomial(rng.normal(size=6))
+    pp = quintic_hermite(x, poly(x), poly.deriv(1)(x), poly.deriv(2)(x))
+    xe = np.linspace(x[0], x[-1], 997)
+    for nu in range(3):
+        np.testing.assert_allclose(pp(xe, nu), poly.deriv(nu)(xe), rtol=1e-10, atol=1e-10)
+    f, f1, f2 = rng.normal(size=(3, x.size))
+    ref = BPoly.from_derivatives(x, np.stack([f, f1, f2], axis=1))
+    pp = quintic_hermite(x, f, f1, f2)
+    for nu in range(3):
+        np.testing.assert_allclose(pp(xe, nu), ref(xe, nu), rtol=0, atol=1e-9 * np.abs(ref(xe, nu)).max())
 
 
 def test_measured_profile_interpolates_with_c2_spline(tmp_path) -> None:

@@ -6,7 +6,9 @@
 * the command line (all its commands registered) and the run path up to the first step import
   neither matplotlib, scipy.signal, dask, xarray, SymPy nor CasADi (checked in a fresh interpreter:
   ``sys.modules``); a whole run never imports matplotlib, SymPy or CasADi (xarray loads dask.array
-  when it builds the results, if dask is installed).
+  when it builds the results, if dask is installed);
+* a compiled (C) run imports the results' modules (scipy.signal, xarray) in a background thread
+  started at the loop, so that they overlap it, and the C run path imports none of them before.
 """
 
 from __future__ import annotations
@@ -89,6 +91,36 @@ def test_svbi_run_prints_the_timings(tmp_path: Path):
         assert ds.attrs["setup_time_s"] + ds.attrs["loop_time_s"] <= ds.attrs["wall_time_s"]
 
 
+def test_console_script_freezes_gc_at_exit_and_keeps_exit_status(tmp_path: Path, monkeypatch):
+    """``svbi`` (``cli.main``) freezes the garbage collector as the process ends, so that shutdown
+    skips the cyclic collections over the libraries' objects; the exit status and the results file
+    are those of the command: 0 and a complete file, 2 for an invalid scenario."""
+    import gc
+
+    from svbi.runtime import cli
+
+    scenario = tmp_path / "s.toml"
+    scenario.write_text(TOML)
+    out = tmp_path / "r.nc"
+    monkeypatch.setattr(sys, "argv", ["svbi", "run", str(scenario), "-o", str(out), "-q"])
+    try:
+        with pytest.raises(SystemExit) as done:
+            cli.main()
+        assert gc.get_freeze_count() > 0
+    finally:
+        gc.unfreeze()
+    assert done.value.code in (0, None)
+    with xr.open_dataset(out, engine="h5netcdf") as ds:
+        assert ds.attrs["complete"] == 1 and ds.attrs["steps"] == 50
+        assert ds.sizes["time"] == 50 // ds.attrs["output_every"] + 1
+    bad = tmp_path / "bad.toml"
+    bad.write_text(TOML.replace("duration = 0.05", "duration = -1.0"))
+    argv = ["svbi", "run", str(bad), "-o", str(tmp_path / "x.nc")]
+    probe = f"import sys\nfrom svbi.runtime.cli import main\nsys.argv = {argv!r}\nmain()\n"
+    failed = subprocess.run([sys.executable, "-c", probe], capture_output=True, text=True)
+    assert failed.returncode == 2 and "duration" in failed.stderr, failed.stderr
+
+
 def _fresh(code: str) -> dict[str, bool]:
     """Run ``code`` in a fresh interpreter; which HEAVY modules it left in ``sys.modules``."""
     probe = f"import json, sys\n{code}\nprint(json.dumps({{m: m in sys.modules for m in {HEAVY!r}}}))"
@@ -114,6 +146,45 @@ def test_cli_and_run_path_defer_heavy_imports():
     # over a whole run
     whole = _fresh(f"import svbi\nsvbi.simulate({SCENARIO!r})\n")
     assert not (whole["matplotlib"] or whole["sympy"] or whole["casadi"]), whole
+
+
+def test_compiled_run_imports_the_results_modules_during_the_loop():
+    """A C-backend run imports scipy.signal and xarray in the background thread that it starts at the
+    loop (``results.ImportAhead``; the C loop releases the GIL), and not before the loop: the
+    run-path check above holds for the C stepper too. Recorded in a fresh interpreter by a
+    meta-path hook that notes which thread first asked for each module."""
+    from svbi.runtime import c_solver_build, kernel_cache
+
+    try:
+        c_solver_build.load_loop(c_solver_build.LoopSpec("moving-load", 0, 0))
+    except kernel_cache.CompilerError:
+        pytest.skip("no working C compiler: no compiled loop to overlap")
+    c_run = {**SCENARIO, "solver": {**SCENARIO["solver"], "backend": "c"}}
+    before_loop = _fresh(
+        "from svbi.runtime.initial import initial_state\n"
+        "from svbi.runtime.results import Recorder\n"
+        "from svbi.runtime.simulate import build_model, stepper_class, validate_scenario\n"
+        f"model = build_model(validate_scenario({c_run!r}))\n"
+        "_, cls = stepper_class('c', model.settings.method)\n"
+        "cls(model, initial_state(model))\n"
+        "Recorder(model)\n"
+    )
+    assert not any(before_loop.values()), before_loop
+    probe = (
+        "import json, sys, threading\n"
+        "first = {}\n"
+        "class Probe:\n"
+        "    def find_spec(self, name, path=None, target=None):\n"
+        "        first.setdefault(name, threading.current_thread().name)\n"
+        "sys.meta_path.insert(0, Probe())\n"
+        "import svbi\n"
+        f"ds = svbi.simulate({c_run!r})\n"
+        "assert ds.attrs['backend'] == 'c', ds.attrs['backend']\n"
+        "print(json.dumps({m: first.get(m) for m in ('scipy.signal', 'xarray')}))\n"
+    )
+    done = subprocess.run([sys.executable, "-c", probe], capture_output=True, text=True, check=True)
+    threads = json.loads(done.stdout.strip().splitlines()[-1])
+    assert threads == {"scipy.signal": "svbi-import-ahead", "xarray": "svbi-import-ahead"}, threads
 
 
 def test_demo_summary_compares_methods_by_loop_time():
