@@ -8,7 +8,7 @@ from enum import StrEnum
 from typing import TYPE_CHECKING, Any
 
 import typer
-from svbi.codegen.plain_types import TopologyError
+from svbi.codegen.plain_types import TopologyError, spin_dofs
 
 if TYPE_CHECKING:
     from svbi.codegen.vehicle import VehicleModel
@@ -170,7 +170,9 @@ def modes(
     for i, f in enumerate(out["frequencies_hz"], 1):
         typer.echo(f"  mode {i:2d}: {f:10.4f}")
     if out["rigid_modes"]:
-        typer.echo(f"  plus {out['rigid_modes']} rigid (0 Hz) mode(s): free wheelset spin")
+        # load-time checks refuse every other free motion (plain_types.mechanism_problem)
+        spins = ", ".join(numeric.dof_names[i].partition("_")[2] for i in spin_dofs(numeric))
+        typer.echo(f"  plus {out['rigid_modes']} rigid (0 Hz) mode(s): free wheel spin of {spins}")
     if bridge:
         typer.echo("span: vertical bending frequencies (Hz)")
         for i, f in enumerate(out["span_frequencies_hz"], 1):
@@ -185,7 +187,9 @@ def _load(model: str) -> VehicleModel:
     from svbi.codegen.vehicle import derive_vehicle
 
     try:
-        return derive_vehicle(load_topology(model))
+        vehicle = derive_vehicle(load_topology(model))
+        vehicle.numeric()  # the topology's own values: a mechanism is refused here (one line)
+        return vehicle
     except TopologyError as exc:
         typer.echo(f"error: {exc}", err=True)
         raise typer.Exit(2) from None

@@ -439,9 +439,20 @@ def _parameter_key(topo: Any, key: str, overrides: Mapping[str, Any]) -> str:
 
 
 def _vehicle_problems(s: Scenario, values: dict[str, Any]) -> Iterable[tuple[str, str]]:
+    from svbi.codegen.plain_types import TopologyError
     from svbi.runtime.train import vehicle_model
 
-    vehicle = vehicle_model(vehicle_ref(s)).numeric(values)
+    model = vehicle_model(vehicle_ref(s))
+    try:
+        vehicle = model.numeric(values)
+    except TopologyError as exc:  # a mechanism: of the topology itself, or made by the overrides
+        try:
+            model.numeric({})
+            key = "train.parameters"
+        except TopologyError:
+            key = "train.vehicle"
+        yield key, f"{model.name}: {exc.problem}"
+        return
     if vehicle.nwheels and not (vehicle.wheel_masses > 0).all():
         yield "train.parameters", "every wheel needs a positive mass (the contact constraint carries it)"
     if not math.isfinite(float(abs(vehicle.M).sum())):
