@@ -39,6 +39,11 @@ Format (see ``vehicles/pioneer-2d.toml`` for a complete example)::
     position = "0"                 # distance behind the car's leading axle
     radius = "wheel_radius"        # optional; the contact point lies this far below the body
 
+Names of bodies, suspensions and wheels are unique within their kind; parameter names must not be
+one of the reserved symbols of the derivation (``a A E g h I le mu t v xi``). With the wheels held on
+rigid track every body must be restrained, except wheel spins (``plain_types.mechanism_problem``);
+a wheel on a body without ``theta`` sits at the body's reference point.
+
 Positions are measured *backwards* from the car's leading axle. A point at position ``p`` of a body
 with reference position ``p_b`` moves vertically by ``z - (p - p_b) * theta``: with pitch positive when
 the front end rises, points ahead of the reference (smaller ``p``) go up.

@@ -3,9 +3,10 @@
 from __future__ import annotations
 
 import json
+import math
 import tomllib
 from enum import StrEnum
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING, Any, NoReturn
 
 import typer
 from svbi.codegen.plain_types import TopologyError, spin_dofs
@@ -136,6 +137,7 @@ def modes(
     count: int = typer.Option(5, help="Number of span modes to print."),
 ) -> None:
     """Print the vehicle's natural frequencies on rigid track (Hz, ascending), and span frequencies."""
+    import numpy as np
     from svbi.runtime.modes import span_modes, vehicle_modes
 
     vehicle = _load(model)
@@ -143,7 +145,7 @@ def modes(
     try:
         numeric = vehicle.numeric(overrides)
     except TopologyError as exc:
-        raise typer.BadParameter(str(exc), param_hint="--set") from None
+        _fail(str(exc))
     out: dict[str, Any] = {"model": vehicle.name}
     if vehicle.kind == "moving-load":
         out.update(frequencies_hz=[], rigid_modes=0)
@@ -152,14 +154,27 @@ def modes(
         out.update(frequencies_hz=[float(f) for f in vm.frequencies_hz], rigid_modes=vm.rigid_modes)
     if bridge:
         b = {**BRIDGE_KEYS, **bridge}
-        fb, fa = span_modes(
-            b["span_length"],
-            int(b["elements_per_span"]),
-            b["youngs_modulus"],
-            b["area"],
-            b["second_moment"],
-            b["mass_per_length"],
-        )
+        if b["elements_per_span"] != int(b["elements_per_span"]) or b["elements_per_span"] > 10_000:
+            _fail("elements_per_span: must be a whole number up to 10000")
+        try:
+            with np.errstate(all="ignore"):
+                fb, fa = span_modes(
+                    b["span_length"],
+                    int(b["elements_per_span"]),
+                    b["youngs_modulus"],
+                    b["area"],
+                    b["second_moment"],
+                    b["mass_per_length"],
+                )
+            finite = bool(np.isfinite(fb).all() and np.isfinite(fa).all())
+        except (ValueError, np.linalg.LinAlgError):  # scipy's eigh on overflowing matrices
+            finite = False
+        if not finite:
+            given = ", ".join(f"{k}={v:g}" for k, v in bridge.items())
+            _fail(
+                f"{given}: the span's frequencies are not finite numbers with these values "
+                "(stiffness over mass_per_length out of range)"
+            )
         out["bridge"] = b
         out["span_frequencies_hz"] = [float(f) for f in fb[:count]]
         out["span_axial_frequencies_hz"] = [float(f) for f in fa[:count]]
@@ -182,6 +197,12 @@ def modes(
         )
 
 
+def _fail(message: str) -> NoReturn:
+    """One line on stderr naming the --set key, exit status 2 (as an invalid scenario)."""
+    typer.echo(f"error: --set {message}", err=True)
+    raise typer.Exit(2)
+
+
 def _load(model: str) -> VehicleModel:
     from svbi.codegen.topology import load_topology
     from svbi.codegen.vehicle import derive_vehicle
@@ -200,15 +221,15 @@ def _parse_sets(items: list[str]) -> tuple[dict[str, Any], dict[str, float]]:
     bridge: dict[str, float] = {}
     for item in items:
         if "=" not in item:
-            raise typer.BadParameter(f"expected name=value, got {item!r}", param_hint="--set")
+            _fail(f"expected name=value, got {item!r}")
         name, raw = (s.strip() for s in item.split("=", 1))
         try:
             value = tomllib.loads(f"x = {raw}")["x"]
         except tomllib.TOMLDecodeError:
-            raise typer.BadParameter(f"{name}: cannot parse value {raw!r}", param_hint="--set") from None
+            _fail(f"{name}: cannot parse value {raw!r}")
         if name in BRIDGE_KEYS:
-            if isinstance(value, bool) or not isinstance(value, int | float) or value <= 0:
-                raise typer.BadParameter(f"{name}: must be a positive number", param_hint="--set")
+            if isinstance(value, bool) or not isinstance(value, int | float) or not 0 < value < math.inf:
+                _fail(f"{name}: must be a finite positive number, got {raw}")
             bridge[name] = float(value)
         else:
             overrides[name] = value

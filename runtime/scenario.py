@@ -115,7 +115,7 @@ class TrackSpec(_Table):
     """``[track]``: rail irregularity."""
 
     irregularity: Literal[IRREGULARITIES] = "none"  # type: ignore[valid-type]
-    seed: int = 1
+    seed: Annotated[int, Field(ge=0)] = 1
     wavelength_min: Positive = 0.5
     wavelength_max: Positive = 80.0
 
@@ -138,7 +138,7 @@ class EarthquakeSpec(_Table):
     target_pga: Positive | None = None
     arrival: float = 0.0
     apparent_velocity: Positive | None = None
-    seed: int = 1
+    seed: Annotated[int, Field(ge=0)] = 1
     record_dt: Positive | None = None
 
     def sources(self, component: str) -> list[str]:
@@ -371,6 +371,9 @@ def _semantic_problems(s: Scenario) -> Iterable[tuple[str, str]]:
     except TopologyError as exc:
         yield _parameter_key(topo, exc.key, t.parameters), exc.problem
         return
+    from svbi.runtime.limits import size_problems
+
+    yield from size_problems(s, values)
     if topo.kind == "moving-load":
         loads = values.get("axle_loads", ())
         if any(not (float(p) > 0) for p in loads):
@@ -539,6 +542,8 @@ def _problem(err: Mapping[str, Any], where: Any) -> Problem:
         message = f"unknown key{allowed}"
     elif kind == "missing":
         message = "required key is missing"
+    elif kind in ("model_type", "dict_type"):
+        message = f"must be a table ([{key}] or {key}.<key> = ...), got {value!r}"
     elif kind == "value_error":
         message = str(err.get("ctx", {}).get("error", err.get("msg", "")))
     else:

@@ -204,3 +204,78 @@ def test_export_of_a_name_ending_in_an_odd_character(tmp_path: Path) -> None:
     assert not any(
         "two_axle_wagon__" in p.read_text(errors="ignore") for p in target.rglob("*") if p.is_file()
     )
+
+
+# --------------------------------------------------------------------------------------------------
+# item 2: every number finite, every error names its key, size guards
+
+PAPER = Path(__file__).resolve().parents[1] / "examples" / "paper-2020.toml"
+
+
+@pytest.mark.parametrize(
+    ("setting", "key"),
+    [
+        ("youngs_modulus=nan", "youngs_modulus"),
+        ("span_length=inf", "span_length"),
+        ("mass_per_length=1e-300", "mass_per_length"),
+        ("carbody_mass=nan", "carbody_mass"),
+    ],
+)
+def test_modes_set_checks_every_number(setting: str, key: str) -> None:
+    result = runner.invoke(app, ["modes", "pioneer-2d", "--set", setting])
+    assert result.exit_code == 2, result.output
+    assert "Traceback" not in result.output and key in result.output, result.output
+
+
+def _run_error(tmp_path: Path, *sets: str, scenario: Path = PAPER) -> str:
+    out = tmp_path / "r.nc"
+    args = ["run", str(scenario), "-o", str(out), "-q"]
+    for s in sets:
+        args += ["--set", s]
+    result = runner.invoke(app, args)
+    assert result.exit_code == 2, result.output
+    assert "Traceback" not in result.output
+    assert not out.exists()
+    return result.output
+
+
+@pytest.mark.parametrize(
+    ("setting", "expected"),
+    [
+        ("track.seed=-1", "track.seed"),
+        ("earthquake.seed=-1", "earthquake.seed"),
+        ("train.speed_kmh=1e30", "train.speed_kmh"),
+        ("solver=1", "solver: must be a table"),
+        ("train.parameters=1", "train.parameters: must be a table"),
+        # size guards: each named with the keys that drive it, before any computation
+        ("solver.time_step=1e-9", "solver.time_step"),
+        ("solver.duration=1e6", "solver.duration"),
+        ("bridge.spans=10000", "bridge.spans"),
+        ("track.wavelength_min=1e-6", "track.wavelength_min"),
+        ("track.wavelength_min=0.002", "track.wavelength_min"),
+        ("bridge.mass_per_length=1e-300", "bridge.mass_per_length"),
+        ("earthquake.target_pga=1e300", "earthquake.target_pga"),
+    ],
+)
+def test_run_refuses_bad_numbers_naming_the_key(tmp_path: Path, setting: str, expected: str) -> None:
+    assert expected in _run_error(tmp_path, setting)
+
+
+def test_size_guards_explain_the_limit(tmp_path: Path) -> None:
+    from svbi.runtime import limits
+
+    text = _run_error(tmp_path, "solver.time_step=1e-9")
+    assert f"{limits.MAX_STEPS:.0e}" in text or f"{limits.MAX_STEPS:,}" in text
+    text = _run_error(tmp_path, "track.wavelength_min=0.002")
+    assert "irregularity table" in text and f"{limits.MAX_IRREGULARITY_POINTS:,}" in text
+
+
+def test_record_with_absurd_sample_names_file_and_line(tmp_path: Path) -> None:
+    record = tmp_path / "quake.txt"
+    lines = ["0.0 0.0", "0.01 0.1", "0.02 1e300", "0.03 0.0"]
+    record.write_text("\n".join(lines) + "\n")
+    scenario = tmp_path / "s.toml"
+    scenario.write_text(SCENARIO.format(vehicle="sprung-mass") + '[earthquake]\nvertical = "quake.txt"\n')
+    text = _run_error(tmp_path, scenario=scenario)
+    assert f"{record}: line 3" in text, text
+    assert "earthquake.vertical" in text, text

@@ -28,7 +28,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 from svbi.runtime.assembly import Ground
 from svbi.runtime.excitation.processing import MotionHistory, Processing, process_record
-from svbi.runtime.excitation.records import Record, read_record
+from svbi.runtime.excitation.records import Record, RecordError, read_record
 from svbi.runtime.excitation.synthetic import DEFAULT_SEED, synthetic_motion, synthetic_record
 
 COMPONENTS = ("vertical", "longitudinal")
@@ -177,9 +177,11 @@ def _history(
             f"earthquake.{component} = {str(source)!r}: expected 'none', 'synthetic' or the path of "
             "an existing record file"
         )
-    return process_record(
-        read_record(path, dt=dt), scale=scale, target_pga=target_pga, arrival=arrival, options=options
-    )
+    try:
+        record = read_record(path, dt=dt)
+    except RecordError as exc:  # the message has file and line; add the key that named the file
+        raise RecordError(f"earthquake.{component}: {exc}") from None
+    return process_record(record, scale=scale, target_pga=target_pga, arrival=arrival, options=options)
 
 
 def _source_names(spec: Source | Sequence[Source]) -> list[str]:
