@@ -37,9 +37,25 @@ MAX_PGA = 50.0 * 9.81
 """Peak ground acceleration (m/s², 50 g): more than ten times the largest ever recorded (about 4 g)."""
 
 
-def _train_length(s: Scenario, values: Mapping[str, Any]) -> float:
-    """Upper bound of the train length (m): ``cars * car_length`` (a car's axles lie within it)."""
-    return s.train.cars * float(values.get("car_length", 0.0) or 0.0)
+def _axle_offsets(s: Scenario, values: Mapping[str, Any]) -> tuple[list[float], float] | None:
+    """Wheel offsets behind the car's leading axle and the car length (m), as ``Train`` places them;
+    ``None`` when the vehicle cannot be evaluated (its own check reports why)."""
+    from svbi.codegen.plain_types import TopologyError
+    from svbi.runtime.scenario import vehicle_ref
+    from svbi.runtime.simulate import hslm_parameters
+    from svbi.runtime.train import vehicle_model
+
+    vals = dict(values)
+    if s.train.hslm is not None:
+        vals.update(hslm_parameters(s.train.hslm))
+    model = vehicle_model(vehicle_ref(s))
+    if model.kind == "moving-load":
+        return [float(x) for x in vals["axle_offsets"]], float(vals["car_length"])
+    try:
+        vehicle = model.numeric(vals)
+    except TopologyError:
+        return None
+    return [float(x) for x in vehicle.wheel_offsets], float(vals["car_length"])
 
 
 def size_problems(s: Scenario, values: Mapping[str, Any]) -> Iterable[tuple[str, str]]:
@@ -62,12 +78,45 @@ def size_problems(s: Scenario, values: Mapping[str, Any]) -> Iterable[tuple[str,
             f"{b.spans} spans x {b.elements_per_span} elements (bridge.elements_per_span) = {elements:,} "
             f"frame elements, above the limit of {MAX_ELEMENTS:,} (200 km of 32 m spans)",
         )
+    geometry = _axle_offsets(s, values)
+    if geometry is None:
+        return
+    offsets, car_length = geometry
+    car_extent = max(offsets) if offsets else 0.0
+    train_length = (t.cars - 1) * car_length + car_extent  # leading to last axle (Train.length)
+    if t.cars > 1 and car_length <= car_extent:
+        # car k + 1 starts car_length behind car k: its leading axle would sit among car k's axles
+        key = (
+            "train.parameters.car_length"
+            if "car_length" in t.parameters
+            else ("train.hslm" if t.hslm is not None else "train.vehicle")
+        )
+        yield (
+            key,
+            f"car_length = {car_length:g} m is not longer than the car itself ({car_extent:g} m from its "
+            f"leading to its last axle): with {t.cars} cars they would overlap",
+        )
     if sol.duration is not None:
         duration, duration_from = sol.duration, "solver.duration"
-    else:
-        way = b.spans * b.span_length + _train_length(s, values) - t.start_position
+    else:  # assembly.crossing_duration: until the last axle leaves the last span
+        way = b.spans * b.span_length + train_length - t.start_position
         duration, duration_from = max(way, 0.0) / speed, "the crossing time; solver.duration is unset"
     steps = duration / sol.time_step
+    if math.isfinite(steps) and steps <= MAX_STEPS:
+        whole = max(math.ceil(steps - 1e-9), 1)  # simulate.build_model's count
+        if sol.output_every > whole:
+            yield (
+                "solver.output_every",
+                f"{sol.output_every} is more than the {whole} steps of the run ({duration_from} "
+                f"{duration:.4g} s / solver.time_step {sol.time_step:g} s): only t = 0 would be stored",
+            )
+    nyquist = 0.5 / sol.time_step
+    if s.output.force_filter_hz >= nyquist:
+        yield (
+            "output.force_filter_hz",
+            f"{s.output.force_filter_hz:g} Hz is not below the Nyquist frequency 1 / (2 solver.time_step) "
+            f"= {nyquist:g} Hz: the force could not be filtered there; lower it or the time step",
+        )
     if not math.isfinite(steps) or steps > MAX_STEPS:
         key = "solver.duration" if sol.duration is not None and sol.duration > 1.0 else "solver.time_step"
         yield (
@@ -102,3 +151,31 @@ def size_problems(s: Scenario, values: Mapping[str, Any]) -> Iterable[tuple[str,
             "earthquake.target_pga",
             f"{eq.target_pga:.3g} m/s² is above the limit of {MAX_PGA:g} m/s² (50 g); it is in m/s², not g",
         )
+
+
+def creep_warnings(s: Scenario) -> list[str]:
+    """With ``contact.creep`` on, name the wheels that have no spin DOF: no creep force acts there
+    (``wheel_creep.CreepForces``: a wheel creeps only through a non-zero column of ``W_T^V``)."""
+    from svbi.codegen.plain_types import TopologyError
+    from svbi.runtime.scenario import vehicle_ref
+    from svbi.runtime.train import vehicle_model
+
+    if not s.contact.creep:
+        return []
+    model = vehicle_model(vehicle_ref(s))
+    if model.kind == "moving-load":
+        return []
+    try:
+        vehicle = model.numeric(model.topology.values(s.train.parameters))
+    except TopologyError:
+        return []
+    names = [w.name for w in model.topology.wheels]
+    still = [names[j] for j in range(vehicle.nwheels) if not abs(vehicle.W_T[:, j]).sum() > 0]
+    if not still:
+        return []
+    listed = ", ".join(repr(n) for n in still)
+    return [
+        f"contact.creep = true, but wheel(s) {listed} of {model.name} have no spin DOF (a 'theta' "
+        "DOF of the wheel's body with a wheel radius): no creep force acts there; set "
+        "contact.creep = false to run without creep knowingly"
+    ]

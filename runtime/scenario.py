@@ -288,7 +288,9 @@ def validate_scenario(
         problems = list(_semantic_problems(scenario))
         if problems:
             raise ScenarioError([Problem(k, m, where(k)) for k, m in problems], source)
-        for message in time_step_warnings(scenario):
+        from svbi.runtime.limits import creep_warnings
+
+        for message in time_step_warnings(scenario) + creep_warnings(scenario):
             warnings.warn(f"{source}: {message}" if source else message, ScenarioWarning, stacklevel=3)
     return scenario
 

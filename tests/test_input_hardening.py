@@ -279,3 +279,54 @@ def test_record_with_absurd_sample_names_file_and_line(tmp_path: Path) -> None:
     text = _run_error(tmp_path, scenario=scenario)
     assert f"{record}: line 3" in text, text
     assert "earthquake.vertical" in text, text
+
+
+# --------------------------------------------------------------------------------------------------
+# item 3: silent cases now say why not
+
+
+def _small(tmp_path: Path, vehicle: str = "sprung-mass") -> Path:
+    scenario = tmp_path / "small.toml"
+    scenario.write_text(SCENARIO.format(vehicle=vehicle))  # dt = 1e-3 s, 0.02 s: 20 steps
+    return scenario
+
+
+def test_force_filter_above_nyquist_refused(tmp_path: Path) -> None:
+    text = _run_error(tmp_path, "output.force_filter_hz=600", scenario=_small(tmp_path))
+    assert "output.force_filter_hz" in text and "500" in text and "Nyquist" in text
+
+
+def test_output_every_beyond_the_run_refused(tmp_path: Path) -> None:
+    text = _run_error(tmp_path, "solver.output_every=50", scenario=_small(tmp_path))
+    assert "solver.output_every" in text and "20 steps" in text
+
+
+def test_overlapping_cars_refused(tmp_path: Path) -> None:
+    text = _run_error(
+        tmp_path, "train.parameters.car_length=10.0"
+    )  # a Pioneer car is 20.5 m from first to last axle
+    assert "train.parameters.car_length" in text and "20.5 m" in text
+
+
+def test_overlap_with_default_car_length_names_the_vehicle(tmp_path: Path) -> None:
+    long_car = _sprung().replace("value = 10.0", "value = 1.0", 1) + TWO_AXLES.split("[[wheels]]")[0]
+    long_car = long_car.replace('position = "2.0"', 'position = "2.0"', 1)
+    wheel = (
+        '\n[[wheels]]\nname = "rear_tyre"\nbody = "rear_axle"\nposition = "2.0"\nradius = "wheel_radius"\n'
+    )
+    _topology(tmp_path, long_car + wheel)
+    scenario = _small(tmp_path, "topo.toml")
+    scenario.write_text(scenario.read_text().replace("speed_kmh", "cars = 2\nspeed_kmh"))
+    text = _run_error(tmp_path, scenario=scenario)
+    assert "train.vehicle" in text and "car_length" in text, text
+
+
+def test_creep_on_a_wheel_without_spin_warns_naming_the_wheel(tmp_path: Path) -> None:
+    out = tmp_path / "r.nc"
+    result = runner.invoke(app, ["run", str(_small(tmp_path)), "-o", str(out), "-q"])
+    assert result.exit_code == 0, result.output
+    assert "warning" in result.output and "contact.creep" in result.output and "'wheel'" in result.output
+    quiet = runner.invoke(
+        app, ["run", str(_small(tmp_path)), "-o", str(out), "-q", "--set", "contact.creep=false"]
+    )
+    assert quiet.exit_code == 0 and "contact.creep" not in quiet.output, quiet.output
