@@ -113,16 +113,77 @@ def derive(
     if fmt is Format.json:
         typer.echo(json.dumps({k: _to_json(v) for k, v in data.items()}, indent=1))
         return
+    if fmt is Format.latex:
+        typer.echo(latex_document(data, _notes() if vehicle.kind != "moving-load" else ""))
+        return
     for key, value in data.items():
-        if isinstance(value, sp.MatrixBase) and fmt is Format.latex:
-            typer.echo(f"\n{key}:\n{sp.latex(value)}")
-        elif isinstance(value, sp.MatrixBase):
+        if isinstance(value, sp.MatrixBase):
             rows = "\n".join("  [" + ", ".join(str(e) for e in value.row(i)) + "]" for i in range(value.rows))
             typer.echo(f"\n{key}:\n{rows}")
         else:
             typer.echo(f"{key}: {value}")
     if vehicle.kind != "moving-load":
         typer.echo("\n" + _notes())
+
+
+_TEX_SPECIAL = {
+    "\\": r"\textbackslash{}",
+    "{": r"\{",
+    "}": r"\}",
+    "_": r"\_",
+    "^": r"\^{}",
+    "&": r"\&",
+    "%": r"\%",
+    "$": r"\$",
+    "#": r"\#",
+    "~": r"\~{}",
+}
+
+
+def tex_text(text: str) -> str:
+    """Plain text with LaTeX's special characters escaped."""
+    return "".join(_TEX_SPECIAL.get(c, c) for c in str(text))
+
+
+def latex_document(data: dict[str, Any], notes: str = "") -> str:
+    r"""`svbi derive --format latex`: a standalone LaTeX document (article, amsmath).
+
+    Every symbol prints under its full name in italics (``\mathit{carbody\_mass}``): SymPy's own
+    rule would cut ``carbody_pitch_inertia`` into the subscript ``carbody_{pitch inertia}``. Words
+    stay outside math; each matrix is display math."""
+    import sympy as sp
+
+    matrices = {k: v for k, v in data.items() if isinstance(v, sp.MatrixBase)}
+    symbols = set().union(*(m.free_symbols for m in matrices.values())) if matrices else set()
+    names = {sym: r"\mathit{" + tex_text(sym.name) + "}" for sym in symbols}
+    cols = max((m.cols for m in matrices.values()), default=1)
+    lines = [
+        f"% svbi derive {tex_text(data['model'])} --format latex: compile with pdflatex",
+        r"\documentclass{article}",
+        r"\usepackage{amsmath}",
+        r"\usepackage[landscape,margin=1cm]{geometry}",
+        # amsmath's matrix takes at most MaxMatrixCols columns (10 by default)
+        rf"\setcounter{{MaxMatrixCols}}{{{max(cols, 10)}}}",
+        r"\begin{document}",
+        rf"\section*{{Vehicle \texttt{{{tex_text(data['model'])}}} ({tex_text(data['kind'])})}}",
+    ]
+    for key, value in data.items():
+        if key in ("model", "kind"):
+            continue
+        if isinstance(value, sp.MatrixBase):
+            body = (
+                sp.latex(value, symbol_names=names, mat_delim="[") if value.rows and value.cols else r"[\,]"
+            )
+            lines += [rf"\paragraph{{{tex_text(key)}}}", r"\[", body, r"\]"]
+        elif isinstance(value, list | tuple):
+            items = ", ".join(rf"$\mathit{{{tex_text(v)}}}$" for v in value) or "none"
+            lines += [rf"\paragraph{{{tex_text(key)}}} {items}"]
+        else:
+            lines += [rf"\paragraph{{{tex_text(key)}}} {tex_text(value)}"]
+    if notes:
+        lines += [r"\paragraph{Notes}", tex_text(notes).replace("\n", "\n\n")]
+    lines.append(r"\end{document}")
+    return "\n".join(lines)
 
 
 def modes(

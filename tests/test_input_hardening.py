@@ -330,3 +330,64 @@ def test_creep_on_a_wheel_without_spin_warns_naming_the_wheel(tmp_path: Path) ->
         app, ["run", str(_small(tmp_path)), "-o", str(out), "-q", "--set", "contact.creep=false"]
     )
     assert quiet.exit_code == 0 and "contact.creep" not in quiet.output, quiet.output
+
+
+# --------------------------------------------------------------------------------------------------
+# item 4: `svbi derive --format latex` is a LaTeX document
+
+
+def _outside_math(text: str) -> str:
+    """The text with every math region ($...$ and \\[...\\]) removed; fails on unbalanced delimiters."""
+    out, i, mode = [], 0, None
+    while i < len(text):
+        if text.startswith("\\\\", i) or text.startswith("\\$", i):
+            if mode is None:
+                out.append(text[i : i + 2])
+            i += 2
+        elif text.startswith("\\[", i):
+            assert mode is None, f"\\[ inside math at {i}"
+            mode, i = "display", i + 2
+        elif text.startswith("\\]", i):
+            assert mode == "display", f"\\] outside display math at {i}"
+            mode, i = None, i + 2
+        elif text[i] == "$":
+            assert mode in (None, "inline"), f"$ inside display math at {i}"
+            mode, i = (None if mode == "inline" else "inline"), i + 1
+        else:
+            if mode is None:
+                out.append(text[i])
+            i += 1
+    assert mode is None, "math region left open"
+    return "".join(out)
+
+
+@pytest.mark.parametrize("model", ["sprung-mass", "pioneer-2d", "moving-load"])
+def test_derive_latex_is_a_balanced_document(model: str) -> None:
+    import re
+
+    result = runner.invoke(app, ["derive", model, "--format", "latex"])
+    assert result.exit_code == 0, result.output
+    tex = result.output
+    assert tex.lstrip().startswith(("%", "\\documentclass"))
+    assert "\\begin{document}" in tex and tex.rstrip().endswith("\\end{document}")
+    # braces balance, ignoring escaped ones
+    depth = 0
+    for m in re.finditer(r"\\[{}]|[{}]", tex):
+        if m.group() in "{}":
+            depth += 1 if m.group() == "{" else -1
+            assert depth >= 0, tex[max(0, m.start() - 80) : m.start() + 1]
+    assert depth == 0
+    # environments nest
+    stack = []
+    for kind, env in re.findall(r"\\(begin|end)\{(\w+\*?)\}", tex):
+        if kind == "begin":
+            stack.append(env)
+        else:
+            assert stack.pop() == env
+    assert not stack
+    # outside math no bare underscore or caret; multi-underscore names are not cut into subscripts
+    plain = _outside_math(tex)
+    assert not re.search(r"(?<!\\)[_^]", plain), re.search(r".{30}(?<!\\)[_^].{30}", plain)
+    assert "pitch inertia" not in tex and "sprung_{mass}" not in tex
+    if model == "pioneer-2d":
+        assert "MaxMatrixCols" in tex  # the 14-column matrices need more than amsmath's default 10
