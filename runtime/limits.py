@@ -33,6 +33,20 @@ MAX_SPEED = 500.0
 """Train speed (m/s, 1800 km/h): three times the rail speed record (160 m/s); a larger value is a
 unit slip, and it would carry the train across kilometres of table per time step."""
 
+MAX_CONSTRAINT_COEFFICIENT = 1.0e6
+"""``solver.constraint_kappa`` and ``constraint_zeta``: useful values are 0.5 … 2; beyond this the
+stabilisation ``omega = kappa / dt`` overflows its square."""
+
+CONTACT_SPLIT_RANGE = (0.01, 0.99)
+"""``solver.contact_split``: the share does not change the results, but near 0 the aux point's mass
+vanishes (a singular interface matrix) and near 1 the wheel's."""
+
+MAX_DISTANCE = 1.0e6
+"""``train.start_position`` (m, 1000 km either way): farther, the positions lose their resolution."""
+
+MAX_RAIL_HEIGHT = 100.0
+"""``bridge.rail_height`` (m): the rail head above the girder's neutral axis."""
+
 MAX_PGA = 50.0 * 9.81
 """Peak ground acceleration (m/s², 50 g): more than ten times the largest ever recorded (about 4 g)."""
 
@@ -145,6 +159,29 @@ def size_problems(s: Scenario, values: Mapping[str, Any]) -> Iterable[tuple[str,
                 "positive number (bridge.youngs_modulus, area, second_moment, mass_per_length)",
             )
             break
+    for key in ("constraint_kappa", "constraint_zeta"):
+        value = getattr(sol, key)
+        if value > MAX_CONSTRAINT_COEFFICIENT:
+            yield (
+                f"solver.{key}",
+                f"{value:g} is above the limit of {MAX_CONSTRAINT_COEFFICIENT:g} (useful values: 0.5 … 2)",
+            )
+    lo, hi = CONTACT_SPLIT_RANGE
+    if not lo <= sol.contact_split <= hi:
+        yield (
+            "solver.contact_split",
+            f"{sol.contact_split:g} is outside {lo:g} … {hi:g}: the aux point or the wheel would keep "
+            "almost no mass and the interface matrix would be singular (the share does not change the "
+            "results; 0.5 is the default)",
+        )
+    if abs(t.start_position) > MAX_DISTANCE:
+        yield "train.start_position", f"{t.start_position:g} m is farther than {MAX_DISTANCE:g} m from x = 0"
+    if abs(b.rail_height) > MAX_RAIL_HEIGHT:
+        yield (
+            "bridge.rail_height",
+            f"{b.rail_height:g} m is above the limit of {MAX_RAIL_HEIGHT:g} m (rail head above the "
+            "girder's neutral axis)",
+        )
     eq = s.earthquake
     if eq is not None and eq.target_pga is not None and eq.target_pga > MAX_PGA:
         yield (

@@ -255,6 +255,12 @@ def _run_error(tmp_path: Path, *sets: str, scenario: Path = PAPER) -> str:
         ("track.wavelength_min=0.002", "track.wavelength_min"),
         ("bridge.mass_per_length=1e-300", "bridge.mass_per_length"),
         ("earthquake.target_pga=1e300", "earthquake.target_pga"),
+        # found by trying more of the same: a traceback, a meaningless message, a misleading hint
+        ("earthquake.scale=1e300", "earthquake.scale"),
+        ("solver.constraint_kappa=1e300", "solver.constraint_kappa"),
+        ("train.start_position=-1e300", "train.start_position"),
+        ("bridge.rail_height=1e300", "bridge.rail_height"),
+        ("solver.contact_split=1e-300", "solver.contact_split"),
     ],
 )
 def test_run_refuses_bad_numbers_naming_the_key(tmp_path: Path, setting: str, expected: str) -> None:

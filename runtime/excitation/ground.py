@@ -148,6 +148,22 @@ def _per_support(name: str, comp: ComponentMotion, t: NDArray, x: NDArray, shape
     return out[0], out[1], out[2]
 
 
+MAX_PEAK = 50.0 * 9.81
+"""Largest ground acceleration accepted after scaling (m/s², 50 g; ``runtime.limits.MAX_PGA``)."""
+
+
+def _checked(history: MotionHistory, component: str) -> MotionHistory:
+    """The history, if its scaled peak acceleration is a ground motion at all: a larger one is a
+    scale slip and would make the run diverge with a misleading hint about the time step."""
+    peak = float(np.max(np.abs(history.accel))) if history.accel.size else 0.0
+    if not peak <= MAX_PEAK:
+        raise ValueError(
+            f"earthquake.scale / earthquake.{component}_scale: the scaled record {history.name} peaks "
+            f"at {peak:.3g} m/s², above the limit of 50 g ({MAX_PEAK:g} m/s²)"
+        )
+    return history
+
+
 def _history(
     source: Source,
     component: str,
@@ -253,7 +269,7 @@ def ground_motion(
             if str(spec) == "none" and not isinstance(spec, Record):
                 comps[name] = None
                 continue
-            comps[name] = ComponentMotion((_history(spec, name, **kwargs),))
+            comps[name] = ComponentMotion((_checked(_history(spec, name, **kwargs), name),))
             continue
         specs = list(spec)
         if support_positions is None or len(specs) != len(support_positions):
@@ -262,7 +278,7 @@ def ground_motion(
                 f"earthquake.{name}: {len(specs)} records given for {n_pos} support positions; "
                 "one record per support needs support_positions of the same length"
             )
-        histories = tuple(_history(s, name, **kwargs) for s in specs)
+        histories = tuple(_checked(_history(s, name, **kwargs), name) for s in specs)
         comps[name] = ComponentMotion(histories, np.asarray(support_positions, dtype=float))
     motion = GroundMotion(
         vertical=comps["vertical"],
