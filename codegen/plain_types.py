@@ -152,12 +152,18 @@ def mechanism_problem(
                 f"wheels {', '.join(repr(n) for n in dependent)} hold the same motion of their bodies "
                 "(redundant contacts): give each wheel its own body or its own position on a pitching body"
             )
-    k_scale = max(float(np.abs(vehicle.K).max()), 1e-300)
-    held = np.vstack([vehicle.K / k_scale, vehicle.W_N.T]) if vehicle.nwheels else vehicle.K / k_scale
+    # Jacobi scaling D K D (D = diag(K)^-1/2): a stiff suspension beside a soft one must not make the
+    # soft one look like zero stiffness; motions are u = D u'
+    diag = np.diag(vehicle.K).astype(float)
+    d = np.where(diag > 0, 1.0 / np.sqrt(np.where(diag > 0, diag, 1.0)), 1.0)
+    k_scaled = vehicle.K * d[:, None] * d[None, :]
+    held = np.vstack([k_scaled, vehicle.W_N.T * d[None, :]]) if vehicle.nwheels else k_scaled
     sv_full = np.linalg.svd(held, full_matrices=True)
     sv, vt = sv_full[1], sv_full[2]
     rank = int(np.sum(sv > 1e-10 * max(float(sv.max()), 1e-300)))
-    free = vt[rank:].T  # columns: the unrestrained motions
+    free = vt[rank:].T * d[:, None]  # columns: the unrestrained motions u = D u'
+    if free.size:
+        free = free / np.abs(free).max(axis=0, keepdims=True)
     if not free.size:
         return None
     spins = spin_dofs(vehicle)
@@ -184,6 +190,16 @@ def mechanism_problem(
                     f"wheel {wname!r} sits {abs(vehicle.W_N[i, j]):.4g} m from the reference point of "
                     f"body {body!r}, so that body's rotation is not a free spin"
                 )
+    for i, dof in enumerate(vehicle.dof_names):
+        kind, body = _dof_body(dof)
+        carries_wheel = any(
+            vehicle.W_N[k, j] != 0
+            for k, other in enumerate(vehicle.dof_names)
+            if other == f"z_{body}"
+            for j in range(vehicle.nwheels)
+        )
+        if kind == "theta" and body in bodies and carries_wheel and not np.abs(vehicle.W_T[i]).max() > 0:
+            hints.append(f"the wheel of body {body!r} has no radius, so its rotation is not a spin")
     for sname, a, b, stiffness in suspensions:
         if stiffness == 0 and (a in bodies or b in bodies):
             hints.append(f"suspension {sname!r} ({a} - {b}) has zero stiffness")

@@ -47,13 +47,24 @@ MAX_DISTANCE = 1.0e6
 MAX_RAIL_HEIGHT = 100.0
 """``bridge.rail_height`` (m): the rail head above the girder's neutral axis."""
 
+MAX_FRICTION = 10.0
+"""``contact.friction``: steel on steel is 0.1 … 0.5; far beyond, the creep law's saturation overflows."""
+
+RADIUS_RATIO_RANGE = (1.0e-4, 1.0e4)
+"""Wheel radius over ``contact.rail_head_radius``: the Hertz ellipse of the creep law
+(``creep_law.hertz_coefficients``) is solved within this range of curvature ratios."""
+
+MIN_FILTER_SHARE = 1.0e-5
+"""``output.force_filter_hz`` over the Nyquist frequency: below, the Butterworth filter's initial
+conditions form a singular system."""
+
 MAX_PGA = 50.0 * 9.81
 """Peak ground acceleration (m/s², 50 g): more than ten times the largest ever recorded (about 4 g)."""
 
 
-def _axle_offsets(s: Scenario, values: Mapping[str, Any]) -> tuple[list[float], float] | None:
-    """Wheel offsets behind the car's leading axle and the car length (m), as ``Train`` places them;
-    ``None`` when the vehicle cannot be evaluated (its own check reports why)."""
+def _geometry(s: Scenario, values: Mapping[str, Any]) -> tuple[list[float], float, list[float]] | None:
+    """Wheel offsets behind the car's leading axle, the car length and the wheel radii (m), as
+    ``Train`` places them; ``None`` when the vehicle cannot be evaluated (its own check says why)."""
     from svbi.codegen.plain_types import TopologyError
     from svbi.runtime.scenario import vehicle_ref
     from svbi.runtime.simulate import hslm_parameters
@@ -64,12 +75,13 @@ def _axle_offsets(s: Scenario, values: Mapping[str, Any]) -> tuple[list[float], 
         vals.update(hslm_parameters(s.train.hslm))
     model = vehicle_model(vehicle_ref(s))
     if model.kind == "moving-load":
-        return [float(x) for x in vals["axle_offsets"]], float(vals["car_length"])
+        return [float(x) for x in vals["axle_offsets"]], float(vals["car_length"]), []
     try:
         vehicle = model.numeric(vals)
     except TopologyError:
         return None
-    return [float(x) for x in vehicle.wheel_offsets], float(vals["car_length"])
+    radii = [float(r) for r in vehicle.wheel_radii]
+    return [float(x) for x in vehicle.wheel_offsets], float(vals["car_length"]), radii
 
 
 def size_problems(s: Scenario, values: Mapping[str, Any]) -> Iterable[tuple[str, str]]:
@@ -92,10 +104,10 @@ def size_problems(s: Scenario, values: Mapping[str, Any]) -> Iterable[tuple[str,
             f"{b.spans} spans x {b.elements_per_span} elements (bridge.elements_per_span) = {elements:,} "
             f"frame elements, above the limit of {MAX_ELEMENTS:,} (200 km of 32 m spans)",
         )
-    geometry = _axle_offsets(s, values)
+    geometry = _geometry(s, values)
     if geometry is None:
         return
-    offsets, car_length = geometry
+    offsets, car_length, wheel_radii = geometry
     car_extent = max(offsets) if offsets else 0.0
     train_length = (t.cars - 1) * car_length + car_extent  # leading to last axle (Train.length)
     if t.cars > 1 and car_length <= car_extent:
@@ -125,6 +137,12 @@ def size_problems(s: Scenario, values: Mapping[str, Any]) -> Iterable[tuple[str,
                 f"{duration:.4g} s / solver.time_step {sol.time_step:g} s): only t = 0 would be stored",
             )
     nyquist = 0.5 / sol.time_step
+    if s.output.force_filter_hz < MIN_FILTER_SHARE * nyquist:
+        yield (
+            "output.force_filter_hz",
+            f"{s.output.force_filter_hz:g} Hz is below {MIN_FILTER_SHARE:g} of the Nyquist frequency "
+            f"({nyquist:g} Hz): the low-pass filter cannot be built that narrow",
+        )
     if s.output.force_filter_hz >= nyquist:
         yield (
             "output.force_filter_hz",
@@ -174,6 +192,27 @@ def size_problems(s: Scenario, values: Mapping[str, Any]) -> Iterable[tuple[str,
             "almost no mass and the interface matrix would be singular (the share does not change the "
             "results; 0.5 is the default)",
         )
+    if s.contact.friction > MAX_FRICTION:
+        yield (
+            "contact.friction",
+            f"{s.contact.friction:g} is above the limit of {MAX_FRICTION:g} (steel on steel: 0.1 … 0.5)",
+        )
+    radii = [r for r in wheel_radii if r > 0]
+    lo_r, hi_r = RADIUS_RATIO_RANGE
+    if s.contact.creep and radii:
+        for r in sorted(set(radii)):
+            if not lo_r <= r / s.contact.rail_head_radius <= hi_r:
+                key = (
+                    "train.parameters.wheel_radius"
+                    if "wheel_radius" in t.parameters
+                    else "contact.rail_head_radius"
+                )
+                yield (
+                    key,
+                    f"wheel radius {r:g} m over contact.rail_head_radius {s.contact.rail_head_radius:g} m "
+                    f"is outside {lo_r:g} … {hi_r:g}: no Hertz contact ellipse for the creep law",
+                )
+                break
     if abs(t.start_position) > MAX_DISTANCE:
         yield "train.start_position", f"{t.start_position:g} m is farther than {MAX_DISTANCE:g} m from x = 0"
     if abs(b.rail_height) > MAX_RAIL_HEIGHT:

@@ -261,6 +261,11 @@ def _run_error(tmp_path: Path, *sets: str, scenario: Path = PAPER) -> str:
         ("train.start_position=-1e300", "train.start_position"),
         ("bridge.rail_height=1e300", "bridge.rail_height"),
         ("solver.contact_split=1e-300", "solver.contact_split"),
+        ("contact.friction=1e300", "contact.friction"),
+        ("contact.rail_head_radius=1e-300", "contact.rail_head_radius"),
+        ("train.parameters.wheel_radius=1e300", "train.parameters.wheel_radius"),
+        ("output.force_filter_hz=1e-300", "output.force_filter_hz"),
+        ("train.parameters.primary_stiffness=1e300", "static equilibrium"),
     ],
 )
 def test_run_refuses_bad_numbers_naming_the_key(tmp_path: Path, setting: str, expected: str) -> None:
