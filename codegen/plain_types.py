@@ -142,6 +142,11 @@ def mechanism_problem(
     """
     if vehicle.kind != "rigid-body" or not vehicle.ndof:
         return None
+    for label, matrix in (("mass", vehicle.M), ("damping", vehicle.C), ("stiffness", vehicle.K)):
+        if not np.isfinite(matrix).all():
+            return f"the {label} matrix is not finite with these parameter values (an overflow)"
+    if not (np.isfinite(vehicle.W_N).all() and np.isfinite(vehicle.W_T).all()):
+        return "the wheel contact directions are not finite with these parameter values (an overflow)"
     names = wheel_names or tuple(f"wheels[{j}]" for j in range(vehicle.nwheels))
     if vehicle.nwheels:
         s = np.linalg.svd(vehicle.W_N, compute_uv=False)

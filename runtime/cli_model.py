@@ -206,7 +206,11 @@ def modes(
     try:
         numeric = vehicle.numeric(overrides)
     except TopologyError as exc:
-        _fail(str(exc))
+        if exc.key.startswith("train.parameters"):  # names the parameter already
+            _fail(f"{exc.key.removeprefix('train.parameters.')}: {exc.problem}")
+        # the topology is fine on its own (checked on loading): the values given make the problem
+        given = ", ".join(f"{k}={v}" for k, v in overrides.items())
+        _fail(f"{given}: {vehicle.name}: {exc.problem}")
     out: dict[str, Any] = {"model": vehicle.name}
     if vehicle.kind == "moving-load":
         out.update(frequencies_hz=[], rigid_modes=0)
@@ -247,8 +251,17 @@ def modes(
         typer.echo(f"  mode {i:2d}: {f:10.4f}")
     if out["rigid_modes"]:
         # load-time checks refuse every other free motion (plain_types.mechanism_problem)
-        spins = ", ".join(numeric.dof_names[i].partition("_")[2] for i in spin_dofs(numeric))
-        typer.echo(f"  plus {out['rigid_modes']} rigid (0 Hz) mode(s): free wheel spin of {spins}")
+        spin = spin_dofs(numeric)
+        spins = ", ".join(numeric.dof_names[i].partition("_")[2] for i in spin)
+        if out["rigid_modes"] == len(spin):
+            typer.echo(f"  plus {out['rigid_modes']} rigid (0 Hz) mode(s): free wheel spin of {spins}")
+        else:  # the load-time check found only the spins free: the rest are numerically zero
+            typer.echo(
+                f"  plus {out['rigid_modes']} mode(s) at 0 Hz: {len(spin)} free wheel spin(s)"
+                + (f" of {spins}" if spins else "")
+                + "; the others are too slow to resolve against the fastest mode "
+                "(parameter values many orders of magnitude apart?)"
+            )
     if bridge:
         typer.echo("span: vertical bending frequencies (Hz)")
         for i, f in enumerate(out["span_frequencies_hz"], 1):

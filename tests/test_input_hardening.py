@@ -219,6 +219,8 @@ PAPER = Path(__file__).resolve().parents[1] / "examples" / "paper-2020.toml"
         ("span_length=inf", "span_length"),
         ("mass_per_length=1e-300", "mass_per_length"),
         ("carbody_mass=nan", "carbody_mass"),
+        ("primary_stiffness=1e308", "primary_stiffness"),  # an overflow in the matrices
+        ("bogie_half_spacing=0", "bogie_half_spacing"),  # the car body pitches freely
     ],
 )
 def test_modes_set_checks_every_number(setting: str, key: str) -> None:
