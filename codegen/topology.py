@@ -40,7 +40,8 @@ Format (see ``vehicles/pioneer-2d.toml`` for a complete example)::
     radius = "wheel_radius"        # optional; the contact point lies this far below the body
 
 Names of bodies, suspensions and wheels are unique within their kind; parameter names must not be
-one of the reserved symbols of the derivation (``a A E g h I le mu t v xi``). With the wheels held on
+one of the reserved symbols of the derivation (``a A E g h I le mu t v xi``) nor the name of a DOF
+(``z_<body>``, ``theta_<body>``, and ``zdot_``, ``thetadot_`` for velocities). With the wheels held on
 rigid track every body must be restrained, except wheel spins (``plain_types.mechanism_problem``);
 a wheel on a body without ``theta`` sits at the body's reference point.
 
@@ -222,6 +223,13 @@ def parse_topology(text: str, source: str = "<string>") -> Topology:
             )
         )
     body_names = {b.name for b in bodies}
+    dof_names = {f"{kind}_{b.name}" for b in bodies for kind in ("z", "theta", "zdot", "thetadot")}
+    for pname in params:
+        if pname in dof_names:
+            # the derivation names DOFs and velocities so: the printed matrices would be ambiguous
+            raise TopologyError(
+                source, f"parameters.{pname}", f"{pname!r} is the name of a DOF or velocity of a body"
+            )
 
     suspensions: list[Suspension] = []
     for i, raw in enumerate(_table_list(source, "suspensions", data.get("suspensions", []))):
@@ -354,7 +362,7 @@ def _parse_parameters(source: str, raw: Any) -> dict[str, Parameter]:
         if not _NAME.match(name):
             raise TopologyError(source, key, f"{name!r} is not a valid name (letters, digits, _)")
         if name in _RESERVED:
-            reserved = " ".join(sorted(_RESERVED, key=str.lower))
+            reserved = " ".join(sorted(_RESERVED, key=lambda n: (n.lower(), n.isupper())))
             raise TopologyError(source, key, f"{name!r} is a reserved name (reserved: {reserved})")
         _only_keys(source, key, spec, {"value", "unit", "description", "assumed", "signed", "source"})
         if "value" not in spec:

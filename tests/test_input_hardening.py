@@ -169,6 +169,7 @@ def test_restrained_vehicle_with_free_spin_passes_and_modes_names_the_spin(tmp_p
 DUPLICATE_WHEEL = '\n[[wheels]]\nname = "tyre"\nbody = "body"\n'
 DUPLICATE_SPRING = '\n[[suspensions]]\nname = "spring"\nbody_a = "body"\nbody_b = "axle"\nstiffness = "1.0"\n'
 RESERVED = "\n[parameters.mu]\nvalue = 1.0\n"
+DOF_NAME = "\n[parameters.theta_axle]\nvalue = 1.0\n"
 
 
 @pytest.mark.parametrize(
@@ -177,11 +178,14 @@ RESERVED = "\n[parameters.mu]\nvalue = 1.0\n"
         (DUPLICATE_WHEEL, "duplicate wheel name 'tyre'"),
         (DUPLICATE_SPRING, "duplicate suspension name 'spring'"),
         (RESERVED, "reserved: a A E g h I le mu t v xi"),
+        (DOF_NAME, "'theta_axle' is the name of a DOF"),
     ],
 )
 def test_duplicate_and_reserved_names_refused(tmp_path: Path, extra: str, message: str) -> None:
     text = _sprung()
-    text = text.replace("[[bodies]]", extra + "[[bodies]]", 1) if extra == RESERVED else text + extra
+    text = (
+        text.replace("[[bodies]]", extra + "[[bodies]]", 1) if extra in (RESERVED, DOF_NAME) else text + extra
+    )
     topo = _topology(tmp_path, text)
     _one_line_error(runner.invoke(app, ["derive", str(topo)]), message)
 
