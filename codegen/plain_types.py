@@ -92,8 +92,126 @@ class NumericVehicle:
 
 
 def c_identifier(name: str) -> str:
-    """C-safe spelling of a model name: ``pioneer-2d`` -> ``pioneer_2d``."""
-    ident = re.sub(r"[^A-Za-z0-9_]", "_", name)
+    """C-safe spelling of a model name: ``pioneer-2d`` -> ``pioneer_2d``.
+
+    Runs of underscores collapse and none is left at either end: the identifier is also a prefix of
+    CasADi function names (``svbi_<model>_<kernel>``), which must not hold two underscores in a row
+    (``"two axle wagon!"`` -> ``two_axle_wagon``)."""
+    ident = re.sub(r"_+", "_", re.sub(r"[^A-Za-z0-9_]", "_", name)).strip("_")
     if not ident or ident[0].isdigit():
         ident = "m_" + ident
     return ident
+
+
+def _dof_body(dof_name: str) -> tuple[str, str]:
+    """``("z" | "theta", body)`` of a vehicle DOF name such as ``theta_wheelset_1``."""
+    kind, _, body = dof_name.partition("_")
+    return kind, body
+
+
+def spin_dofs(vehicle: NumericVehicle) -> list[int]:
+    """DOFs that are a wheel's spin: a rotation that moves a contact point along the rail (its row of
+    ``W_T`` is non-zero) but not up or down (its row of ``W_N`` is zero). With the wheels held on rigid
+    track they are the only motions allowed to be free (the creep force of Eq. 16 acts on them)."""
+    if not vehicle.nwheels:
+        return []
+    tol = 1e-12 * max(float(np.abs(vehicle.W_N).max()), 1.0)
+    return [
+        i
+        for i, name in enumerate(vehicle.dof_names)
+        if name.startswith("theta_")
+        and np.abs(vehicle.W_N[i]).max() <= tol
+        and np.abs(vehicle.W_T[i]).max() > 0
+    ]
+
+
+def mechanism_problem(
+    vehicle: NumericVehicle,
+    wheel_names: tuple[str, ...] = (),
+    suspensions: tuple[tuple[str, str, str, float], ...] = (),
+) -> str | None:
+    """Why the vehicle is not restrained with its wheels held on rigid track, or ``None``.
+
+    The motions that neither the suspensions (``K``) nor the wheel contacts (``W_N^T``) resist are the
+    null space of ``[K; W_N^T]``; every such motion must be a wheel spin (:func:`spin_dofs`), otherwise
+    the static start (DESIGN.md section 2) has no solution. Also rejected: wheel contacts that repeat one
+    another (``W_N`` without full column rank), which make the constraint masses of Eq. (27) singular.
+    The message names the bodies that move, and a wheel that sits away from its body's reference point
+    on a body whose rotation is then not a spin, and the suspensions of zero stiffness that touch a
+    moving body (``suspensions``: name, body_a, body_b, stiffness value, where known).
+    """
+    if vehicle.kind != "rigid-body" or not vehicle.ndof:
+        return None
+    for label, matrix in (("mass", vehicle.M), ("damping", vehicle.C), ("stiffness", vehicle.K)):
+        if not np.isfinite(matrix).all():
+            return f"the {label} matrix is not finite with these parameter values (an overflow)"
+    if not (np.isfinite(vehicle.W_N).all() and np.isfinite(vehicle.W_T).all()):
+        return "the wheel contact directions are not finite with these parameter values (an overflow)"
+    names = wheel_names or tuple(f"wheels[{j}]" for j in range(vehicle.nwheels))
+    if vehicle.nwheels:
+        s = np.linalg.svd(vehicle.W_N, compute_uv=False)
+        if s.min() <= 1e-9 * s.max():
+            _, _, vt = np.linalg.svd(vehicle.W_N)
+            dependent = [names[j] for j in np.nonzero(np.abs(vt[-1]) > 1e-6)[0]]
+            return (
+                f"wheels {', '.join(repr(n) for n in dependent)} hold the same motion of their bodies "
+                "(redundant contacts): give each wheel its own body or its own position on a pitching body"
+            )
+    # Jacobi scaling D K D (D = diag(K)^-1/2): a stiff suspension beside a soft one must not make the
+    # soft one look like zero stiffness; motions are u = D u'
+    diag = np.diag(vehicle.K).astype(float)
+    d = np.where(diag > 0, 1.0 / np.sqrt(np.where(diag > 0, diag, 1.0)), 1.0)
+    k_scaled = vehicle.K * d[:, None] * d[None, :]
+    held = np.vstack([k_scaled, vehicle.W_N.T * d[None, :]]) if vehicle.nwheels else k_scaled
+    sv_full = np.linalg.svd(held, full_matrices=True)
+    sv, vt = sv_full[1], sv_full[2]
+    rank = int(np.sum(sv > 1e-10 * max(float(sv.max()), 1e-300)))
+    free = vt[rank:].T * d[:, None]  # columns: the unrestrained motions u = D u'
+    if free.size:
+        free = free / np.abs(free).max(axis=0, keepdims=True)
+    if not free.size:
+        return None
+    spins = spin_dofs(vehicle)
+    others = [i for i in range(vehicle.ndof) if i not in spins]
+    moving = free[others]
+    if not moving.size or np.abs(moving).max() <= 1e-8:
+        return None
+    # bodies with a visible share of an unrestrained motion that is not a wheel spin
+    u, s, _ = np.linalg.svd(moving, full_matrices=False)
+    bad = u[:, s > 1e-8 * s.max()]
+    weight = np.sqrt((bad**2).sum(axis=1))
+    bodies: list[str] = []
+    for i, w in zip(others, weight, strict=True):
+        body = _dof_body(vehicle.dof_names[i])[1]
+        if w > 0.05 * weight.max() and body not in bodies:
+            bodies.append(body)
+    hints = []
+    for j, wname in enumerate(names):
+        for i, dof in enumerate(vehicle.dof_names):
+            kind, body = _dof_body(dof)
+            # the wheel's body is the one whose rotation tilts the contact: W_N = -(distance)
+            if kind == "theta" and body in bodies and vehicle.W_N[i, j] != 0:
+                hints.append(
+                    f"wheel {wname!r} sits {abs(vehicle.W_N[i, j]):.4g} m from the reference point of "
+                    f"body {body!r}, so that body's rotation is not a free spin"
+                )
+    for i, dof in enumerate(vehicle.dof_names):
+        kind, body = _dof_body(dof)
+        carries_wheel = any(
+            vehicle.W_N[k, j] != 0
+            for k, other in enumerate(vehicle.dof_names)
+            if other == f"z_{body}"
+            for j in range(vehicle.nwheels)
+        )
+        if kind == "theta" and body in bodies and carries_wheel and not np.abs(vehicle.W_T[i]).max() > 0:
+            hints.append(f"the wheel of body {body!r} has no radius, so its rotation is not a spin")
+    for sname, a, b, stiffness in suspensions:
+        if stiffness == 0 and (a in bodies or b in bodies):
+            hints.append(f"suspension {sname!r} ({a} - {b}) has zero stiffness")
+    listed = ", ".join(repr(b) for b in bodies)
+    noun = "body" if len(bodies) == 1 else "bodies"
+    hint = ("; " + "; ".join(hints)) if hints else ""
+    return (
+        f"a mechanism: {noun} {listed} can move with the wheels held on the track (connected to nothing, "
+        f"or only through suspensions of zero stiffness){hint}; only a wheel's spin may be free"
+    )

@@ -39,6 +39,12 @@ Format (see ``vehicles/pioneer-2d.toml`` for a complete example)::
     position = "0"                 # distance behind the car's leading axle
     radius = "wheel_radius"        # optional; the contact point lies this far below the body
 
+Names of bodies, suspensions and wheels are unique within their kind; parameter names must not be
+one of the reserved symbols of the derivation (``a A E g h I le mu t v xi``) nor the name of a DOF
+(``z_<body>``, ``theta_<body>``, and ``zdot_``, ``thetadot_`` for velocities). With the wheels held on
+rigid track every body must be restrained, except wheel spins (``plain_types.mechanism_problem``);
+a wheel on a body without ``theta`` sits at the body's reference point.
+
 Positions are measured *backwards* from the car's leading axle. A point at position ``p`` of a body
 with reference position ``p_b`` moves vertically by ``z - (p - p_b) * theta``: with pitch positive when
 the front end rises, points ahead of the reference (smaller ``p``) go up.
@@ -61,6 +67,8 @@ DOF_KINDS = ("z", "theta")
 KINDS = ("rigid-body", "moving-load")
 _NAME = re.compile(r"^[A-Za-z][A-Za-z0-9_]*$")
 _RESERVED = {"g", "t", "xi", "le", "E", "A", "I", "mu", "h", "v", "a"}
+"""Symbols of the derivation (gravity, time, element coordinate and length, section properties, rail
+height, speed, aux-point split): a parameter of the same name would be confused with them."""
 
 
 @dataclass(frozen=True)
@@ -215,6 +223,13 @@ def parse_topology(text: str, source: str = "<string>") -> Topology:
             )
         )
     body_names = {b.name for b in bodies}
+    dof_names = {f"{kind}_{b.name}" for b in bodies for kind in ("z", "theta", "zdot", "thetadot")}
+    for pname in params:
+        if pname in dof_names:
+            # the derivation names DOFs and velocities so: the printed matrices would be ambiguous
+            raise TopologyError(
+                source, f"parameters.{pname}", f"{pname!r} is the name of a DOF or velocity of a body"
+            )
 
     suspensions: list[Suspension] = []
     for i, raw in enumerate(_table_list(source, "suspensions", data.get("suspensions", []))):
@@ -223,6 +238,8 @@ def parse_topology(text: str, source: str = "<string>") -> Topology:
             source, key, raw, {"name", "body_a", "offset_a", "body_b", "offset_b", "stiffness", "damping"}
         )
         sname = _require_name(source, f"{key}.name", raw.get("name"))
+        if any(x.name == sname for x in suspensions):
+            raise TopologyError(source, f"{key}.name", f"duplicate suspension name {sname!r}")
         a = _require_str(source, f"{key}.body_a", raw.get("body_a"))
         b = _require_str(source, f"{key}.body_b", raw.get("body_b"))
         for side, body in (("body_a", a), ("body_b", b)):
@@ -249,19 +266,29 @@ def parse_topology(text: str, source: str = "<string>") -> Topology:
         key = f"wheels[{i}]"
         _only_keys(source, key, raw, {"name", "body", "position", "radius"})
         wname = _require_name(source, f"{key}.name", raw.get("name"))
+        if any(x.name == wname for x in wheels):
+            raise TopologyError(source, f"{key}.name", f"duplicate wheel name {wname!r}")
         body = _require_str(source, f"{key}.body", raw.get("body"))
         if body not in body_names:
             raise TopologyError(source, f"{key}.body", f"unknown body {body!r}")
         if "z" not in next(b for b in bodies if b.name == body).dofs:
             raise TopologyError(source, f"{key}.body", f"wheel body {body!r} needs a 'z' DOF")
-        wheels.append(
-            Wheel(
-                wname,
-                body,
-                expr(f"{key}.position", raw.get("position", "0")),
-                expr(f"{key}.radius", raw.get("radius", "0")),
-            )
+        wheel = Wheel(
+            wname,
+            body,
+            expr(f"{key}.position", raw.get("position", "0")),
+            expr(f"{key}.radius", raw.get("radius", "0")),
         )
+        owner = next(b for b in bodies if b.name == body)
+        if "theta" not in owner.dofs and sp.simplify(wheel.position - owner.position) != 0:
+            # without a rotation the body cannot carry a contact point away from its reference
+            raise TopologyError(
+                source,
+                f"{key}.position",
+                f"wheel {wname!r} at {wheel.position} differs from the reference point of body {body!r} "
+                f"({owner.position}), which has no 'theta' DOF",
+            )
+        wheels.append(wheel)
 
     if kind == "rigid-body":
         if not bodies:
@@ -332,8 +359,11 @@ def _parse_parameters(source: str, raw: Any) -> dict[str, Parameter]:
     params: dict[str, Parameter] = {}
     for name, spec in raw.items():
         key = f"parameters.{name}"
-        if not _NAME.match(name) or name in _RESERVED:
-            raise TopologyError(source, key, f"invalid or reserved parameter name {name!r}")
+        if not _NAME.match(name):
+            raise TopologyError(source, key, f"{name!r} is not a valid name (letters, digits, _)")
+        if name in _RESERVED:
+            reserved = " ".join(sorted(_RESERVED, key=lambda n: (n.lower(), n.isupper())))
+            raise TopologyError(source, key, f"{name!r} is a reserved name (reserved: {reserved})")
         _only_keys(source, key, spec, {"value", "unit", "description", "assumed", "signed", "source"})
         if "value" not in spec:
             raise TopologyError(source, f"{key}.value", "missing")

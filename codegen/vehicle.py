@@ -23,7 +23,7 @@ from typing import Any
 
 import numpy as np
 import sympy as sp
-from svbi.codegen.plain_types import GRAVITY, NumericVehicle, validate_split
+from svbi.codegen.plain_types import GRAVITY, NumericVehicle, TopologyError, mechanism_problem, validate_split
 from svbi.codegen.topology import Topology, load_topology
 
 g = sp.Symbol("g", positive=True)
@@ -105,7 +105,7 @@ class VehicleModel:
             return np.array(m.subs(subs).evalf(17).tolist(), dtype=float).reshape(m.shape)
 
         carbody = self.carbody
-        return NumericVehicle(
+        numeric = NumericVehicle(
             name=self.name,
             kind=self.kind,
             dof_names=tuple(q.name for q in self.dofs),
@@ -124,6 +124,13 @@ class VehicleModel:
             axle_loads=np.array(vals.get("axle_loads", ()), dtype=float),
             axle_offsets=np.array(vals.get("axle_offsets", ()), dtype=float),
         )
+        springs = tuple(
+            (s.name, s.body_a, s.body_b, float(s.stiffness.subs(subs))) for s in self.topology.suspensions
+        )
+        problem = mechanism_problem(numeric, tuple(w.name for w in self.topology.wheels), springs)
+        if problem:
+            raise TopologyError(self.topology.path or self.name, "bodies", problem)
+        return numeric
 
 
 def derive_vehicle(topology: Topology | str) -> VehicleModel:

@@ -3,12 +3,13 @@
 from __future__ import annotations
 
 import json
+import math
 import tomllib
 from enum import StrEnum
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING, Any, NoReturn
 
 import typer
-from svbi.codegen.plain_types import TopologyError
+from svbi.codegen.plain_types import TopologyError, spin_dofs
 
 if TYPE_CHECKING:
     from svbi.codegen.vehicle import VehicleModel
@@ -112,16 +113,77 @@ def derive(
     if fmt is Format.json:
         typer.echo(json.dumps({k: _to_json(v) for k, v in data.items()}, indent=1))
         return
+    if fmt is Format.latex:
+        typer.echo(latex_document(data, _notes() if vehicle.kind != "moving-load" else ""))
+        return
     for key, value in data.items():
-        if isinstance(value, sp.MatrixBase) and fmt is Format.latex:
-            typer.echo(f"\n{key}:\n{sp.latex(value)}")
-        elif isinstance(value, sp.MatrixBase):
+        if isinstance(value, sp.MatrixBase):
             rows = "\n".join("  [" + ", ".join(str(e) for e in value.row(i)) + "]" for i in range(value.rows))
             typer.echo(f"\n{key}:\n{rows}")
         else:
             typer.echo(f"{key}: {value}")
     if vehicle.kind != "moving-load":
         typer.echo("\n" + _notes())
+
+
+_TEX_SPECIAL = {
+    "\\": r"\textbackslash{}",
+    "{": r"\{",
+    "}": r"\}",
+    "_": r"\_",
+    "^": r"\^{}",
+    "&": r"\&",
+    "%": r"\%",
+    "$": r"\$",
+    "#": r"\#",
+    "~": r"\~{}",
+}
+
+
+def tex_text(text: str) -> str:
+    """Plain text with LaTeX's special characters escaped."""
+    return "".join(_TEX_SPECIAL.get(c, c) for c in str(text))
+
+
+def latex_document(data: dict[str, Any], notes: str = "") -> str:
+    r"""`svbi derive --format latex`: a standalone LaTeX document (article, amsmath).
+
+    Every symbol prints under its full name in italics (``\mathit{carbody\_mass}``): SymPy's own
+    rule would cut ``carbody_pitch_inertia`` into the subscript ``carbody_{pitch inertia}``. Words
+    stay outside math; each matrix is display math."""
+    import sympy as sp
+
+    matrices = {k: v for k, v in data.items() if isinstance(v, sp.MatrixBase)}
+    symbols = set().union(*(m.free_symbols for m in matrices.values())) if matrices else set()
+    names = {sym: r"\mathit{" + tex_text(sym.name) + "}" for sym in symbols}
+    cols = max((m.cols for m in matrices.values()), default=1)
+    lines = [
+        f"% svbi derive {tex_text(data['model'])} --format latex: compile with pdflatex",
+        r"\documentclass{article}",
+        r"\usepackage{amsmath}",
+        r"\usepackage[landscape,margin=1cm]{geometry}",
+        # amsmath's matrix takes at most MaxMatrixCols columns (10 by default)
+        rf"\setcounter{{MaxMatrixCols}}{{{max(cols, 10)}}}",
+        r"\begin{document}",
+        rf"\section*{{Vehicle \texttt{{{tex_text(data['model'])}}} ({tex_text(data['kind'])})}}",
+    ]
+    for key, value in data.items():
+        if key in ("model", "kind"):
+            continue
+        if isinstance(value, sp.MatrixBase):
+            body = (
+                sp.latex(value, symbol_names=names, mat_delim="[") if value.rows and value.cols else r"[\,]"
+            )
+            lines += [rf"\paragraph{{{tex_text(key)}}}", r"\[", body, r"\]"]
+        elif isinstance(value, list | tuple):
+            items = ", ".join(rf"$\mathit{{{tex_text(v)}}}$" for v in value) or "none"
+            lines += [rf"\paragraph{{{tex_text(key)}}} {items}"]
+        else:
+            lines += [rf"\paragraph{{{tex_text(key)}}} {tex_text(value)}"]
+    if notes:
+        lines += [r"\paragraph{Notes}", tex_text(notes).replace("\n", "\n\n")]
+    lines.append(r"\end{document}")
+    return "\n".join(lines)
 
 
 def modes(
@@ -136,6 +198,7 @@ def modes(
     count: int = typer.Option(5, help="Number of span modes to print."),
 ) -> None:
     """Print the vehicle's natural frequencies on rigid track (Hz, ascending), and span frequencies."""
+    import numpy as np
     from svbi.runtime.modes import span_modes, vehicle_modes
 
     vehicle = _load(model)
@@ -143,7 +206,11 @@ def modes(
     try:
         numeric = vehicle.numeric(overrides)
     except TopologyError as exc:
-        raise typer.BadParameter(str(exc), param_hint="--set") from None
+        if exc.key.startswith("train.parameters"):  # names the parameter already
+            _fail(f"{exc.key.removeprefix('train.parameters.')}: {exc.problem}")
+        # the topology is fine on its own (checked on loading): the values given make the problem
+        given = ", ".join(f"{k}={v}" for k, v in overrides.items())
+        _fail(f"{given}: {vehicle.name}: {exc.problem}")
     out: dict[str, Any] = {"model": vehicle.name}
     if vehicle.kind == "moving-load":
         out.update(frequencies_hz=[], rigid_modes=0)
@@ -152,14 +219,27 @@ def modes(
         out.update(frequencies_hz=[float(f) for f in vm.frequencies_hz], rigid_modes=vm.rigid_modes)
     if bridge:
         b = {**BRIDGE_KEYS, **bridge}
-        fb, fa = span_modes(
-            b["span_length"],
-            int(b["elements_per_span"]),
-            b["youngs_modulus"],
-            b["area"],
-            b["second_moment"],
-            b["mass_per_length"],
-        )
+        if b["elements_per_span"] != int(b["elements_per_span"]) or b["elements_per_span"] > 10_000:
+            _fail("elements_per_span: must be a whole number up to 10000")
+        try:
+            with np.errstate(all="ignore"):
+                fb, fa = span_modes(
+                    b["span_length"],
+                    int(b["elements_per_span"]),
+                    b["youngs_modulus"],
+                    b["area"],
+                    b["second_moment"],
+                    b["mass_per_length"],
+                )
+            finite = bool(np.isfinite(fb).all() and np.isfinite(fa).all())
+        except (ValueError, np.linalg.LinAlgError):  # scipy's eigh on overflowing matrices
+            finite = False
+        if not finite:
+            given = ", ".join(f"{k}={v:g}" for k, v in bridge.items())
+            _fail(
+                f"{given}: the span's frequencies are not finite numbers with these values "
+                "(stiffness over mass_per_length out of range)"
+            )
         out["bridge"] = b
         out["span_frequencies_hz"] = [float(f) for f in fb[:count]]
         out["span_axial_frequencies_hz"] = [float(f) for f in fa[:count]]
@@ -170,7 +250,18 @@ def modes(
     for i, f in enumerate(out["frequencies_hz"], 1):
         typer.echo(f"  mode {i:2d}: {f:10.4f}")
     if out["rigid_modes"]:
-        typer.echo(f"  plus {out['rigid_modes']} rigid (0 Hz) mode(s): free wheelset spin")
+        # load-time checks refuse every other free motion (plain_types.mechanism_problem)
+        spin = spin_dofs(numeric)
+        spins = ", ".join(numeric.dof_names[i].partition("_")[2] for i in spin)
+        if out["rigid_modes"] == len(spin):
+            typer.echo(f"  plus {out['rigid_modes']} rigid (0 Hz) mode(s): free wheel spin of {spins}")
+        else:  # the load-time check found only the spins free: the rest are numerically zero
+            typer.echo(
+                f"  plus {out['rigid_modes']} mode(s) at 0 Hz: {len(spin)} free wheel spin(s)"
+                + (f" of {spins}" if spins else "")
+                + "; the others are too slow to resolve against the fastest mode "
+                "(parameter values many orders of magnitude apart?)"
+            )
     if bridge:
         typer.echo("span: vertical bending frequencies (Hz)")
         for i, f in enumerate(out["span_frequencies_hz"], 1):
@@ -180,12 +271,20 @@ def modes(
         )
 
 
+def _fail(message: str) -> NoReturn:
+    """One line on stderr naming the --set key, exit status 2 (as an invalid scenario)."""
+    typer.echo(f"error: --set {message}", err=True)
+    raise typer.Exit(2)
+
+
 def _load(model: str) -> VehicleModel:
     from svbi.codegen.topology import load_topology
     from svbi.codegen.vehicle import derive_vehicle
 
     try:
-        return derive_vehicle(load_topology(model))
+        vehicle = derive_vehicle(load_topology(model))
+        vehicle.numeric()  # the topology's own values: a mechanism is refused here (one line)
+        return vehicle
     except TopologyError as exc:
         typer.echo(f"error: {exc}", err=True)
         raise typer.Exit(2) from None
@@ -196,15 +295,15 @@ def _parse_sets(items: list[str]) -> tuple[dict[str, Any], dict[str, float]]:
     bridge: dict[str, float] = {}
     for item in items:
         if "=" not in item:
-            raise typer.BadParameter(f"expected name=value, got {item!r}", param_hint="--set")
+            _fail(f"expected name=value, got {item!r}")
         name, raw = (s.strip() for s in item.split("=", 1))
         try:
             value = tomllib.loads(f"x = {raw}")["x"]
         except tomllib.TOMLDecodeError:
-            raise typer.BadParameter(f"{name}: cannot parse value {raw!r}", param_hint="--set") from None
+            _fail(f"{name}: cannot parse value {raw!r}")
         if name in BRIDGE_KEYS:
-            if isinstance(value, bool) or not isinstance(value, int | float) or value <= 0:
-                raise typer.BadParameter(f"{name}: must be a positive number", param_hint="--set")
+            if isinstance(value, bool) or not isinstance(value, int | float) or not 0 < value < math.inf:
+                _fail(f"{name}: must be a finite positive number, got {raw}")
             bridge[name] = float(value)
         else:
             overrides[name] = value

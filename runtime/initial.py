@@ -36,8 +36,9 @@ from svbi.runtime.coupled_dynamic import Triplets
 from svbi.runtime.train import Train
 
 
-class StaticEquilibriumError(RuntimeError):
-    """The static problem has no solution (a rigid mode carries a load)."""
+class StaticEquilibriumError(ValueError):
+    """The static problem has no solution (a rigid mode carries a load): bad input, so a ValueError
+    (`svbi run` reports it in one line); the topology checks at load time catch the usual causes."""
 
 
 def free_modes(train: Train) -> np.ndarray:

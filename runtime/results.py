@@ -21,6 +21,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 from svbi.runtime.assembly import Contacts, Model, State
 from svbi.runtime.atomic import write_atomic
+from svbi.runtime.body_outputs import body_variables
 from svbi.runtime.bridge import SUPPORT_COMPONENTS
 from svbi.runtime.contact_rows import AxialShapeKernel, ShapeKernel
 
@@ -94,6 +95,9 @@ class Recorder:
             "carbody_uz": np.zeros((n, tr.cars)),
             "carbody_az": np.zeros((n, tr.cars)),
             "carbody_pitch": np.zeros((n, tr.cars)),
+            # every vehicle DOF, for the body_* variables (both backends write these rows)
+            "vehicle_u": np.zeros((n, tr.cars, tr.vehicle.ndof)),
+            "vehicle_a": np.zeros((n, tr.cars, tr.vehicle.ndof)),
             "gap_vehicle": np.zeros((n, tr.cars, tr.wheels)),
             "gap_bridge": np.zeros((n, tr.cars, tr.wheels)),
             "gap_support": np.zeros((n, nsup)),
@@ -157,6 +161,8 @@ class Recorder:
                 d["carbody_az"][k] = state.aV[:, cz]
             if ct is not None:
                 d["carbody_pitch"][k] = state.uV[:, ct]
+            d["vehicle_u"][k] = state.uV
+            d["vehicle_a"][k] = state.aV
         d["gap_vehicle"][k] = gaps["vehicle"].reshape(shape)
         d["gap_bridge"][k] = gaps["bridge"].reshape(shape)
         self.count += 1
@@ -168,6 +174,7 @@ class Recorder:
         m, k = self.model, self.count
         b, tr = m.bridge, m.train
         d = {name: arr[:k] for name, arr in self.data.items()}
+        bodies, body_vars = body_variables(tr.vehicle.dof_names, d.pop("vehicle_u"), d.pop("vehicle_a"))
         filtered = self._filtered(k)
         per_wheel = ("time", "car", "wheel")
         support_dims = ("time",) if self.uniform else ("time", "support")
@@ -228,6 +235,7 @@ class Recorder:
                 d["carbody_pitch"],
                 _a("rad", "car-body pitch from static equilibrium, front end up positive"),
             ),
+            **body_vars,
             "gap_vehicle": (per_wheel, d["gap_vehicle"], _a("m", "wheel - auxiliary point gap (Eq. 18)")),
             "gap_bridge": (per_wheel, d["gap_bridge"], _a("m", "auxiliary point - rail gap (Eqs. 20-21)")),
             "gap_support": (("time", "support"), d["gap_support"], _a("m", "ground - support gap (Eq. 23)")),
@@ -237,6 +245,7 @@ class Recorder:
             "car": ("car", np.arange(1, tr.cars + 1)),
             "wheel": ("wheel", np.arange(1, tr.wheels + 1)),
             "span": ("span", np.arange(1, b.spans + 1)),
+            **({"body": ("body", np.array(bodies, dtype=object))} if bodies else {}),
             "support": ("support", np.arange(1, b.spans * b.nsupport + 1)),
             "support_x": ("support", b.support_x.reshape(-1), _a("m", "position of the support")),
             "support_span": ("support", np.repeat(np.arange(1, b.spans + 1), b.nsupport)),

@@ -115,7 +115,7 @@ class TrackSpec(_Table):
     """``[track]``: rail irregularity."""
 
     irregularity: Literal[IRREGULARITIES] = "none"  # type: ignore[valid-type]
-    seed: int = 1
+    seed: Annotated[int, Field(ge=0)] = 1
     wavelength_min: Positive = 0.5
     wavelength_max: Positive = 80.0
 
@@ -138,7 +138,7 @@ class EarthquakeSpec(_Table):
     target_pga: Positive | None = None
     arrival: float = 0.0
     apparent_velocity: Positive | None = None
-    seed: int = 1
+    seed: Annotated[int, Field(ge=0)] = 1
     record_dt: Positive | None = None
 
     def sources(self, component: str) -> list[str]:
@@ -288,7 +288,9 @@ def validate_scenario(
         problems = list(_semantic_problems(scenario))
         if problems:
             raise ScenarioError([Problem(k, m, where(k)) for k, m in problems], source)
-        for message in time_step_warnings(scenario):
+        from svbi.runtime.limits import creep_warnings
+
+        for message in time_step_warnings(scenario) + creep_warnings(scenario):
             warnings.warn(f"{source}: {message}" if source else message, ScenarioWarning, stacklevel=3)
     return scenario
 
@@ -371,6 +373,9 @@ def _semantic_problems(s: Scenario) -> Iterable[tuple[str, str]]:
     except TopologyError as exc:
         yield _parameter_key(topo, exc.key, t.parameters), exc.problem
         return
+    from svbi.runtime.limits import size_problems
+
+    yield from size_problems(s, values)
     if topo.kind == "moving-load":
         loads = values.get("axle_loads", ())
         if any(not (float(p) > 0) for p in loads):
@@ -439,9 +444,20 @@ def _parameter_key(topo: Any, key: str, overrides: Mapping[str, Any]) -> str:
 
 
 def _vehicle_problems(s: Scenario, values: dict[str, Any]) -> Iterable[tuple[str, str]]:
+    from svbi.codegen.plain_types import TopologyError
     from svbi.runtime.train import vehicle_model
 
-    vehicle = vehicle_model(vehicle_ref(s)).numeric(values)
+    model = vehicle_model(vehicle_ref(s))
+    try:
+        vehicle = model.numeric(values)
+    except TopologyError as exc:  # a mechanism: of the topology itself, or made by the overrides
+        try:
+            model.numeric({})
+            key = "train.parameters"
+        except TopologyError:
+            key = "train.vehicle"
+        yield key, f"{model.name}: {exc.problem}"
+        return
     if vehicle.nwheels and not (vehicle.wheel_masses > 0).all():
         yield "train.parameters", "every wheel needs a positive mass (the contact constraint carries it)"
     if not math.isfinite(float(abs(vehicle.M).sum())):
@@ -528,6 +544,8 @@ def _problem(err: Mapping[str, Any], where: Any) -> Problem:
         message = f"unknown key{allowed}"
     elif kind == "missing":
         message = "required key is missing"
+    elif kind in ("model_type", "dict_type"):
+        message = f"must be a table ([{key}] or {key}.<key> = ...), got {value!r}"
     elif kind == "value_error":
         message = str(err.get("ctx", {}).get("error", err.get("msg", "")))
     else:

@@ -202,6 +202,9 @@ def scenario_files(
     outputs = []
     for name in OUTPUT_NAMES:
         a = recorder.data[name]
+        if a.size == 0:  # vehicle_u / vehicle_a of moving loads: ISO C has no zero-length arrays
+            outputs.append({"name": name, "size": 1, "row0": np.zeros(1)})
+            continue
         outputs.append({"name": name, "size": a.size, "row0": a.reshape(a.shape[0], -1)[0]})
     outputs.append({"name": "forces", "size": recorder.forces.size, "row0": recorder.forces[0]})
     for o in outputs:  # the initial row 0, as svbi.simulate records it before the loop

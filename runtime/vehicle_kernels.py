@@ -14,7 +14,13 @@ from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
-from svbi.codegen.plain_types import NumericVehicle, TopologyError, check_value, validate_split
+from svbi.codegen.plain_types import (
+    NumericVehicle,
+    TopologyError,
+    check_value,
+    mechanism_problem,
+    validate_split,
+)
 from svbi.runtime.kernel_modules import load
 
 
@@ -159,7 +165,7 @@ class GeneratedVehicle:
         m, p = self.module, self.topology.vector(vals)
         w_n, w_t = m.contact_directions(p)
         offsets, radii, masses = m.wheel_geometry(p)
-        return NumericVehicle(
+        numeric = NumericVehicle(
             M=_shaped(m.mass_matrix(p), (n, n)),
             C=_shaped(m.damping_matrix(p), (n, n)),
             K=_shaped(m.stiffness_matrix(p), (n, n)),
@@ -171,6 +177,11 @@ class GeneratedVehicle:
             wheel_radii=_shaped(radii, (nw,)),
             **common,
         )
+        # a mechanism has no static start (DESIGN.md section 2): refuse it here, naming the bodies
+        problem = mechanism_problem(numeric, tuple(w.name for w in self.topology.wheels))
+        if problem:
+            raise TopologyError(self.name, "bodies", problem)
+        return numeric
 
     def constraint_masses(self, values: Mapping[str, Any] | None, split: float) -> np.ndarray:
         """Eq. (27): ``m_N^V`` of each wheel-aux constraint, with the active vehicle mass."""

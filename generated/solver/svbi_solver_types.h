@@ -196,6 +196,8 @@ typedef struct {
   double* carbody_uz; /* nout x cars */
   double* carbody_az; /* nout x cars */
   double* carbody_pitch; /* nout x cars */
+  double* vehicle_u; /* nout x cars x NV: every vehicle DOF (results body_uz, body_pitch) */
+  double* vehicle_a; /* nout x cars x NV: every vehicle acceleration (results body_az) */
   double* gap_vehicle; /* nout x nc */
   double* gap_bridge; /* nout x nc */
   double* gap_support; /* nout x spans * ns */

@@ -83,6 +83,11 @@ int svbi_record(const setup_t* S, const state_t* X, const excitation_t* E, outpu
         O->carbody_az[row * S->cars + k] = X->aV[k * NV + S->carbody_z];
       }
       if (S->carbody_theta >= 0) O->carbody_pitch[row * S->cars + k] = X->uV[k * NV + S->carbody_theta];
+      /* every body of the car: the Recorder picks body_uz, body_az, body_pitch from these rows */
+      for (j = 0; j < NV; ++j) {
+        O->vehicle_u[(row * S->cars + k) * NV + j] = X->uV[k * NV + j];
+        O->vehicle_a[(row * S->cars + k) * NV + j] = X->aV[k * NV + j];
+      }
     }
   }
 #endif

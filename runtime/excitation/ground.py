@@ -28,7 +28,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 from svbi.runtime.assembly import Ground
 from svbi.runtime.excitation.processing import MotionHistory, Processing, process_record
-from svbi.runtime.excitation.records import Record, read_record
+from svbi.runtime.excitation.records import Record, RecordError, read_record
 from svbi.runtime.excitation.synthetic import DEFAULT_SEED, synthetic_motion, synthetic_record
 
 COMPONENTS = ("vertical", "longitudinal")
@@ -148,6 +148,22 @@ def _per_support(name: str, comp: ComponentMotion, t: NDArray, x: NDArray, shape
     return out[0], out[1], out[2]
 
 
+MAX_PEAK = 50.0 * 9.81
+"""Largest ground acceleration accepted after scaling (m/s², 50 g; ``runtime.limits.MAX_PGA``)."""
+
+
+def _checked(history: MotionHistory, component: str) -> MotionHistory:
+    """The history, if its scaled peak acceleration is a ground motion at all: a larger one is a
+    scale slip and would make the run diverge with a misleading hint about the time step."""
+    peak = float(np.max(np.abs(history.accel))) if history.accel.size else 0.0
+    if not peak <= MAX_PEAK:
+        raise ValueError(
+            f"earthquake.scale / earthquake.{component}_scale: the scaled record {history.name} peaks "
+            f"at {peak:.3g} m/s², above the limit of 50 g ({MAX_PEAK:g} m/s²)"
+        )
+    return history
+
+
 def _history(
     source: Source,
     component: str,
@@ -177,9 +193,11 @@ def _history(
             f"earthquake.{component} = {str(source)!r}: expected 'none', 'synthetic' or the path of "
             "an existing record file"
         )
-    return process_record(
-        read_record(path, dt=dt), scale=scale, target_pga=target_pga, arrival=arrival, options=options
-    )
+    try:
+        record = read_record(path, dt=dt)
+    except RecordError as exc:  # the message has file and line; add the key that named the file
+        raise RecordError(f"earthquake.{component}: {exc}") from None
+    return process_record(record, scale=scale, target_pga=target_pga, arrival=arrival, options=options)
 
 
 def _source_names(spec: Source | Sequence[Source]) -> list[str]:
@@ -251,7 +269,7 @@ def ground_motion(
             if str(spec) == "none" and not isinstance(spec, Record):
                 comps[name] = None
                 continue
-            comps[name] = ComponentMotion((_history(spec, name, **kwargs),))
+            comps[name] = ComponentMotion((_checked(_history(spec, name, **kwargs), name),))
             continue
         specs = list(spec)
         if support_positions is None or len(specs) != len(support_positions):
@@ -260,7 +278,7 @@ def ground_motion(
                 f"earthquake.{name}: {len(specs)} records given for {n_pos} support positions; "
                 "one record per support needs support_positions of the same length"
             )
-        histories = tuple(_history(s, name, **kwargs) for s in specs)
+        histories = tuple(_checked(_history(s, name, **kwargs), name) for s in specs)
         comps[name] = ComponentMotion(histories, np.asarray(support_positions, dtype=float))
     motion = GroundMotion(
         vertical=comps["vertical"],

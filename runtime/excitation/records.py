@@ -52,6 +52,21 @@ _NUMBER = re.compile(r"[-+]?(?:\d+\.?\d*|\.\d+)(?:[EeDd][-+]?\d+)?")
 _NUMBERS = re.compile(rf"(?:{_NUMBER.pattern})+")
 
 
+MAX_ACCELERATION = 50.0 * G
+"""Largest accepted sample (m/s², 50 g): more than ten times the largest ground acceleration ever
+recorded (about 4 g). A larger value is a unit or format slip, and it would make the run diverge
+with a misleading hint about the time step."""
+
+
+def _check_magnitude(value: float, factor: float, where: str) -> None:
+    """A sample of a record, in file units times ``factor``, must lie within +-MAX_ACCELERATION."""
+    if abs(value * factor) > MAX_ACCELERATION:
+        raise RecordError(
+            f"{where}: acceleration {value:g} ({value * factor:.3g} m/s²) is above the limit of 50 g "
+            f"({MAX_ACCELERATION:g} m/s²): wrong units or a corrupt line?"
+        )
+
+
 class RecordError(ValueError):
     """A record file that cannot be read; the message names the file and the line."""
 
@@ -202,6 +217,7 @@ def _read_at2(p: Path, lines: list[str], label: str, *, dt: float | None, units:
         for v in row:
             if not math.isfinite(v):
                 raise RecordError(f"{where}: non-finite acceleration value (NaN or inf)")
+            _check_magnitude(v, unit_factor_, where)
         values.extend(row)
         last_line = i + 1
     if len(values) < npts:
@@ -239,6 +255,7 @@ def _read_plain(p: Path, lines: list[str], label: str, *, dt: float | None, unit
             raise RecordError(f"{where}: expected one column (a) or two columns (t a), got {len(row)}")
         if not all(math.isfinite(v) for v in row):
             raise RecordError(f"{where}: non-finite value (NaN or inf)")
+        _check_magnitude(row[-1], factor, where)
         rows.append(row)
         row_lines.append(i + 1)
     data = np.asarray(rows)
