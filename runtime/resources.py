@@ -134,7 +134,9 @@ def estimate_memory(scenario: Scenario) -> MemoryEstimate:
     nc, cars, spans = train.contacts, train.cars, bridge.spans
     nsup = spans * bridge.nsupport
     uniform = _uniform_ground(scenario)
+    # vehicle_u and vehicle_a: every DOF of every car, behind the body_* variables
     per_row = 1 + 2 * spans + 2 * (1 if uniform else nsup) + 6 * nc + 3 * cars + nsup
+    per_row += 2 * cars * train.vehicle.ndof
     est = MemoryEstimate()
     est.parts["results"] = nout * per_row * F64
     est.parts["force buffer"] = (steps + 1) * nc * F64
