@@ -150,6 +150,7 @@ def build_model(scenario: Scenario, hold_train: bool = False) -> Model:
         split=ss.contact_split,
         force_filter_hz=scenario.output.force_filter_hz,
         max_gap=ss.max_gap,
+        normal=scenario.contact.normal,
     )
     irregularity = _irregularity(scenario, train, duration, steps * ss.time_step)
     ground = _ground(scenario, duration)
