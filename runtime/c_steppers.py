@@ -346,6 +346,7 @@ class CStepper:
         # The NumPy stepper builds the constant matrices and the initial multipliers; coupled-classic
         # also ties each wheel to its aux point in the state.
         self.reference = numpy_steppers()[method](model, state)
+        self.unilateral = getattr(self.reference, "act", None) is not None
         self.state = state
         self.contacts = None
         self.keep: list[Any] = []
@@ -590,16 +591,35 @@ class CStepper:
             t0 = time.perf_counter()
             status = self._call(out, n, count)
             elapsed = time.perf_counter() - t0
+            done_before = recorder.steps_done
             recorder.count = int(out.row)
             recorder.steps_done = int(self.info.steps_done)
             self.state.t = self.cstate.t
             if status:
                 self._stop(status, recorder, guard)
+            if self.unilateral:
+                self._check_tension(recorder, done_before)
             if bar is not None:
                 bar.update(count)
             n += count
             if chunk is None:  # aim at CHUNK_SECONDS per call
                 size = int(min(max(size * CHUNK_SECONDS / max(elapsed, 1e-6), 16), 1 << 20))
+
+    def _check_tension(self, recorder: Any, done_before: int) -> None:
+        """Unilateral contact on the C loop: as long as no contact force goes tensile the run is the
+        bilateral one (docs/method.md section 12); the first tensile force hands the run to NumPy."""
+        from svbi.runtime.unilateral import LiftOffNotInC
+
+        f = recorder.forces[done_before + 1 : recorder.steps_done + 1]
+        if f.size and f.min() < 0.0:
+            row, j = np.argwhere(f < 0.0)[0]
+            car, wheel = divmod(int(j), self.model.train.wheels)
+            t = (done_before + 1 + int(row)) * self.model.dt
+            raise LiftOffNotInC(
+                f"solver.backend = 'c' does not implement unilateral contact yet, and wheel {wheel + 1} "
+                f"of car {car + 1} lifts off at t = {t:.6g} s; running the NumPy backend instead "
+                "(same method and results, slower)"
+            )
 
     def _stop(self, status: int, recorder: Any, guard: Any) -> None:
         from svbi.runtime.simulate import Diverged

@@ -31,6 +31,7 @@ from svbi.runtime.initial import initial_state
 from svbi.runtime.results import Recorder
 from svbi.runtime.scenario import Scenario, load_scenario, validate_scenario, vehicle_ref
 from svbi.runtime.train import Train, vehicle_model
+from svbi.runtime.unilateral import LiftOffNotInC
 
 if TYPE_CHECKING:
     import xarray as xr
@@ -255,7 +256,7 @@ def simulate(
     backend = getattr(stepper, "backend", backend)  # a compiled backend that fell back says so
     recorder = Recorder(model)
     aux_is_wheel = s.method == "coupled-classic"
-    recorder.force(0, state.P)
+    recorder.force(0, state.P, state.contact_state)
     recorder.record(state, model.contacts(0.0), aux_is_wheel)
     guard = DivergenceGuard(model)
     message = ""
@@ -265,11 +266,22 @@ def simulate(
     try:
         run_loop = getattr(stepper, "run_loop", None)
         if run_loop is not None:  # a compiled loop: whole chunks of steps per call
-            run_loop(recorder, guard, bar)
+            try:
+                run_loop(recorder, guard, bar)
+            except LiftOffNotInC as exc:  # a wheel lifts off: redo the run on NumPy (section 12)
+                warnings.warn(str(exc), BackendFallback, stacklevel=2)
+                backend, cls = stepper_class("numpy", s.method)
+                state = initial_state(model, start)
+                stepper, run_loop = cls(model, state), None
+                recorder = Recorder(model)
+                recorder.force(0, state.P, state.contact_state)
+                recorder.record(state, model.contacts(0.0), aux_is_wheel)
+                if bar is not None:
+                    bar.reset()
         for n in range(s.steps if run_loop is None else 0):
             st = stepper.step(n)
             guard.check_finite(st)
-            recorder.force(n + 1, st.P)
+            recorder.force(n + 1, st.P, st.contact_state)
             if (n + 1) % s.output_every == 0:
                 gaps = recorder.record(st, stepper.contacts, aux_is_wheel)
                 guard.check_gaps(st, gaps)
