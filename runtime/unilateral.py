@@ -81,6 +81,7 @@ class ActiveSet:
         self.active = self.in_contact.copy()
         self.landing = np.zeros(n, dtype=bool)
         self._released = np.zeros(n, dtype=bool)
+        self._twice = np.zeros(n, dtype=bool)
         self._passes = 0
         self.all_in = True
         """True when every wheel was in contact at t_n and none changed: the plain bilateral step."""
@@ -89,6 +90,7 @@ class ActiveSet:
         self.active[:] = self.in_contact
         self.landing[:] = False
         self._released[:] = False
+        self._twice[:] = False
         self._passes = 0
         self.all_in = bool(self.in_contact.all())
 
@@ -105,7 +107,10 @@ class ActiveSet:
         release = self.active & (P < 0.0)
         land = np.zeros(self.n, dtype=bool)
         if uplift is not None:
-            land = ~self.active & ~self._released & (uplift <= 0.0)
+            # a wheel released in this pass whose gap is still closed (the stabilised row's residual
+            # at a slope kink) gets one landing try with the position-level row; released twice,
+            # it stays free for the step (the iteration ends)
+            land = ~self.active & ~self._twice & (uplift <= 0.0)
         if not (release.any() or land.any()):
             return False
         self._passes += 1
@@ -116,6 +121,7 @@ class ActiveSet:
             )
         self.active[release] = False
         self.landing[release] = False
+        self._twice |= release & self._released
         self._released |= release
         self.active[land] = True
         self.landing[land] = True
