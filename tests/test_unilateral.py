@@ -388,3 +388,18 @@ def test_bilateral_run_with_tension_warns_with_time_car_wheel():
     with warnings.catch_warnings():
         warnings.simplefilter("error", ContactWarning)
         run(ground=WEAK, dt=5e-4, duration=0.4, normal="bilateral")
+
+
+def test_plot_draws_lift_off_panels_and_summary_rows(tmp_path):
+    from svbi.runtime import plots
+    from svbi.runtime.results import write_netcdf
+
+    path = write_netcdf(run(dt=4e-4, duration=0.4), tmp_path / "lift.nc")
+    ds = plots.read_results(path)
+    assert ds.contact_state.dtype.kind in "iu" and ds.attrs["liftoffs"] == 1
+    written = plots.plot_results({"lift": ds}, tmp_path / "fig")
+    assert tmp_path / "fig" / f"{plots.CONTACT}.png" in written
+    text = plots.summary_text({"lift": ds})
+    assert "wheel lift-offs" in text and "peak uplift (mm)" in text
+    calm = run(ground=WEAK, dt=5e-4, duration=0.2)
+    assert plots.CONTACT not in plots.make_figures({"calm": calm})
