@@ -118,8 +118,6 @@ def _strong_shaking(path: Path, overrides: list[str], backend: str | None, out: 
     from svbi.runtime.simulate import simulate
 
     extra = list(STRONG)
-    if not backend:  # the C loop hands a run whose wheels lift off to NumPy: start there
-        extra.append("solver.backend=numpy")
     started = time.perf_counter()
     sc = load_scenario(path, overrides=[*overrides, *extra])
     typer.echo(f"{STRONG_NAME}: {sc.title}, unilateral contact, 2 g vertical synthetic record")
