@@ -612,8 +612,23 @@ class CStepper:
             recorder.count = int(out.row)
             recorder.steps_done = int(self.info.steps_done)
             self.state.t = self.cstate.t
-            if snap is not None and self._tensile(recorder, done_before) is not None:
+            hit = self._tensile(recorder, done_before) if snap is not None else None
+            if hit is not None:
+                # back to the chunk's start; C redoes (bit for bit) the steps before the tensile
+                # one, NumPy takes the steps from there
                 self._restore(snap, recorder)
+                good = hit[0] - 1 - n
+                if good > 0:
+                    out.row = recorder.count
+                    status = self._call(out, n, good)
+                    recorder.count = int(out.row)
+                    recorder.steps_done = int(self.info.steps_done)
+                    self.state.t = self.cstate.t
+                    if status:
+                        self._stop(status, recorder, guard)
+                    if bar is not None:
+                        bar.update(good)
+                    n += good
                 n = self._numpy_steps(n, recorder, guard, bar)
                 out.row = recorder.count
                 size = chunk or 16  # a short chunk first: the next event may be near

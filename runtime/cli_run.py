@@ -70,6 +70,13 @@ def run(
             f"({attrs['backend']})"
         )
         typer.echo(timing_line(attrs))
+        if attrs.get("liftoffs"):
+            typer.echo(
+                f"wheels lifted off {attrs['liftoffs']} times: longest flight "
+                f"{attrs['longest_flight_s']:.4g} s, peak uplift {1e3 * attrs['peak_uplift_m']:.3g} mm "
+                f"(t = {attrs['peak_uplift_time']:.4g} s, car {attrs['peak_uplift_car']}, wheel "
+                f"{attrs['peak_uplift_wheel']})"
+            )
 
 
 def timing_line(attrs: dict) -> str:
