@@ -17,6 +17,9 @@
    spans and for 10 cars on 10, 100, 1000 spans, and 100 cars on 1000 spans at dt = 1e-3 (real time
    factor = dt / time per step).
 
+3. **Unilateral contact** (``--unilateral`` runs only this): C localized-dynamic with nothing
+   separating against the bilateral run, loop time per step (target: at most 1.1x).
+
 Ratios (C vs NumPy, localized vs coupled-dynamic) come from the same run.
 """
 
@@ -223,13 +226,50 @@ def scaling_table(quick: bool) -> None:
         )
 
 
+def unilateral_overhead(quick: bool) -> float:
+    """C localized-dynamic, unilateral contact with nothing separating, against bilateral.
+
+    10 Pioneer cars standing (speed 0) on 10 spans under the synthetic earthquake, static start:
+    no wheel unloads, so the unilateral run stays on the C loop, whose steps are those of the
+    bilateral run plus, per chunk, the test that no contact force went tensile
+    (docs/method.md section 12). Complete ``svbi.simulate`` runs, loop time per step
+    (``loop_time_s``, recording included), median of 3 alternating pairs.
+    """
+    import svbi
+
+    steps = 5000 if quick else 20000
+    base = on_bridge(10, 10, 16, "localized-dynamic", "c").to_dict()
+    base["train"]["speed_kmh"] = 0.0
+    base["solver"]["duration"] = steps * base["solver"]["time_step"]
+    base["earthquake"]["arrival"] = 0.0
+    per_step: dict[str, list[float]] = {"bilateral": [], "unilateral": []}
+    for _ in range(3):
+        for normal in per_step:
+            data = {**base, "contact": {**base.get("contact", {}), "normal": normal}}
+            with warnings.catch_warnings():
+                warnings.simplefilter("ignore")
+                ds = svbi.simulate(validate_scenario(data), start="static")
+            assert ds.attrs["backend"] == "c" and ds.attrs["liftoffs"] == 0, ds.attrs["backend"]
+            per_step[normal].append(1e6 * ds.attrs["loop_time_s"] / ds.attrs["steps"])
+    bi, uni = (statistics.median(per_step[k]) for k in ("bilateral", "unilateral"))
+    print(
+        f"\nUnilateral contact, nothing separating (C localized-dynamic, 10 cars standing on 10 spans, "
+        f"quake, {steps} steps): bilateral {bi:.1f} us/step, unilateral {uni:.1f} us/step, "
+        f"ratio {uni / bi:.3f} (target <= 1.1)"
+    )
+    return uni / bi
+
+
 def main() -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--quick", action="store_true", help="fewer steps and cases")
+    parser.add_argument("--unilateral", action="store_true", help="only the unilateral-contact overhead")
     args = parser.parse_args()
     print(f"python {sys.version.split()[0]}, {os.cpu_count()} CPUs, numpy {np.__version__}")
-    paper_table(args.quick)
-    scaling_table(args.quick)
+    if not args.unilateral:
+        paper_table(args.quick)
+        scaling_table(args.quick)
+    unilateral_overhead(args.quick)
     return 0
 
 

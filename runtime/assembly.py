@@ -201,6 +201,8 @@ class State:
     """Longitudinal creepage of every contact at ``t`` (None: no creep in this run)."""
     creep_force: np.ndarray | None = None
     """Creep force on every wheel at ``t``, N (explicit: it loads the *next* step)."""
+    contact_state: np.ndarray | None = None
+    """Unilateral contact: True for every wheel on its rail at ``t`` (None: bilateral run)."""
 
     def copy(self) -> State:
         return State(
@@ -212,6 +214,7 @@ class State:
             extra=dict(self.extra),
             creepage=None if self.creepage is None else np.array(self.creepage),
             creep_force=None if self.creep_force is None else np.array(self.creep_force),
+            contact_state=None if self.contact_state is None else np.array(self.contact_state),
         )
 
 
@@ -229,6 +232,8 @@ class Settings:
     split: float = 0.5
     force_filter_hz: float = 20.0
     max_gap: float = 1.0
+    normal: str = "unilateral"
+    """``"unilateral"`` (wheels may lift off, docs/method.md section 12) or ``"bilateral"``."""
 
 
 class Model:

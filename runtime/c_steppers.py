@@ -328,6 +328,10 @@ def _ground_motion(ground: Any) -> Any:
     return found
 
 
+HANDBACK_STEPS = 20
+"""Unilateral contact: NumPy steps with every wheel on its rail and no active-set change before the
+C loop takes over again (a slope kink's transient lasts a few steps; this avoids ping-pong)."""
+
 # --------------------------------------------------------------------------------------------------
 # the stepper
 
@@ -347,10 +351,14 @@ class CStepper:
         # The NumPy stepper builds the constant matrices and the initial multipliers; coupled-classic
         # also ties each wheel to its aux point in the state.
         self.reference = numpy_steppers()[method](model, state)
+        self.unilateral = getattr(self.reference, "act", None) is not None
+        self.handovers = 0
+        """Unilateral localized runs: how many times NumPy took steps over from the C loop."""
         self.state = state
         self.contacts = None
         self.keep: list[Any] = []
         self._state_arrays(state)
+        self.c_arrays = {k: getattr(state, k) for k in self.STATE_NAMES}
         self.setup = self._setup()
         self.excitation = ExcitationInput(model)
         # The C tables clamp beyond their ends; NumPy raises there: ask NumPy where the run ends.
@@ -578,29 +586,131 @@ class CStepper:
         )
 
     def run_loop(self, recorder: Any, guard: Any, bar: Any = None, chunk: int | None = None) -> None:
-        """Run every step, writing into ``recorder``; raises ``simulate.Diverged`` like the NumPy loop."""
+        """Run every step, writing into ``recorder``; raises ``simulate.Diverged`` like the NumPy loop.
+
+        Unilateral contact (docs/method.md section 12): the C loop runs the bilateral step, so a
+        chunk in which a contact force went tensile is not valid. localized-dynamic then rolls the
+        chunk back and lets the NumPy stepper (same state, same recorder) take the steps from its
+        start until every wheel has been on its rail, with no change of the active set, for
+        ``HANDBACK_STEPS`` steps; the C loop goes on from there. The coupled methods keep their
+        multipliers in C: their run is handed to NumPy as a whole (``LiftOffNotInC``).
+        """
         steps = self.model.settings.steps
         self.setup.force_limit = float(guard.force_limit)
         out = self._outputs(recorder)
+        hybrid = self.unilateral and self.method == "localized-dynamic"
         n = 0
         size = chunk or 64
         while n < steps:
             count = min(size, steps - n)
             if self.excitation.streamed:
                 count = min(count, STREAM_CHUNK)
+            snap = self._snapshot(recorder) if hybrid else None
             t0 = time.perf_counter()
             status = self._call(out, n, count)
             elapsed = time.perf_counter() - t0
+            done_before = recorder.steps_done
             recorder.count = int(out.row)
             recorder.steps_done = int(self.info.steps_done)
             self.state.t = self.cstate.t
+            hit = self._tensile(recorder, done_before) if snap is not None else None
+            if hit is not None:
+                # back to the chunk's start; C redoes (bit for bit) the steps before the tensile
+                # one, NumPy takes the steps from there
+                self._restore(snap, recorder)
+                good = hit[0] - 1 - n
+                if good > 0:
+                    out.row = recorder.count
+                    status = self._call(out, n, good)
+                    recorder.count = int(out.row)
+                    recorder.steps_done = int(self.info.steps_done)
+                    self.state.t = self.cstate.t
+                    if status:
+                        self._stop(status, recorder, guard)
+                    if bar is not None:
+                        bar.update(good)
+                    n += good
+                n = self._numpy_steps(n, recorder, guard, bar)
+                out.row = recorder.count
+                size = chunk or 16  # a short chunk first: the next event may be near
+                continue
             if status:
                 self._stop(status, recorder, guard)
+            if self.unilateral:
+                self._check_tension(recorder, done_before)
             if bar is not None:
                 bar.update(count)
             n += count
             if chunk is None:  # aim at CHUNK_SECONDS per call
                 size = int(min(max(size * CHUNK_SECONDS / max(elapsed, 1e-6), 16), 1 << 20))
+
+    # ----------------------------------------------------------------------------------------------
+    # unilateral contact on the C loop
+    STATE_NAMES = ("uV", "vV", "aV", "uB", "vB", "aB", "ug", "vg", "ag", "P", "PV", "creepage", "creep_force")
+
+    def _snapshot(self, recorder: Any) -> dict[str, Any]:
+        st = self.state
+        snap: dict[str, Any] = {k: np.array(getattr(st, k)) for k in self.STATE_NAMES}
+        snap["_rec"] = (recorder.count, recorder.steps_done, st.t)
+        return snap
+
+    def _restore(self, snap: dict[str, Any], recorder: Any) -> None:
+        st = self.state
+        for k in self.STATE_NAMES:
+            np.copyto(self.c_arrays[k], snap[k])
+            setattr(st, k, self.c_arrays[k])
+        recorder.count, recorder.steps_done, st.t = snap["_rec"]
+        self.cstate.t = st.t
+
+    def _numpy_steps(self, n: int, recorder: Any, guard: Any, bar: Any) -> int:
+        """NumPy localized-dynamic steps from step n until the wheels have been quietly on their
+        rails for HANDBACK_STEPS steps; returns the next step. The state goes back to C's arrays."""
+        ref, st = self.reference, self.state
+        act = ref.act
+        steps, every = self.model.settings.steps, self.model.settings.output_every
+        quiet = 0
+        while n < steps:
+            st = ref.step(n)
+            guard.check_finite(st)
+            recorder.force(n + 1, st.P, st.contact_state)
+            if (n + 1) % every == 0:
+                gaps = recorder.record(st, ref.contacts, False)
+                guard.check_gaps(st, gaps)
+            if bar is not None:
+                bar.update(1)
+            n += 1
+            quiet = quiet + 1 if (act.all_in and act.in_contact.all()) else 0
+            if quiet >= HANDBACK_STEPS:
+                break
+        for k in self.STATE_NAMES:
+            np.copyto(self.c_arrays[k], getattr(st, k))
+            setattr(st, k, self.c_arrays[k])
+        self.cstate.t = st.t
+        self.handovers += 1
+        return n
+
+    def _tensile(self, recorder: Any, done_before: int) -> tuple[int, int] | None:
+        """(step, contact) of the first tensile contact force written since ``done_before``."""
+        f = recorder.forces[done_before + 1 : recorder.steps_done + 1]
+        if f.size and f.min() < 0.0:
+            row, j = np.argwhere(f < 0.0)[0]
+            return done_before + 1 + int(row), int(j)
+        return None
+
+    def _check_tension(self, recorder: Any, done_before: int) -> None:
+        """Unilateral contact on the C loop: as long as no contact force goes tensile the run is the
+        bilateral one (docs/method.md section 12); the first tensile force hands the run to NumPy."""
+        from svbi.runtime.unilateral import LiftOffNotInC
+
+        hit = self._tensile(recorder, done_before)
+        if hit is not None:
+            car, wheel = divmod(hit[1], self.model.train.wheels)
+            t = hit[0] * self.model.dt
+            raise LiftOffNotInC(
+                f"solver.backend = 'c' does not implement unilateral contact yet, and wheel {wheel + 1} "
+                f"of car {car + 1} lifts off at t = {t:.6g} s; running the NumPy backend instead "
+                "(same method and results, slower)"
+            )
 
     def _stop(self, status: int, recorder: Any, guard: Any) -> None:
         from svbi.runtime.simulate import Diverged

@@ -123,6 +123,13 @@ def _run(
             f"({attrs['backend']})"
         )
         typer.echo(timing_line(attrs))
+        if attrs.get("liftoffs"):
+            typer.echo(
+                f"wheels lifted off {attrs['liftoffs']} times: longest flight "
+                f"{attrs['longest_flight_s']:.4g} s, peak uplift {1e3 * attrs['peak_uplift_m']:.3g} mm "
+                f"(t = {attrs['peak_uplift_time']:.4g} s, car {attrs['peak_uplift_car']}, wheel "
+                f"{attrs['peak_uplift_wheel']})"
+            )
 
 
 def _simulate(sc, quiet: bool, started: float):  # noqa: ANN001, ANN202 - Scenario -> Dataset, lazily imported

@@ -14,11 +14,14 @@ constraint rows are ~1 against ~a0 M in the dynamic rows and the LU pivots badly
 
 from __future__ import annotations
 
+from typing import Any
+
 import numpy as np
 from svbi.runtime.assembly import Contacts, Model, State
 from svbi.runtime.contact_rows import ContactRowKernel, point_row, support_constraint_masses
 from svbi.runtime.coupled_dynamic import Triplets, solve_sparse
 from svbi.runtime.newmark import Newmark
+from svbi.runtime.unilateral import ActiveSet, Impact, is_unilateral
 
 
 class CoupledClassic:
@@ -56,6 +59,16 @@ class CoupledClassic:
             state.PV = state.P.copy()
         self.const = self._constant_part()
         self.contacts: Contacts | None = None
+        self.act: ActiveSet | None = None
+        if is_unilateral(model):  # docs/method.md section 12
+            self.act = ActiveSet(tr.contacts)
+            self.impact = Impact(model)
+            state.contact_state = self.act.in_contact
+            # the contact rows' vehicle entries apart, to drop the rows of free wheels
+            r, c, v = self.const
+            is_row = (r >= self.oP) & (r < self.oP + self.nc) & (c < self.NV)
+            self.const_base = (r[~is_row], c[~is_row], v[~is_row])
+            self.const_rows = (r[is_row], c[is_row], v[is_row])
 
     def _constant_part(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         m, nm = self.model, self.nm
@@ -137,10 +150,13 @@ class CoupledClassic:
         h_on = rows.h_bridge(Pw, Qw, Pe, Qe, c)
         h_off = self.point.off_bridge_target(Pw, Qw, c, m.speed)
         wheel_n = (st.uV @ tr.W).reshape(-1)
-        rhs[self.oP : self.oP + self.nc] = self.sC * (np.where(on, h_on, h_off) - wheel_n)
-        T.add(np.repeat(self.oP + sel, 6), gdofs[sel], -self.sC * rows.W_hat[sel])
-
-        x = solve_sparse(self.const, T, self.n, rhs)
+        h = np.where(on, h_on, h_off)
+        if self.act is None:
+            rhs[self.oP : self.oP + self.nc] = self.sC * (h - wheel_n)
+            T.add(np.repeat(self.oP + sel, 6), gdofs[sel], -self.sC * rows.W_hat[sel])
+            x = solve_sparse(self.const, T, self.n, rhs)
+        else:
+            x = self._active_set_solve(t, c, rows, gdofs, h, wheel_n, T, rhs)
         duV = x[: self.NV].reshape(tr.cars, self.nV)
         st.vV, st.aV = nm.update_increment(duV, PtV, QtV)
         uV = st.uV = st.uV + duV
@@ -151,9 +167,74 @@ class CoupledClassic:
         st.vg = (st.vV @ tr.W).reshape(-1)
         st.ag = (st.aV @ tr.W).reshape(-1)
         st.t = t
+        if self.act is not None:
+            act = self.act
+            st.P[~act.active] = 0.0
+            dropped = None
+            if act.landing.any():  # plastic impact at t_{n+1} (docs/method.md section 12)
+                dropped = self.impact.apply(st, c, act.active, act.landing, aux_is_wheel=True)
+            act.finish(dropped)
+            st.contact_state = act.in_contact
         if creep is not None:
             st.creepage, st.creep_force = creep.evaluate(st, c)
         return st
+
+    def _active_set_solve(
+        self,
+        t: float,
+        c: Contacts,
+        rows: Any,
+        gdofs: np.ndarray,
+        h: np.ndarray,
+        wheel_n: np.ndarray,
+        T: Triplets,
+        rhs: np.ndarray,
+    ) -> np.ndarray:
+        """Contact rows by the per-wheel active set (docs/method.md section 12): in contact, the
+        acceleration-level row; landing, the position-level ``g_{n+1} = 0``; free, ``P = 0``."""
+        act, nc, sC = self.act, self.nc, self.sC
+        assert act is not None
+        act.begin()
+        on = c.on
+        oP = self.oP + np.arange(nc)
+        span, idx = c.loc.span, c.element_dofs()
+        target = np.where(on, c.r, c.q + c.r)
+        tr = self.model.train
+        while True:
+            held, land = act.active, act.landing
+            if act.all_in:
+                const = self.const
+            else:
+                r, cc, v = self.const_rows
+                keep = held[r - self.oP]
+                b = self.const_base
+                const = (
+                    np.concatenate([b[0], r[keep]]),
+                    np.concatenate([b[1], cc[keep]]),
+                    np.concatenate([b[2], v[keep]]),
+                )
+            Tp = Triplets()
+            Tp.rows, Tp.cols, Tp.vals = list(T.rows), list(T.cols), list(T.vals)
+            rr = rhs.copy()
+            s_on = np.flatnonzero(held & ~land & on)
+            l_on = np.flatnonzero(land & on)
+            Tp.add(np.repeat(oP[s_on], 6), gdofs[s_on], -sC * rows.W_hat[s_on])
+            Tp.add(np.repeat(oP[l_on], 6), gdofs[l_on], -sC * rows.N0[l_on])
+            rr[oP] = sC * (np.where(land, target, h) - wheel_n)
+            free = ~held
+            Tp.add(oP[free], oP[free], np.full(int(free.sum()), sC))
+            rr[oP[free]] = 0.0
+            x = solve_sparse(const, Tp, self.n, rr)
+            P = sC * x[self.oP : self.oP + nc]
+            uplift = None
+            if free.any():
+                uB = x[self.oB : self.oB + self.NB].reshape(self.model.bridge.spans, -1)
+                duV = x[: self.NV].reshape(tr.cars, self.nV)
+                wheel = ((self.state.uV + duV) @ tr.W).reshape(-1)
+                rail_on = np.einsum("ij,ij->i", rows.N0, uB[span[:, None], idx])
+                uplift = wheel - (np.where(on, rail_on, c.q) + c.r)
+            if not act.update(P, uplift, t):
+                return x
 
     def _finish_bridge(self, x: np.ndarray, PB: np.ndarray, QB: np.ndarray) -> None:
         st, b = self.state, self.model.bridge

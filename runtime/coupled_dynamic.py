@@ -25,6 +25,8 @@ Sign convention: ``lambda`` has the sign of the force it generates (compression 
 
 from __future__ import annotations
 
+from typing import Any
+
 import numpy as np
 import scipy.sparse as sps
 import scipy.sparse.linalg as spla
@@ -38,6 +40,7 @@ from svbi.runtime.contact_rows import (
     vehicle_constraint_masses,
 )
 from svbi.runtime.newmark import Newmark
+from svbi.runtime.unilateral import ActiveSet, Impact, is_unilateral
 
 
 class Triplets:
@@ -154,6 +157,11 @@ class CoupledDynamic:
             self.lamB = self._initial_lambda(state.P, self._mB(c0))
         self.const = self._constant_part()
         self.contacts: Contacts | None = None
+        self.act: ActiveSet | None = None
+        if is_unilateral(model):  # docs/method.md section 12
+            self.act = ActiveSet(tr.contacts)
+            self.impact = Impact(model)
+            state.contact_state = self.act.in_contact
 
     # ----------------------------------------------------------------------------------------------
     def _initial_lambda(self, force: np.ndarray, mbar: np.ndarray) -> list[np.ndarray]:
@@ -274,14 +282,16 @@ class CoupledDynamic:
         h_off = self.point.off_bridge_target(Pg, Qg, c, m.speed)
         h_B = np.where(on, h_on, h_off)
         lb = self.oLB + np.arange(self.nc)
-        T.add(lb, self.oG + np.arange(self.nc), DB)
-        T.add(np.repeat(self.oLB + sel, 6), gdofs[sel], -rows.W_hat[sel] * DB[sel, None])
-        rhs[lb] = DB * h_B
         # aux rows
         T.add(self.oG + np.arange(self.nc), lb, -DB)
         rhs[self.oG : self.oG + self.nc] = self.m_g * (Pg - GRAVITY) - HB + HV
-
-        x = solve_sparse(self.const, T, self.n, rhs)
+        if self.act is None:
+            T.add(lb, self.oG + np.arange(self.nc), DB)
+            T.add(np.repeat(self.oLB + sel, 6), gdofs[sel], -rows.W_hat[sel] * DB[sel, None])
+            rhs[lb] = DB * h_B
+            x = solve_sparse(self.const, T, self.n, rhs)
+        else:
+            x = self._active_set_solve(t, c, rows, gdofs, DB, HB, h_B, T, rhs)
 
         duV = x[: self.NV].reshape(tr.cars, self.nV)
         st.vV, st.aV = nm.update_increment(duV, PtV, QtV)
@@ -298,9 +308,86 @@ class CoupledDynamic:
         self._update_lambda(self.lamB, dlamB)
         self._update_lambda(self.lamG, x[self.oLG :])
         st.t = t
+        if self.act is not None:
+            self._contact_events(st, c, mB)
         if creep is not None:
             st.creepage, st.creep_force = creep.evaluate(st, c)
         return st
+
+    # ----------------------------------------------------------------------------------------------
+    def _active_set_solve(
+        self,
+        t: float,
+        c: Contacts,
+        rows: Any,
+        gdofs: np.ndarray,
+        DB: np.ndarray,
+        HB: np.ndarray,
+        h_B: np.ndarray,
+        T: Triplets,
+        rhs: np.ndarray,
+    ) -> np.ndarray:
+        """Aux-bridge rows by the per-wheel active set (docs/method.md section 12): a contact in
+        contact keeps its stabilised row, a landing one gets ``g_{n+1} = 0`` (``N`` in place of
+        ``W_hat``, the rail height as target), a free one ``D dlambda = H``, i.e. ``P = 0``."""
+        act, nc = self.act, self.nc
+        assert act is not None
+        act.begin()
+        on = c.on
+        lb = self.oLB + np.arange(nc)
+        og = self.oG + np.arange(nc)
+        span, idx = c.loc.span, c.element_dofs()
+        target = np.where(on, c.r, c.q + c.r)
+        while True:
+            Tp = Triplets()
+            Tp.rows, Tp.cols, Tp.vals = list(T.rows), list(T.cols), list(T.vals)
+            r = rhs.copy()
+            held = act.active
+            land = act.landing
+            stab = held & ~land
+            s_on = np.flatnonzero(stab & on)
+            l_on = np.flatnonzero(land & on)
+            Tp.add(lb[held], og[held], DB[held])
+            Tp.add(np.repeat(lb[s_on], 6), gdofs[s_on], -rows.W_hat[s_on] * DB[s_on, None])
+            Tp.add(np.repeat(lb[l_on], 6), gdofs[l_on], -rows.N0[l_on] * DB[l_on, None])
+            r[lb] = np.where(land, DB * target, DB * h_B)
+            free = ~held
+            Tp.add(lb[free], lb[free], DB[free])
+            r[lb[free]] = HB[free]
+            x = solve_sparse(self.const, Tp, self.n, r)
+            P = DB * x[self.oLB : self.oLB + nc] - HB
+            uplift = None
+            if free.any():
+                uB = x[self.oB : self.oB + self.NB].reshape(self.model.bridge.spans, -1)
+                rail_on = np.einsum("ij,ij->i", rows.N0, uB[span[:, None], idx])
+                rail = np.where(on, rail_on, c.q) + c.r
+                uplift = x[self.oG : self.oG + nc] - rail
+            if not act.update(P, uplift, t):
+                return x
+
+    def _contact_events(self, st: State, c: Contacts, mB: np.ndarray) -> None:
+        """Free wheels carry ``P = 0`` exactly; landing wheels go through the plastic impact, and
+        the multipliers of every force the impact changed restart from it (section 5's initial
+        form: ``lambda = P/kbar``): a multiplier only parametrises its force, ``dlambda`` is free."""
+        act = self.act
+        assert act is not None
+        free = ~act.active
+        st.P[free] = 0.0
+        dropped = None
+        if act.landing.any():
+            P0, PV0 = st.P.copy(), st.PV.copy()
+            dropped = self.impact.apply(st, c, act.active, act.landing, aux_is_wheel=False)
+            changed = (st.P != P0) | (st.PV != PV0)
+            lamB = self._initial_lambda(st.P, mB)
+            lamV = self._initial_lambda(st.PV, self.mV)
+            for k in range(3):
+                self.lamB[k][changed] = lamB[k][changed]
+                self.lamV[k][changed] = lamV[k][changed]
+        act.finish(dropped)
+        out = ~act.in_contact
+        for k in range(3):  # a free wheel's force is zero: so is its multiplier
+            self.lamB[k][out] = 0.0
+        st.contact_state = act.in_contact
 
     def _finish_bridge(self, x: np.ndarray, PB: np.ndarray, QB: np.ndarray) -> None:
         st, b = self.state, self.model.bridge

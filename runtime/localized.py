@@ -25,8 +25,9 @@ import numpy as np
 import scipy.linalg as sla
 from svbi.codegen.plain_types import GRAVITY
 from svbi.runtime.assembly import Contacts, Model, State
-from svbi.runtime.contact_rows import ContactRowKernel, ContactRows, point_row
+from svbi.runtime.contact_rows import ContactRowKernel, ContactRows, ShapeKernel, point_row
 from svbi.runtime.newmark import Newmark
+from svbi.runtime.unilateral import ActiveSet, Impact, is_unilateral, landing_rows, predicted_uplift
 
 
 def _solve(A: np.ndarray, b: np.ndarray) -> np.ndarray:
@@ -73,6 +74,12 @@ class LocalizedDynamic:
         if not self.moving_load:
             self._vehicle_setup()
         self.contacts: Contacts | None = None
+        self.act: ActiveSet | None = None
+        if is_unilateral(model):  # docs/method.md section 12
+            self.act = ActiveSet(tr.contacts)
+            self.impact = Impact(model)
+            self.shape = ShapeKernel(model.bridge.element_length)
+            state.contact_state = self.act.in_contact
 
     def _vehicle_setup(self) -> None:
         tr, nm = self.model.train, self.nm
@@ -155,7 +162,10 @@ class LocalizedDynamic:
         Wu = np.einsum("ij,ij->i", W_full, uB_t[span])
         Bd = (d_V.reshape(tr.cars, tr.wheels) @ self.B.T).reshape(-1)
         rhs = h_B - p_t + Wu - self.c_g * Bd
-        P = _solve(self.F_star + F_B, rhs)
+        if self.act is None:
+            P = _solve(self.F_star + F_B, rhs)
+        else:
+            P = self._active_set_solve(t, c, N_full, same, uB_t, p_t, d_V, Bd, F_B, rhs)
 
         # back-substitution
         PV = ((self.c_g * P - d_V).reshape(tr.cars, tr.wheels) @ self.B.T).reshape(-1)
@@ -169,9 +179,66 @@ class LocalizedDynamic:
         st.ug = ug
         self._finish_bridge(uB, PB, QB)
         st.P, st.PV, st.t = P, PV, t
+        if self.act is not None:
+            dropped = None
+            if self.act.landing.any():  # plastic impact at t_{n+1} (docs/method.md section 12)
+                dropped = self.impact.apply(st, c, self.act.active, self.act.landing, aux_is_wheel=False)
+            self.act.finish(dropped)
+            st.contact_state = self.act.in_contact
         if creep is not None:
             st.creepage, st.creep_force = creep.evaluate(st, c)
         return st
+
+    def _active_set_solve(
+        self,
+        t: float,
+        c: Contacts,
+        N_full: np.ndarray,
+        same: np.ndarray,
+        uB_t: np.ndarray,
+        p_t: np.ndarray,
+        d_V: np.ndarray,
+        Bd: np.ndarray,
+        F_B: np.ndarray,
+        rhs: np.ndarray,
+    ) -> np.ndarray:
+        """The interface solve with the per-wheel active set (docs/method.md section 12): a free
+        wheel's row is ``P_i = 0``, a landing wheel's row the position-level ``g_{n+1} = 0``."""
+        act, tr = self.act, self.model.train
+        assert act is not None
+        act.begin()
+        A = self.F_star + F_B
+        FNN = Nu = None
+        land = None
+        while True:
+            if act.all_in:
+                P = _solve(A.copy(), rhs)
+            else:
+                A2, r2 = A.copy(), rhs.copy()
+                if FNN is None:
+                    FNN = np.where(same, (N_full @ self.bridge.S) @ N_full.T, 0.0)
+                    Nu = np.einsum("ij,ij->i", N_full, uB_t[c.loc.span])
+                    land = landing_rows(self.model, c, self.shape)
+                L = act.landing
+                if L.any():
+                    A2[L] = self.F_star[L] + FNN[L]
+                    r2[L] = land.target[L] - p_t[L] + Nu[L] - self.c_g[L] * Bd[L]
+                free = np.flatnonzero(act.free)
+                A2[free] = 0.0
+                A2[free, free] = 1.0
+                r2[free] = 0.0
+                P = _solve(A2, r2)
+            uplift = None
+            if not act.active.all():
+                if FNN is None:
+                    FNN = np.where(same, (N_full @ self.bridge.S) @ N_full.T, 0.0)
+                    Nu = np.einsum("ij,ij->i", N_full, uB_t[c.loc.span])
+                    land = landing_rows(self.model, c, self.shape)
+                PV = ((self.c_g * P - d_V).reshape(tr.cars, tr.wheels) @ self.B.T).reshape(-1)
+                ug = p_t + self.c_g * (P - PV)
+                uplift = predicted_uplift(ug, c, Nu - FNN @ P)
+            if not act.update(P, uplift, t):
+                return P
 
     # ----------------------------------------------------------------------------------------------
     def _finish_bridge(self, uB: np.ndarray, PB: np.ndarray, QB: np.ndarray) -> None:

@@ -58,6 +58,9 @@ OPTIONAL_VARIABLES: dict[str, tuple[str, ...]] = {
     "gap_vehicle": ("time", "car", "wheel"),
     "gap_bridge": ("time", "car", "wheel"),
     "gap_support": ("time", "support"),
+    "contact_state": ("time", "car", "wheel"),
+    "wheel_uplift": ("time", "car", "wheel"),
+    "unloading_ratio": ("time", "car", "wheel"),
 }
 EXPECTED_DIMS = {**REQUIRED_VARIABLES, **OPTIONAL_VARIABLES}
 
@@ -484,6 +487,67 @@ PANELS: dict[str, PanelFn] = {
 OVERVIEW = "fig4_overview"
 GAPS = "constraint_violation"
 FIGURE_NAMES = (*PANELS, OVERVIEW, GAPS)
+CONTACT = "wheel_lift_off"
+"""Drawn in addition to FIGURE_NAMES when a wheel of any run lifts off (unilateral contact)."""
+
+
+def lifts_off(ds: xr.Dataset) -> bool:
+    """True when a wheel of the run left its rail (``contact_state`` has a 0)."""
+    return "contact_state" in ds.variables and bool((ds["contact_state"] == 0).any())
+
+
+def _wheel_of(ds: xr.Dataset, prefix: str) -> dict[str, int]:
+    """The (car, wheel) named by the run's ``<prefix>_car`` / ``_wheel`` attributes (1-based)."""
+    car = int(ds.attrs.get(f"{prefix}_car", 1))
+    wheel = int(ds.attrs.get(f"{prefix}_wheel", 1))
+    return {"car": car - 1, "wheel": wheel - 1}
+
+
+def panel_airborne(ax: Axes, runs: Sequence[Run]) -> None:
+    """Number of wheels in the air at each stored step (``1 - contact_state`` summed)."""
+    missing: list[str] = []
+    for run in runs:
+        cs = run.data.get("contact_state")
+        if cs is None:
+            missing.append(f"contact_state missing in {run.label}")
+            continue
+        off = (1 - cs).sum(dim=[d for d in cs.dims if d != "time"])
+        _draw(ax, cs["time"], np.asarray(off.values, dtype=float), run.style, run.label)
+    _finish(ax, "Wheels in the air (contact_state = 0)", "airborne wheels", _run_notes(runs, missing))
+
+
+def panel_uplift(ax: Axes, runs: Sequence[Run]) -> None:
+    """Uplift of the wheel with each run's peak uplift."""
+    missing: list[str] = []
+    for run in runs:
+        sel = _wheel_of(run.data, "peak_uplift")
+        da = _series(run.data, "wheel_uplift", sel)
+        if da is None:
+            missing.append(f"wheel_uplift missing in {run.label}")
+            continue
+        label = f"{run.label} (car {sel['car'] + 1}, wheel {sel['wheel'] + 1})"
+        _draw(ax, da["time"], np.asarray(da.values, dtype=float) * 1e3, run.style, label)
+    _finish(ax, "Wheel uplift, wheel of the peak", "uplift (mm)", _run_notes(runs, missing))
+
+
+def panel_unloading(ax: Axes, runs: Sequence[Run]) -> None:
+    """Unloading ratio ``1 - P_filtered / P_static`` of the wheel with each run's peak."""
+    missing: list[str] = []
+    for run in runs:
+        sel = _wheel_of(run.data, "peak_unloading_ratio")
+        da = _series(run.data, "unloading_ratio", sel)
+        if da is None:
+            missing.append(f"unloading_ratio missing in {run.label}")
+            continue
+        label = f"{run.label} (car {sel['car'] + 1}, wheel {sel['wheel'] + 1})"
+        _draw(ax, da["time"], np.asarray(da.values, dtype=float), run.style, label)
+    ax.axhline(1.0, color="0.3", lw=0.8, ls=":")
+    _finish(
+        ax,
+        "Unloading ratio 1 - P_filtered / P_static, wheel of the peak (1: fully unloaded)",
+        "unloading ratio (-)",
+        _run_notes(runs, missing),
+    )
 
 
 def _suptitle(fig: Figure, runs: Sequence[Run]) -> None:
@@ -530,6 +594,15 @@ def make_figures(results: Results) -> dict[str, Figure]:
     _suptitle(fig, runs)
     _shared_legend(fig, runs, raw_note=False)
     figures[GAPS] = fig
+    if any(lifts_off(run.data) for run in runs):
+        fig = Figure(figsize=(10.0, 9.5), layout="constrained")
+        for ax, panel in zip(
+            fig.subplots(3, 1, sharex=True), (panel_airborne, panel_uplift, panel_unloading), strict=True
+        ):
+            panel(ax, runs)
+            ax.label_outer()
+        _suptitle(fig, runs)
+        figures[CONTACT] = fig
     return figures
 
 
@@ -564,6 +637,10 @@ SUMMARY_ROWS: dict[str, str] = {
     "gap_vehicle": "max |gap_vehicle| (m)",
     "gap_bridge": "max |gap_bridge| (m)",
     "gap_support": "max |gap_support| (m)",
+    "liftoffs": "wheel lift-offs",
+    "longest_flight_s": "longest flight (s)",
+    "peak_uplift_m": "peak uplift (mm)",
+    "peak_unloading_ratio": "peak unloading ratio",
     "setup_time_s": "set-up time (s)",
     "loop_time_s": "loop time (s)",
     "wall_time_s": "wall time (s)",
@@ -599,8 +676,11 @@ def _summary_values(runs: Sequence[Run]) -> dict[str, dict[str, float | None]]:
         for key, (da, scale) in peaks.items():
             peak = _scalar(da)
             values[key] = None if peak is None else peak * scale
-        for key in ("setup_time_s", "loop_time_s", "wall_time_s"):
+        for key in ("setup_time_s", "loop_time_s", "wall_time_s", "liftoffs", "longest_flight_s"):
             values[key] = _attr_float(ds, key)
+        up = _attr_float(ds, "peak_uplift_m")
+        values["peak_uplift_m"] = None if up is None else up * 1e3
+        values["peak_unloading_ratio"] = _attr_float(ds, "peak_unloading_ratio")
         out[run.label] = values
     reference = _reference(runs, out)
     for key in ("wall_time", "loop_time"):

@@ -101,8 +101,12 @@ class Recorder:
             "gap_vehicle": np.zeros((n, tr.cars, tr.wheels)),
             "gap_bridge": np.zeros((n, tr.cars, tr.wheels)),
             "gap_support": np.zeros((n, nsup)),
+            "contact_state": np.ones((n, tr.cars, tr.wheels), dtype=np.int8),
+            "wheel_uplift": np.zeros((n, tr.cars, tr.wheels)),
         }
         self.forces = np.zeros((s.steps + 1, tr.contacts))
+        self.in_contact: np.ndarray | None = None
+        """Contact state at every step (unilateral runs; None: every wheel always on its rail)."""
         self.steps_done = 0
 
     def modules_after_loop(self) -> list[str]:
@@ -120,10 +124,15 @@ class Recorder:
         return self.model.settings.force_filter_hz < 0.5 / self.model.dt
 
     # ----------------------------------------------------------------------------------------------
-    def force(self, n: int, P: np.ndarray) -> None:
-        """Contact forces of step n (every step, for the filter)."""
+    def force(self, n: int, P: np.ndarray, contact_state: np.ndarray | None = None) -> None:
+        """Contact forces of step n (every step, for the filter) and, in a unilateral run, which
+        wheels are on their rail (every step, for the flight statistics)."""
         self.forces[n] = P
         self.steps_done = n
+        if contact_state is not None:
+            if self.in_contact is None:
+                self.in_contact = np.ones(self.forces.shape, dtype=bool)
+            self.in_contact[n] = contact_state
 
     def record(self, state: State, contacts: Contacts, aux_is_wheel: bool = False) -> dict[str, np.ndarray]:
         """Store one output row; returns the gaps (used by the divergence guard)."""
@@ -165,6 +174,10 @@ class Recorder:
             d["vehicle_a"][k] = state.aV
         d["gap_vehicle"][k] = gaps["vehicle"].reshape(shape)
         d["gap_bridge"][k] = gaps["bridge"].reshape(shape)
+        if state.contact_state is not None:  # uplift: the wheel-rail gap of an airborne wheel
+            cs = state.contact_state.reshape(shape)
+            d["contact_state"][k] = cs
+            d["wheel_uplift"][k] = np.where(cs, 0.0, gaps["bridge"].reshape(shape))
         self.count += 1
         return gaps
 
@@ -176,6 +189,10 @@ class Recorder:
         d = {name: arr[:k] for name, arr in self.data.items()}
         bodies, body_vars = body_variables(tr.vehicle.dof_names, d.pop("vehicle_u"), d.pop("vehicle_a"))
         filtered = self._filtered(k)
+        static = self._static_loads()
+        with np.errstate(divide="ignore", invalid="ignore"):
+            unloading = np.where(static > 0, 1.0 - filtered / static, 0.0)
+        attrs = {**attrs, **self._contact_summary(d, unloading)}
         per_wheel = ("time", "car", "wheel")
         support_dims = ("time",) if self.uniform else ("time", "support")
         data_vars = {
@@ -239,6 +256,21 @@ class Recorder:
             "gap_vehicle": (per_wheel, d["gap_vehicle"], _a("m", "wheel - auxiliary point gap (Eq. 18)")),
             "gap_bridge": (per_wheel, d["gap_bridge"], _a("m", "auxiliary point - rail gap (Eqs. 20-21)")),
             "gap_support": (("time", "support"), d["gap_support"], _a("m", "ground - support gap (Eq. 23)")),
+            "contact_state": (
+                per_wheel,
+                d["contact_state"],
+                _a("1", "1: wheel on its rail, 0: airborne (unilateral contact, docs/method.md section 12)"),
+            ),
+            "wheel_uplift": (
+                per_wheel,
+                d["wheel_uplift"],
+                _a("m", "height of an airborne wheel's contact point above the rail (0 in contact)"),
+            ),
+            "unloading_ratio": (
+                per_wheel,
+                unloading,
+                _a("1", "1 - contact_force_filtered / static wheel load on rigid track"),
+            ),
         }
         coords = {
             "time": ("time", d["time"], _a("s", "time")),
@@ -254,6 +286,75 @@ class Recorder:
         import xarray as xr  # with pandas, 0.4 s of imports: needed only once the run is done
 
         return xr.Dataset(data_vars=data_vars, coords=coords, attrs=attrs)
+
+    def _static_loads(self) -> np.ndarray:
+        tr = self.model.train
+        loads = tr.axle_loads if tr.moving_load else tr.static_loads()
+        return np.asarray(loads, dtype=float).reshape(tr.cars, tr.wheels)
+
+    def _contact_summary(self, d: dict[str, np.ndarray], unloading: np.ndarray) -> dict[str, Any]:
+        """Running-safety attributes: lift-offs and flights (from the contact state at every step),
+        peak uplift and peak unloading ratio (at the stored steps), each with time, car and wheel.
+        A bilateral run whose filtered force goes tensile warns (the rail pulled the wheel)."""
+        m = self.model
+        tr, dt = m.train, m.dt
+        out: dict[str, Any] = {"contact_normal": m.settings.normal}
+        t = d["time"]
+
+        def where(arr: np.ndarray, prefix: str) -> None:
+            if arr.size == 0:
+                return
+            i, c, w = np.unravel_index(int(np.argmax(arr)), arr.shape)
+            out[f"{prefix}_time"] = float(t[i])
+            out[f"{prefix}_car"] = int(c + 1)
+            out[f"{prefix}_wheel"] = int(w + 1)
+
+        n = self.steps_done + 1
+        states = self.in_contact[:n] if self.in_contact is not None else None
+        liftoffs, longest, at = 0, 0.0, (0.0, 0, 0)
+        if states is not None and n > 1:
+            off = ~states
+            starts = off[1:] & ~off[:-1]
+            liftoffs = int(starts.sum())
+            for j in np.flatnonzero(off.any(axis=0)):  # runs of airborne steps, per wheel
+                col = np.concatenate([[0], off[:, j].astype(np.int8), [0]])
+                edges = np.flatnonzero(np.diff(col))
+                begin, end = edges[::2], edges[1::2]
+                lengths = end - begin
+                r = int(np.argmax(lengths))
+                if lengths[r] * dt > longest:
+                    longest = float(lengths[r] * dt)
+                    at = (begin[r] * dt, *divmod(int(j), tr.wheels))
+        out["liftoffs"] = liftoffs
+        out["longest_flight_s"] = longest
+        if longest > 0:
+            out["longest_flight_time"] = float(at[0])
+            out["longest_flight_car"] = int(at[1]) + 1
+            out["longest_flight_wheel"] = int(at[2]) + 1
+        up = d["wheel_uplift"]
+        out["peak_uplift_m"] = float(up.max(initial=0.0))
+        where(up, "peak_uplift")
+        out["peak_unloading_ratio"] = float(unloading.max(initial=-np.inf)) if unloading.size else 0.0
+        where(unloading, "peak_unloading_ratio")
+        if m.settings.normal == "bilateral" and not tr.moving_load and unloading.size:
+            filtered = 1.0 - unloading  # in units of the static load
+            if filtered.min() < 0:
+                i, c, w = np.unravel_index(int(np.argmin(filtered)), filtered.shape)
+                first = np.flatnonzero((filtered < 0).any(axis=(1, 2)))[0]
+                c0, w0 = np.argwhere(filtered[first] < 0)[0]
+                import warnings
+
+                from svbi.runtime.unilateral import ContactWarning
+
+                warnings.warn(
+                    f"bilateral contact: the filtered contact force goes tensile (the rail pulls the "
+                    f"wheel) first at t = {t[first]:.4g} s, car {c0 + 1}, wheel {w0 + 1}; lowest "
+                    f"{filtered.min():.3g} x the static load at t = {t[i]:.4g} s, car {c + 1}, "
+                    f'wheel {w + 1}. Use [contact] normal = "unilateral" to let wheels lift off',
+                    ContactWarning,
+                    stacklevel=4,
+                )
+        return out
 
     def _filtered(self, k: int) -> np.ndarray:
         m = self.model

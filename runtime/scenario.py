@@ -92,8 +92,9 @@ class TrainSpec(_Table):
 
     vehicle: Annotated[str, Field(min_length=1)] = "pioneer-2d"
     cars: Annotated[int, Field(ge=1)] = 1
-    speed_kmh: Positive | None = None
-    speed: Positive | None = None
+    speed_kmh: NonNegative | None = None
+    speed: NonNegative | None = None
+    """0 is a train standing still (on the bridge or the approach) and needs ``solver.duration``."""
     start_position: float = 0.0
     hslm: Literal[HSLM_TRAINS] | None = None  # type: ignore[valid-type]
     parameters: dict[str, float | list[float]] = Field(default_factory=dict)
@@ -150,6 +151,9 @@ class EarthquakeSpec(_Table):
 class ContactSpec(_Table):
     """``[contact]``: the tangential (creep) wheel-rail contact, paper Section 2.4."""
 
+    normal: Literal["unilateral", "bilateral"] = "unilateral"
+    """Normal wheel-rail contact: a wheel may lift off and land again (docs/method.md section 12),
+    or the paper's rigid, bilateral contact."""
     creep: bool = True
     friction: Positive = 0.3
     rail_head_radius: Positive = 0.3
@@ -350,6 +354,11 @@ def _semantic_problems(s: Scenario) -> Iterable[tuple[str, str]]:
         yield (
             "track.wavelength_min",
             (f"must be smaller than track.wavelength_max ({trk.wavelength_min:g} >= {trk.wavelength_max:g})"),
+        )
+    if t.speed_ms == 0.0 and sol.duration is None:
+        yield (
+            "train.speed_kmh" if t.speed is None else "train.speed",
+            "0 (a train standing still) needs solver.duration: the run has no crossing to end it",
         )
     if sol.duration is not None and sol.duration < sol.time_step:
         yield "solver.duration", f"shorter than one time step ({sol.duration:g} s < {sol.time_step:g} s)"

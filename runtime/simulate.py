@@ -35,6 +35,7 @@ from svbi.runtime.results import ImportAhead, Recorder
 from svbi.runtime.run_output import RunInterrupted, signal_name
 from svbi.runtime.scenario import Scenario, load_scenario, validate_scenario, vehicle_ref
 from svbi.runtime.train import Train, vehicle_model
+from svbi.runtime.unilateral import LiftOffNotInC
 
 if TYPE_CHECKING:
     import xarray as xr
@@ -162,6 +163,7 @@ def build_model(scenario: Scenario, hold_train: bool = False) -> Model:
         split=ss.contact_split,
         force_filter_hz=scenario.output.force_filter_hz,
         max_gap=ss.max_gap,
+        normal=scenario.contact.normal,
     )
     irregularity = _irregularity(scenario, train, duration, steps * ss.time_step)
     ground = _ground(scenario, duration)
@@ -269,7 +271,7 @@ def simulate(
     backend = getattr(stepper, "backend", backend)  # a compiled backend that fell back says so
     recorder = Recorder(model)
     aux_is_wheel = s.method == "coupled-classic"
-    recorder.force(0, state.P)
+    recorder.force(0, state.P, state.contact_state)
     recorder.record(state, model.contacts(0.0), aux_is_wheel)
     guard = DivergenceGuard(model)
     message = ""
@@ -282,11 +284,22 @@ def simulate(
     try:
         if run_loop is not None:  # a compiled loop: whole chunks of steps per call, GIL released
             ahead = ImportAhead([*recorder.modules_after_loop(), *import_ahead])
-            run_loop(recorder, guard, bar)
+            try:
+                run_loop(recorder, guard, bar)
+            except LiftOffNotInC as exc:  # a wheel lifts off: redo the run on NumPy (section 12)
+                warnings.warn(str(exc), BackendFallback, stacklevel=2)
+                backend, cls = stepper_class("numpy", s.method)
+                state = initial_state(model, start)
+                stepper, run_loop = cls(model, state), None
+                recorder = Recorder(model)
+                recorder.force(0, state.P, state.contact_state)
+                recorder.record(state, model.contacts(0.0), aux_is_wheel)
+                if bar is not None:
+                    bar.reset()
         for n in range(s.steps if run_loop is None else 0):
             st = stepper.step(n)
             guard.check_finite(st)
-            recorder.force(n + 1, st.P)
+            recorder.force(n + 1, st.P, st.contact_state)
             if (n + 1) % s.output_every == 0:
                 gaps = recorder.record(st, stepper.contacts, aux_is_wheel)
                 guard.check_gaps(st, gaps)

@@ -41,3 +41,9 @@ def test_quick_demo_writes_results_figures_and_summary(tmp_path: Path) -> None:
     scale = float(abs(loc.midspan_uz).max())
     assert float(abs(loc.midspan_uz - cpl.midspan_uz).max()) < 1e-8 * scale
     assert float(abs(cls.gap_bridge).max()) > 100 * float(abs(loc.gap_bridge).max())
+    # the strong-shaking run: unilateral contact under a 2 g vertical record, wheels lift off
+    with xr.open_dataset(tmp_path / "strong-shaking.nc", engine="h5netcdf") as ds:
+        assert ds.attrs["contact_normal"] == "unilateral" and ds.attrs["liftoffs"] > 0
+        assert float(ds.contact_force.min()) >= 0.0
+    assert (tmp_path / "strong-shaking-figures" / "wheel_lift_off.png").is_file()
+    assert "wheel lift-offs" in summary
