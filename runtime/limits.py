@@ -124,10 +124,13 @@ def size_problems(s: Scenario, values: Mapping[str, Any]) -> Iterable[tuple[str,
         )
     if sol.duration is not None:
         duration, duration_from = sol.duration, "solver.duration"
-    else:  # assembly.crossing_duration: until the last axle leaves the last span
+    elif speed > 0.0:  # assembly.crossing_duration: until the last axle leaves the last span
         way = b.spans * b.span_length + train_length - t.start_position
         duration, duration_from = max(way, 0.0) / speed, "the crossing time; solver.duration is unset"
-    steps = duration / sol.time_step
+    else:
+        duration, duration_from = None, ""
+    # a standing train without solver.duration never ends: reported by the scenario's checks
+    steps = duration / sol.time_step if duration is not None else math.nan
     if math.isfinite(steps) and steps <= MAX_STEPS:
         whole = max(math.ceil(steps - 1e-9), 1)  # simulate.build_model's count
         if sol.output_every > whole:
@@ -149,14 +152,14 @@ def size_problems(s: Scenario, values: Mapping[str, Any]) -> Iterable[tuple[str,
             f"{s.output.force_filter_hz:g} Hz is not below the Nyquist frequency 1 / (2 solver.time_step) "
             f"= {nyquist:g} Hz: the force could not be filtered there; lower it or the time step",
         )
-    if not math.isfinite(steps) or steps > MAX_STEPS:
+    if duration is not None and (not math.isfinite(steps) or steps > MAX_STEPS):
         key = "solver.duration" if sol.duration is not None and sol.duration > 1.0 else "solver.time_step"
         yield (
             key,
             f"{duration:.4g} s ({duration_from}) at solver.time_step = {sol.time_step:g} s is "
             f"{steps:.3g} steps, above the limit of {MAX_STEPS:.0e} ({MAX_STEPS:,}) steps of one run",
         )
-    if trk.irregularity != "none":
+    if trk.irregularity != "none" and duration is not None:
         covered = max(speed * duration, 1.0)
         points = covered / (trk.wavelength_min / 50.0)
         if points > MAX_IRREGULARITY_POINTS:

@@ -135,11 +135,14 @@ def estimate_memory(scenario: Scenario) -> MemoryEstimate:
     nsup = spans * bridge.nsupport
     uniform = _uniform_ground(scenario)
     # vehicle_u and vehicle_a: every DOF of every car, behind the body_* variables
-    per_row = 1 + 2 * spans + 2 * (1 if uniform else nsup) + 6 * nc + 3 * cars + nsup
+    # wheel_uplift with the per-wheel rows; contact_state is one byte per wheel
+    per_row = 1 + 2 * spans + 2 * (1 if uniform else nsup) + 7 * nc + 3 * cars + nsup
     per_row += 2 * cars * train.vehicle.ndof
     est = MemoryEstimate()
-    est.parts["results"] = nout * per_row * F64
+    est.parts["results"] = nout * (per_row * F64 + nc)
     est.parts["force buffer"] = (steps + 1) * nc * F64
+    # a unilateral run's full-rate contact states (one byte per wheel and step, once a wheel lifts off)
+    est.parts["contact states"] = (steps + 1) * nc if scenario.contact.normal == "unilateral" else 0
     fs = 1.0 / ss.time_step
     filtered = steps >= 1 and scenario.output.force_filter_hz < 0.5 * fs
     est.parts["force filter"] = int(FILTER_COPIES * est.parts["force buffer"]) if filtered else 0
@@ -157,7 +160,12 @@ def estimate_memory(scenario: Scenario) -> MemoryEstimate:
     # not all parts live at once: the run's peak is the largest of its three phases
     est.phases = {
         "tables": fixed + table + tabulation,
-        "loop and filter": fixed + table + p["results"] + p["force buffer"] + p["force filter"],
+        "loop and filter": fixed
+        + table
+        + p["results"]
+        + p["force buffer"]
+        + p["contact states"]
+        + p["force filter"],
         "write": p["results"] + nout * nc * F64 + p["NetCDF image"],
     }
     est.drivers = {

@@ -592,6 +592,8 @@ def test_the_estimate_of_the_stored_arrays_is_what_the_run_allocates(tmp_path: P
     stored = sum(a.nbytes for a in rec.data.values())
     assert estimate.parts["results"] == stored
     assert estimate.parts["force buffer"] == rec.forces.nbytes
+    in_contact = rec.in_contact.nbytes if rec.in_contact is not None else rec.forces.size  # bool per wheel
+    assert estimate.parts["contact states"] == in_contact
     assert 0.5 * peak <= estimate.total <= 2.0 * peak, (estimate.parts, peak)
 
 
