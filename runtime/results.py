@@ -46,6 +46,7 @@ class Recorder:
             "time": np.zeros(n),
             "midspan_uz": np.zeros((n, b.spans)),
             "midspan_ux": np.zeros((n, b.spans)),
+            "deck_acceleration": np.zeros((n, b.spans)),
             "ground_uz": np.zeros(n) if self.uniform else np.zeros((n, nsup)),
             "ground_ux": np.zeros(n) if self.uniform else np.zeros((n, nsup)),
             "contact_force": np.zeros((n, tr.cars, tr.wheels)),
@@ -76,6 +77,7 @@ class Recorder:
         mid = state.uB[:, self.mid_dofs]
         d["midspan_uz"][k] = mid @ self.mid_w
         d["midspan_ux"][k] = mid @ self.mid_u
+        d["deck_acceleration"][k] = state.aB[:, self.mid_dofs] @ self.mid_w
         d["ground_uz"][k], d["ground_ux"][k] = m.ground.recorded(state.t, b)
         shape = (tr.cars, tr.wheels)
         d["contact_force"][k] = state.P.reshape(shape)
@@ -128,6 +130,11 @@ class Recorder:
                 ("time", "span"),
                 d["midspan_ux"],
                 _a("m", "absolute longitudinal displacement of the neutral axis at midspan"),
+            ),
+            "deck_acceleration": (
+                ("time", "span"),
+                d["deck_acceleration"],
+                _a("m/s^2", "absolute vertical acceleration at midspan (Newmark, unfiltered)"),
             ),
             "ground_uz": (support_dims, d["ground_uz"], _a("m", "vertical ground displacement")),
             "ground_ux": (support_dims, d["ground_ux"], _a("m", "longitudinal ground displacement")),

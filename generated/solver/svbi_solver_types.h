@@ -187,6 +187,7 @@ typedef struct {
   double* time; /* nout */
   double* midspan_uz; /* nout x spans */
   double* midspan_ux; /* nout x spans */
+  double* deck_acceleration; /* nout x spans: vertical acceleration at midspan */
   double* ground_uz; /* nout (x spans * ns when per support) */
   double* ground_ux; /* nout (x spans * ns when per support) */
   double* contact_force; /* nout x nc */
