@@ -10,9 +10,9 @@ What "round-off" means per variable (measured, not assumed):
 
 * positions and forces (midspan, contact and creep forces, car-body bounce and pitch): 1e-10 of the
   variable's peak;
-* accelerations (``carbody_az``, ``deck_acceleration``): also 1e-10 of the peak. The vehicles step in increment form
-  (``Newmark.update_increment``); in the total form ``a = a0 u - P`` a one-ulp difference of ``u``
-  moved them by ``eps a0 |u|``, and this test had to allow 16 such ulps;
+* accelerations (``carbody_az``, ``deck_acceleration``): also 1e-10 of the peak. The vehicles step
+  in increment form (``Newmark.update_increment``); in the total form ``a = a0 u - P`` a one-ulp
+  difference of ``u`` moved them by ``eps a0 |u|``, and this test had to allow 16 such ulps;
 * gaps are differences of positions (constraint violations at round-off level): they are compared
   with 1e-10 of the displacement scale they are differences of;
 * coupled-classic drifts by construction (index-1 multipliers), and its velocity-level outputs (the
