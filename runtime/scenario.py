@@ -85,6 +85,8 @@ class BridgeSpec(_Table):
     damping_ratio: Annotated[float, Field(ge=0, lt=1)] = 0.02
     elements_per_span: Annotated[int, Field(ge=1)] = 16
     rail_height: float = 0.0
+    track_form: Literal["ballasted", "direct"] = "ballasted"
+    """EN 1990 A2.4.4.2.1 deck acceleration limit of ``svbi check``: 3.5 m/s² ballasted, 5 m/s² direct."""
 
 
 class TrainSpec(_Table):

@@ -1,0 +1,99 @@
+"""`svbi metrics`, `svbi check` and `svbi sweep`: engineering quantities of one run and of a study.
+
+Exit status: 0 on success (``check``: every limit met), 2 for bad input, 3 when ``check`` finds a
+limit exceeded (``sweep``: when a run failed).
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import TYPE_CHECKING, Annotated
+
+import typer
+
+if TYPE_CHECKING:
+    import xarray as xr
+
+EXIT_INVALID = 2
+EXIT_EXCEEDED = 3
+
+
+def _fail(message: str) -> typer.Exit:
+    typer.echo(f"error: {message}", err=True)
+    return typer.Exit(EXIT_INVALID)
+
+
+def _metrics_of(path: Path) -> tuple[xr.Dataset, xr.Dataset]:
+    from svbi.runtime.metrics import MetricsError, compute_metrics
+    from svbi.runtime.plots import ResultsFileError, read_results
+
+    try:
+        ds = read_results(path)
+        return ds, compute_metrics(ds)
+    except (ResultsFileError, MetricsError) as exc:
+        raise _fail(f"{path}: {exc}" if str(path) not in str(exc) else str(exc)) from None
+
+
+def metrics(
+    results: Annotated[Path, typer.Argument(metavar="RESULTS.nc", help="Results file of `svbi run`.")],
+    output: Annotated[
+        Path | None, typer.Option("--output", "-o", help="Also write the metrics to this NetCDF file.")
+    ] = None,
+) -> None:
+    """Print the engineering metrics of one run: peaks of deck displacement and acceleration
+    (EN 1990 filter), car-body acceleration, wheel unloading and the filtered wheel force."""
+    from svbi.runtime.metrics import metrics_text
+
+    _, m = _metrics_of(results)
+    if output is not None:
+        from svbi.runtime.results import write_netcdf
+
+        write_netcdf(m, output)
+    typer.echo(f"metrics of {results}")
+    typer.echo(metrics_text(m), nl=False)
+
+
+def check(
+    results: Annotated[Path, typer.Argument(metavar="RESULTS.nc", help="Results file of `svbi run`.")],
+    track_form: Annotated[
+        str | None,
+        typer.Option(
+            "--track-form",
+            help="ballasted (3.5 m/s²) or direct (5 m/s²); default: the scenario's bridge.track_form.",
+        ),
+    ] = None,
+    comfort: Annotated[
+        str,
+        typer.Option(
+            "--comfort", help="Comfort level required: very-good (1.0), good (1.3), acceptable (2.0)."
+        ),
+    ] = "acceptable",
+) -> None:
+    """EN 1990 Annex A2 checks of one run: value, limit, where, when, pass or fail.
+
+    Exit status 0 when every limit is met, 3 when one is exceeded, 2 on bad input."""
+    from svbi.runtime.checks import checks_table, en1990_checks
+    from svbi.runtime.metrics import MetricsError, scenario_table
+
+    ds, m = _metrics_of(results)
+    try:
+        table = scenario_table(ds)
+    except MetricsError as exc:
+        raise _fail(f"{results}: {exc}") from None
+    form = track_form or str(table.get("bridge", {}).get("track_form", "ballasted"))
+    moving_load = table.get("train", {}).get("vehicle") == "moving-load"
+    try:
+        rows = en1990_checks(m, form, comfort, moving_load=moving_load)
+    except ValueError as exc:
+        raise _fail(str(exc)) from None
+    typer.echo(f"EN 1990 Annex A2 checks of {results}")
+    typer.echo(checks_table(rows), nl=False)
+    failed = [r for r in rows if r.passed is False]
+    if failed:
+        typer.echo(f"{len(failed)} limit(s) exceeded", err=True)
+        raise typer.Exit(EXIT_EXCEEDED)
+
+
+def register(app: typer.Typer) -> None:
+    app.command("metrics")(metrics)
+    app.command("check")(check)
