@@ -94,6 +94,44 @@ def check(
         raise typer.Exit(EXIT_EXCEEDED)
 
 
+def sweep(
+    study: Annotated[Path, typer.Argument(metavar="STUDY.toml", help="Study file (docs/sweep.md).")],
+    output: Annotated[Path, typer.Option("--output", "-o", help="Store to write (NetCDF).")],
+    workers: Annotated[
+        int | None,
+        typer.Option(
+            "--workers", "-w", help="Worker processes of the local cluster (default: one per core)."
+        ),
+    ] = None,
+    scheduler: Annotated[
+        str | None,
+        typer.Option("--scheduler", help="Address of a running Dask scheduler, e.g. tcp://host:8786."),
+    ] = None,
+    quiet: Annotated[bool, typer.Option("--quiet", "-q", help="No progress bar.")] = False,
+) -> None:
+    """Run a study (a base scenario over axes of scenario keys) on Dask; metrics per run in one store.
+
+    Finished runs are kept in OUT.parts/; running the same command again resumes."""
+    from svbi.runtime.sweep import StudyError, load_study, run_sweep
+
+    if workers is not None and workers < 1:
+        raise _fail("--workers must be at least 1")
+    try:
+        st = load_study(study)
+    except StudyError as exc:
+        raise _fail(str(exc)) from None
+    report = run_sweep(st, output, workers=workers, scheduler=scheduler, progress=not quiet)
+    counts = ", ".join(f"{n} {s}" for s, n in sorted(report.statuses.items()))
+    typer.echo(
+        f"wrote {report.store}: {report.total} runs ({counts}); ran {report.ran}, "
+        f"{report.reused} found finished in {report.store}.parts"
+    )
+    if report.statuses.get("missing"):
+        typer.echo("some runs were lost: run the same command again to resume", err=True)
+        raise typer.Exit(EXIT_EXCEEDED)
+
+
 def register(app: typer.Typer) -> None:
     app.command("metrics")(metrics)
     app.command("check")(check)
+    app.command("sweep")(sweep)

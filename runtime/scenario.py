@@ -569,3 +569,9 @@ def _key_lines(text: str) -> dict[str, int]:
 def _line_from_message(message: str) -> int | None:
     m = re.search(r"line (\d+)", message)
     return int(m.group(1)) if m else None
+
+
+def key_lines(text: str) -> dict[str, int]:
+    """Line number of every table header and key of TOML text, by dotted path (for other files'
+    error messages, e.g. the study files of ``svbi sweep``)."""
+    return _key_lines(text)
