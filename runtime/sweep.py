@@ -42,7 +42,6 @@ from pydantic import (
     StrictStr,
     ValidationError,
 )
-from svbi.runtime.atomic import write_atomic
 from svbi.runtime.scenario import Problem, ScenarioError, key_lines, load_scenario
 
 if TYPE_CHECKING:
@@ -418,6 +417,11 @@ def assemble(study: Study, out: Path) -> xr.Dataset:
             for k in RUN_TIMINGS:
                 timings[k].append(np.nan)
             parts.append(xr.Dataset())
+    # a failed run has no metrics: NaN in the shape of a finished one (all NaN when none finished)
+    template = next((p for p in parts if p.data_vars), None)
+    if template is not None:
+        blank = xr.full_like(template, np.nan, dtype=float)
+        parts = [p if p.data_vars else blank for p in parts]
     # runs may differ in their numbers of spans, cars or wheels (e.g. HSLM trains): outer join, NaN
     stacked = xr.concat(
         [p.expand_dims(run=[i]) for i, p in enumerate(parts)],
