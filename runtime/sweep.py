@@ -42,6 +42,7 @@ from pydantic import (
     StrictStr,
     ValidationError,
 )
+from svbi.runtime.atomic import write_atomic
 from svbi.runtime.scenario import Problem, ScenarioError, key_lines, load_scenario
 
 if TYPE_CHECKING:
@@ -268,9 +269,20 @@ def run_one(scenario_path: str, overrides: dict[str, Any], part: str, history: s
         "worker_run": _WORKER["runs"],
         **timings,
     }
-    out = metrics.assign_attrs(attrs)
-    write_netcdf(out, part)
+    write_part(metrics.assign_attrs(attrs), Path(part))
     return {"status": status, "message": message}
+
+
+def write_part(ds: xr.Dataset, path: Path) -> Path:
+    """A run's metrics as a small NetCDF-3 file, atomically (SciPy writes and reads these 10x faster
+    than HDF5, which counts when a store assembles thousands of them). NetCDF-3 has no 64-bit
+    integers: integer metrics are stored as floats."""
+    out = ds.copy()
+    for name, da in out.data_vars.items():
+        if da.dtype.kind in "iub":
+            out[name] = da.astype(float)
+    out.attrs = {k: (v.item() if isinstance(v, np.generic) else v) for k, v in out.attrs.items()}
+    return write_atomic(path, lambda tmp: out.to_netcdf(tmp, engine="scipy", format="NETCDF3_64BIT"))
 
 
 # --------------------------------------------------------------------------------------------------
@@ -404,7 +416,7 @@ def assemble(study: Study, out: Path) -> xr.Dataset:
     for r in study.runs:
         path = part_path(out, r)
         if _finished(path):
-            with xr.open_dataset(path, engine="h5netcdf") as p:
+            with xr.open_dataset(path, engine="scipy") as p:
                 ds = p.load()
             status.append(str(ds.attrs.get("status", STATUS_FAILED)))
             message.append(str(ds.attrs.get("message", "")))
