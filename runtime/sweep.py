@@ -51,8 +51,9 @@ if TYPE_CHECKING:
 Scalar = StrictStr | StrictInt | StrictFloat | StrictBool
 Value = Scalar | list[Scalar]
 STATUS_OK, STATUS_DIVERGED, STATUS_FAILED = "ok", "diverged", "failed"
-RUN_TIMINGS = ("setup_time_s", "loop_time_s", "wall_time_s", "worker_time_s")
-"""Per-run timings kept in the store; ``worker_time_s`` is the whole task inside the worker."""
+RUN_TIMINGS = ("setup_time_s", "loop_time_s", "wall_time_s", "worker_time_s", "worker_peak_rss_mb")
+"""Per-run figures kept in the store: timings (``worker_time_s`` is the whole task inside the
+worker) and the worker process's peak resident memory so far (MB)."""
 
 
 class StudyError(ScenarioError):
@@ -261,6 +262,7 @@ def run_one(scenario_path: str, overrides: dict[str, Any], part: str, history: s
         status, message = STATUS_FAILED, f"{type(exc).__name__}: {exc}"
         metrics = xr.Dataset()
     timings["worker_time_s"] = time.perf_counter() - t0
+    timings["worker_peak_rss_mb"] = _peak_rss_mb()
     attrs = {
         "status": status,
         "message": message,
@@ -271,6 +273,14 @@ def run_one(scenario_path: str, overrides: dict[str, Any], part: str, history: s
     }
     write_part(metrics.assign_attrs(attrs), Path(part))
     return {"status": status, "message": message}
+
+
+def _peak_rss_mb() -> float:
+    try:
+        import resource
+    except ImportError:  # not on Windows
+        return float("nan")
+    return resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024.0  # Linux: kB
 
 
 def write_part(ds: xr.Dataset, path: Path) -> Path:
@@ -456,7 +466,7 @@ def assemble(study: Study, out: Path) -> xr.Dataset:
     data_vars["status"] = (dims, np.array(status, dtype=object).reshape(shape))
     data_vars["message"] = (dims, np.array(message, dtype=object).reshape(shape))
     for k, v in timings.items():
-        data_vars[k] = (dims, np.array(v).reshape(shape), {"units": "s"})
+        data_vars[k] = (dims, np.array(v).reshape(shape), {"units": "MB" if k.endswith("_mb") else "s"})
     data_vars["run_id"] = (dims, np.array([r.run_id for r in study.runs], dtype=object).reshape(shape))
     coords: dict[str, Any] = {}
     for key, values in study.spec.axes.items():

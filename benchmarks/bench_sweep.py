@@ -1,0 +1,106 @@
+"""Throughput and per-run overhead of ``svbi sweep`` (issue 14 item 6).
+
+    .venv/bin/python benchmarks/bench_sweep.py [--quick]
+
+1. **Throughput, 2 workers against 1**: a 100-run sweep (HSLM-A1..A10 x 10 speeds over the 32 m
+   span of ``examples/hslm-span.toml``), each worker count into a fresh store, timed from the call
+   to the store on disk (LocalCluster start included, and apart: from the first to the last run
+   finished, as the workers' own clocks see it). The target is 1.8x with 2 workers on 2 cores.
+2. **Per-run overhead inside a worker** on the paper scenario (``examples/paper-2020.toml``, one
+   worker, earthquake scales 0.8 ... 1.2): the task's time in the worker (``worker_time_s``: scenario,
+   model, initial state, loop, results, metrics, part file) less the loop (``loop_time_s``), as a
+   fraction of the loop, for every run after the worker's first (which pays imports and the compile
+   cache). The target is 10 %.
+3. **Memory per worker**: the workers' peak resident set (``ru_maxrss``) after their runs.
+
+With ``--quick``: 20 runs and 3 paper runs.
+"""
+
+from __future__ import annotations
+
+import argparse
+import statistics
+import tempfile
+import time
+from pathlib import Path
+
+import numpy as np
+from svbi.runtime.sweep import load_study, read_store, run_sweep
+
+REPO = Path(__file__).resolve().parents[1]
+EXAMPLES = REPO / "examples"
+
+
+def hslm_study(folder: Path, runs: int) -> Path:
+    trains = [f"A{i}" for i in range(1, 11)]
+    speeds = np.linspace(200.0, 380.0, max(runs // len(trains), 1))
+    text = (
+        f'scenario = "{EXAMPLES / "hslm-span.toml"}"\n[axes]\n'
+        f'"train.hslm" = {trains!r}\n"train.speed_kmh" = [{", ".join(f"{v:.1f}" for v in speeds)}]\n'
+    ).replace("'", '"')
+    path = folder / "hslm.toml"
+    path.write_text(text, encoding="utf-8")
+    return path
+
+
+def timed_sweep(study_path: Path, out: Path, workers: int) -> tuple[float, float, object]:
+    study = load_study(study_path)
+    t0 = time.perf_counter()
+    run_sweep(study, out, workers=workers, progress=False)
+    wall = time.perf_counter() - t0
+    store = read_store(out)
+    return wall, float(np.nansum(store.worker_time_s.values)), store
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--quick", action="store_true")
+    args = parser.parse_args()
+    runs = 20 if args.quick else 100
+    paper_runs = 3 if args.quick else 5
+    with tempfile.TemporaryDirectory() as tmp:
+        folder = Path(tmp)
+        study = hslm_study(folder, runs)
+        n = len(load_study(study).runs)
+        rows = []
+        for workers in (1, 2):
+            wall, busy, store = timed_sweep(study, folder / f"w{workers}.nc", workers)
+            rss = np.nanmax(store.worker_peak_rss_mb.values)
+            rows.append((workers, wall, n / wall, busy / n, rss))
+        print(f"1. throughput: {n}-run HSLM sweep (LocalCluster start included)")
+        print(f"{'workers':>8} {'wall s':>8} {'runs/s':>8} {'task s/run':>11} {'peak RSS MB':>12}")
+        for w, wall, rate, per, rss in rows:
+            print(f"{w:>8} {wall:8.2f} {rate:8.2f} {per:11.3f} {rss:12.0f}")
+        print(f"   throughput 2 workers / 1 worker: {rows[1][2] / rows[0][2]:.2f} (target 1.8)")
+
+        scales = ", ".join(f"{s:.2f}" for s in np.linspace(0.8, 1.2, paper_runs))
+        paper = folder / "paper.toml"
+        paper.write_text(
+            f'scenario = "{EXAMPLES / "paper-2020.toml"}"\n[axes]\n"earthquake.scale" = [{scales}]\n',
+            encoding="utf-8",
+        )
+        _, _, store = timed_sweep(paper, folder / "paper.nc", 1)
+        worker = store.worker_time_s.values.ravel()
+        loop = store.loop_time_s.values.ravel()
+        setup = store.setup_time_s.values.ravel()
+        order = np.argsort(worker)[::-1]  # the first run of the worker is the slowest (imports)
+        warm = order[1:]
+        over = (worker[warm] - loop[warm]) / loop[warm]
+        print(f"\n2. per-run overhead in one worker, paper scenario ({paper_runs} runs, first excluded)")
+        print(
+            f"   loop {statistics.median(loop[warm]):.3f} s, set-up {statistics.median(setup[warm]):.3f} s, "
+            f"task {statistics.median(worker[warm]):.3f} s (medians)"
+        )
+        print(
+            f"   overhead (task - loop) / loop: median {statistics.median(over) * 100:.1f} % "
+            f"(min {over.min() * 100:.1f} %, target 10 %)"
+        )
+        print(f"   first run of the worker: task {worker[order[0]]:.2f} s, loop {loop[order[0]]:.2f} s")
+        print(
+            f"\n3. memory per worker (peak RSS): {np.nanmax(store.worker_peak_rss_mb.values):.0f} MB "
+            "on the paper scenario"
+        )
+
+
+if __name__ == "__main__":
+    main()
