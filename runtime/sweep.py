@@ -425,14 +425,14 @@ def assemble(study: Study, out: Path) -> xr.Dataset:
     timings = {k: [] for k in RUN_TIMINGS}
     for r in study.runs:
         path = part_path(out, r)
-        if _finished(path):
-            with xr.open_dataset(path, engine="scipy") as p:
-                ds = p.load()
+        ds = _read_part(path) if _finished(path) else None
+        if ds is not None:
             status.append(str(ds.attrs.get("status", STATUS_FAILED)))
             message.append(str(ds.attrs.get("message", "")))
             for k in RUN_TIMINGS:
                 timings[k].append(float(ds.attrs.get(k, np.nan)))
-            parts.append(ds.drop_attrs() if hasattr(ds, "drop_attrs") else ds.assign_attrs({}))
+            ds.attrs = {}  # the run's attributes are in status, message and the timings
+            parts.append(ds)
         else:
             status.append("missing")
             message.append("no result: re-run the sweep to resume")
@@ -489,6 +489,19 @@ def assemble(study: Study, out: Path) -> xr.Dataset:
     store = xr.Dataset(data_vars, coords=coords, attrs=attrs)
     write_netcdf(store, out)
     return store
+
+
+def _read_part(path: Path) -> xr.Dataset | None:
+    """A run's part, or None when it cannot be read (then it is removed, and the next sweep runs
+    the run again). The engine is guessed from the file (parts of older versions are NetCDF-4)."""
+    import xarray as xr
+
+    try:
+        with xr.open_dataset(path) as p:
+            return p.load()
+    except Exception:  # any reader failure: the part is not usable
+        path.unlink(missing_ok=True)
+        return None
 
 
 def _coord(values: list[Any]) -> np.ndarray:

@@ -78,9 +78,10 @@ def plot_metric_vs_axis(
     if by is None:
         ax.plot(x, w.transpose(axis).values, marker="o", ms=3)
     else:
-        for value in store[by].values:
-            ax.plot(x, w.sel({by: value}).transpose(axis).values, marker="o", ms=3, label=f"{by} = {value}")
-        ax.legend(fontsize="small", ncols=2)
+        for i, value in enumerate(store[by].values):
+            y = w.isel({by: i}).transpose(axis).values
+            ax.plot(x, y, marker="o", ms=3, label=str(value))
+        ax.legend(fontsize="small", ncols=2, title=by, title_fontsize="small")
     if limit is not None:
         ax.axhline(limit, color="k", ls="--", lw=1.2, label="limit")
         ax.annotate(
