@@ -6,7 +6,9 @@
   comfort levels very good / good / acceptable;
 * wheel unloading ΔP/P: 0.6 and 0.8, as used in running-safety practice (0.8 for transient and
   seismic loading);
-* deck end rotation (EN 1990 A2.4.4.2.3): shown as n/a, the results carry no end rotation yet;
+* deck end rotation (EN 1990 A2.4.4.2.3(1), ballasted track): 6.5e-3 rad at a transition to the
+  embankment, 10e-3 rad for θ1 + θ2 between consecutive decks (EN 1990 states them for the LM71
+  load model; here they are applied to the run's own loading); direct fastening: n/a;
 * run complete: a run that stopped early certifies nothing.
 
 The comfort row checks the level asked for (``--comfort``, default ``acceptable``) and names the
@@ -28,6 +30,10 @@ DECK_ACCELERATION_LIMIT = {"ballasted": 3.5, "direct": 5.0}
 """m/s², EN 1990 A2.4.4.2.1(4)P (the recommended values)."""
 COMFORT_LEVELS = {"very-good": 1.0, "good": 1.3, "acceptable": 2.0}
 """m/s², EN 1990 Table A2.9: recommended levels of vertical car-body acceleration."""
+ABUTMENT_ROTATION_LIMIT = {"ballasted": 6.5e-3}
+"""rad, EN 1990 A2.4.4.2.3(1), ballasted track: deck end at a transition to the embankment."""
+JOINT_ROTATION_LIMIT = {"ballasted": 10.0e-3}
+"""rad, EN 1990 A2.4.4.2.3(1), ballasted track: θ1 + θ2 between two consecutive decks."""
 UNLOADING_LIMITS = (0.6, 0.8)
 """ΔP/P limits of running-safety practice: 0.6 in normal operation, 0.8 under transient loading."""
 
@@ -106,18 +112,7 @@ def en1990_checks(
             v, where, when = worst
             rows.append(Check(name, v, limit, "1", where, when, v <= limit))
 
-    rows.append(
-        Check(
-            "deck end rotation (A2.4.4.2.3)",
-            None,
-            None,
-            "rad",
-            "",
-            None,
-            None,
-            "not in the results",
-        )
-    )
+    rows += _rotation_rows(metrics, track_form)
     complete = int(np.asarray(metrics["complete"].values)) if "complete" in metrics else 1
     rows.append(
         Check(
@@ -131,6 +126,41 @@ def en1990_checks(
             "" if complete else str(metrics.attrs.get("incomplete", "stopped early"))[:80],
         )
     )
+    return rows
+
+
+def _rotation_rows(metrics: xr.Dataset, track_form: str) -> list[Check]:
+    """EN 1990 A2.4.4.2.3(1): with ballasted track, the deck end rotation at a transition to the
+    embankment (the first span's left end, the last span's right end) and the sum of the two end
+    rotations between consecutive decks. Direct fastening has project-specific limits (n/a)."""
+    name_end, name_joint = "end rotation at abutments (A2.4.4.2.3)", "rotation between decks (A2.4.4.2.3)"
+    if "peak_end_rotation" not in metrics:
+        return [Check(name_end, None, None, "rad", "", None, None, "not in the results")]
+    rows = []
+    end = metrics["peak_end_rotation"]
+    when = metrics["peak_end_rotation_time"]
+    spans = end.sizes["span"]
+    candidates = [
+        (float(end.isel(span=0, end=0)), 0, "left"),
+        (float(end.isel(span=-1, end=1)), spans - 1, "right"),
+    ]
+    value, s, side = max(candidates)
+    at = float(when.isel(span=s, end=0 if side == "left" else 1))
+    label = f"span {int(end.span.values[s])} {side} end"
+    limits = ABUTMENT_ROTATION_LIMIT.get(track_form)
+    passed = None if limits is None else value <= limits
+    note = "" if limits is not None else "limit specified for the project (direct fastening)"
+    rows.append(Check(name_end, value, limits, "rad", label, at, passed, note))
+    worst = _worst(metrics, "peak_joint_rotation")
+    limit = JOINT_ROTATION_LIMIT.get(track_form)
+    if worst is None:
+        rows.append(Check(name_joint, None, limit, "rad", "", None, None, "one span"))
+    else:
+        v, where, at = worst
+        note = "" if limit is not None else "limit specified for the project (direct fastening)"
+        rows.append(
+            Check(name_joint, v, limit, "rad", where, at, None if limit is None else v <= limit, note)
+        )
     return rows
 
 

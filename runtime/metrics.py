@@ -18,6 +18,10 @@ Every metric is a peak over the whole stored run, with the time at which it occu
 * ``lift_offs`` and ``peak_uplift`` (car, wheel): only when the results carry unilateral contact
   (``contact_state``, 1 in contact and 0 lifted, and ``wheel_uplift`` in m): the number of
   contact-to-lifted transitions and the largest uplift.
+* ``peak_end_rotation`` (span, end): max |``end_rotation``|, the rotation of each span end (rad);
+  ``peak_joint_rotation`` (joint): max over time of the angle between consecutive decks at joint j
+  (between spans j and j + 1), |θ_right(j) - θ_left(j + 1)| (rad), the θ1 + θ2 of EN 1990
+  A2.4.4.2.3 (the two ends turn in opposite senses under load).
 * ``complete``: 1 when the run finished, 0 when it stopped early (then the peaks cover the stored
   part).
 """
@@ -46,6 +50,8 @@ METRIC_DIMS: dict[str, tuple[str, ...]] = {
     "min_contact_force_filtered": ("car", "wheel"),
     "lift_offs": ("car", "wheel"),
     "peak_uplift": ("car", "wheel"),
+    "peak_end_rotation": ("span", "end"),
+    "peak_joint_rotation": ("joint",),
     "complete": (),
 }
 """Every metric and its dimensions (``lift_offs`` and ``peak_uplift`` only with unilateral contact)."""
@@ -58,6 +64,8 @@ METRIC_UNITS = {
     "min_contact_force_filtered": "N",
     "lift_offs": "1",
     "peak_uplift": "m",
+    "peak_end_rotation": "rad",
+    "peak_joint_rotation": "rad",
     "complete": "1",
 }
 
@@ -230,9 +238,19 @@ def compute_metrics(ds: xr.Dataset) -> xr.Dataset:
             peak = when = np.full(shape, np.nan)
         put("peak_uplift", peak, when, "max wheel_uplift")
 
+    if "end_rotation" in ds.variables:
+        rot = np.asarray(ds["end_rotation"].transpose("time", "span", "end").values, dtype=float)
+        peak, when = _peak_abs(rot, t)
+        put("peak_end_rotation", peak, when, "max |end_rotation| of each span end")
+        kink = rot[:, :-1, 1] - rot[:, 1:, 0]  # right end of span j against left end of span j + 1
+        peak, when = _peak_abs(kink, t)
+        put("peak_joint_rotation", peak, when, "max angle between consecutive decks (theta1 + theta2)")
+
     complete = _complete(ds)
     put("complete", np.int64(complete), None, "1: the run finished; 0: it stopped early")
-    coords = {d: ds.coords[d].values for d in ("span", "car", "wheel") if d in ds.coords}
+    coords = {d: ds.coords[d].values for d in ("span", "car", "wheel", "end") if d in ds.coords}
+    if "peak_joint_rotation" in out:
+        coords["joint"] = np.arange(1, ds.sizes["span"])
     attrs = {"deck_acceleration_cutoff_hz": cutoff}
     if not complete:
         attrs["incomplete"] = str(ds.attrs.get("incomplete", ""))

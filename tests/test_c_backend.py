@@ -48,6 +48,7 @@ RTOL = 1e-10
 POSITION_LIKE = (
     "midspan_uz",
     "midspan_ux",
+    "end_rotation",
     "contact_force",
     "contact_force_filtered",
     "carbody_uz",

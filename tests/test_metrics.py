@@ -165,3 +165,40 @@ def test_check_exit_status(tmp_path: Path):
     assert _svbi("check", str(tmp_path / "missing.nc")).returncode == 2
     r = _svbi("metrics", str(tmp_path / "calm.nc"))
     assert r.returncode == 0 and "peak_deck_acceleration" in r.stdout
+
+
+@pytest.mark.parametrize("backend", ["c", "numpy"])
+def test_end_rotation_of_a_slow_point_load_is_the_static_one(backend):
+    """A 100 kN load crossing slowly (quasi-static, v / (2 f1 L) = 0.02): the span's end rotations
+    against beam theory, θ_A(a) = -P b (L² - b²) / (6 EI L) with b = L - a the load's distance to
+    the right support (θ = dw/dx, z up), and θ_B(a) = P a (L² - a²) / (6 EI L)."""
+    L, P, v = BRIDGE["span_length"], 1.0e5, 5.0
+    ei = BRIDGE["youngs_modulus"] * BRIDGE["second_moment"]
+    sc = validate_scenario(
+        {
+            "bridge": {**BRIDGE, "spans": 2},
+            "train": {
+                "vehicle": "moving-load",
+                "speed": v,
+                "parameters": {"axle_loads": [P], "axle_offsets": [0.0]},
+            },
+            "solver": {"time_step": 2e-3, "output_every": 5, "backend": backend, "duration": 2 * L / v},
+        }
+    )
+    ds = run(sc)
+    a = v * ds.time.values  # load position from the first support
+    on1 = (a > 0.1 * L) & (a < 0.9 * L)
+    b = L - a[on1]
+    theta_a = -P * b * (L**2 - b**2) / (6 * ei * L)
+    theta_b = P * a[on1] * (L**2 - a[on1] ** 2) / (6 * ei * L)
+    rot = ds.end_rotation.sel(span=1)
+    peak = np.abs(theta_a).max()
+    np.testing.assert_allclose(rot.sel(end="left").values[on1], theta_a, atol=0.05 * peak)
+    np.testing.assert_allclose(rot.sel(end="right").values[on1], theta_b, atol=0.05 * peak)
+    m = compute_metrics(ds)
+    # at the joint the load on span 2 turns span 2's left end the other way: the joint angle peaks
+    # when the load is at L/√3 from either side of it, P L² / (9√3 EI)
+    assert float(m.peak_joint_rotation[0]) == pytest.approx(P * L**2 / (9 * math.sqrt(3) * ei), rel=0.05)
+    rows = {r.name: r for r in en1990_checks(m, moving_load=True)}
+    assert rows["end rotation at abutments (A2.4.4.2.3)"].passed is True
+    assert rows["rotation between decks (A2.4.4.2.3)"].where == "joint 1"

@@ -24,6 +24,8 @@ int svbi_record(const setup_t* S, const state_t* X, const excitation_t* E, outpu
     O->midspan_uz[row * S->spans + s] = uz;
     O->midspan_ux[row * S->spans + s] = ux;
     O->deck_acceleration[row * S->spans + s] = az;
+    O->end_rotation[(row * S->spans + s) * 2] = BR(w->bu, s, 2);
+    O->end_rotation[(row * S->spans + s) * 2 + 1] = BR(w->bu, s, S->nd - 1);
   }
   if (E->ground_per_support) {
     long nrec = n_recorded(S);
