@@ -13,12 +13,14 @@
    cache). The target is 10 %.
 3. **Memory per worker**: the workers' peak resident set (``ru_maxrss``) after their runs.
 
-With ``--quick``: 20 runs and 3 paper runs.
+With ``--quick``: 20 runs once and 3 paper runs (else the throughput sweeps run twice each,
+alternating, and the best counts: the development machine is shared).
 """
 
 from __future__ import annotations
 
 import argparse
+import os
 import statistics
 import tempfile
 import time
@@ -57,17 +59,25 @@ def main() -> None:
     parser.add_argument("--quick", action="store_true")
     args = parser.parse_args()
     runs = 20 if args.quick else 100
+    repeats = 1 if args.quick else 2
     paper_runs = 3 if args.quick else 5
     with tempfile.TemporaryDirectory() as tmp:
         folder = Path(tmp)
         study = hslm_study(folder, runs)
         n = len(load_study(study).runs)
-        rows = []
-        for workers in (1, 2):
-            wall, busy, store = timed_sweep(study, folder / f"w{workers}.nc", workers)
-            rss = np.nanmax(store.worker_peak_rss_mb.values)
-            rows.append((workers, wall, n / wall, busy / n, rss))
-        print(f"1. throughput: {n}-run HSLM sweep (LocalCluster start included)")
+        best: dict[int, tuple] = {}
+        for rep in range(repeats):  # alternating, best of each: the machine is shared
+            for workers in (1, 2):
+                wall, busy, store = timed_sweep(study, folder / f"w{workers}-{rep}.nc", workers)
+                rss = np.nanmax(store.worker_peak_rss_mb.values)
+                if workers not in best or wall < best[workers][1]:
+                    best[workers] = (workers, wall, n / wall, busy / n, rss)
+        rows = [best[1], best[2]]
+        load = os.getloadavg()[0]
+        print(
+            f"1. throughput: {n}-run HSLM sweep (LocalCluster start included; best of {repeats}, "
+            f"load average {load:.1f} at the end)"
+        )
         print(f"{'workers':>8} {'wall s':>8} {'runs/s':>8} {'task s/run':>11} {'peak RSS MB':>12}")
         for w, wall, rate, per, rss in rows:
             print(f"{w:>8} {wall:8.2f} {rate:8.2f} {per:11.3f} {rss:12.0f}")

@@ -1,7 +1,8 @@
 """`svbi metrics`, `svbi check` and `svbi sweep`: engineering quantities of one run and of a study.
 
 Exit status: 0 on success (``check``: every limit met), 2 for bad input, 3 when ``check`` finds a
-limit exceeded (``sweep``: when a run failed).
+limit exceeded (``sweep``: when runs were lost, e.g. to dead workers: run it again to resume), 130
+when a sweep is interrupted (its finished runs are kept).
 """
 
 from __future__ import annotations
@@ -120,7 +121,14 @@ def sweep(
         st = load_study(study)
     except StudyError as exc:
         raise _fail(str(exc)) from None
-    report = run_sweep(st, output, workers=workers, scheduler=scheduler, progress=not quiet)
+    try:
+        report = run_sweep(st, output, workers=workers, scheduler=scheduler, progress=not quiet)
+    except KeyboardInterrupt:
+        typer.echo(
+            f"interrupted: the finished runs are kept in {output}.parts; run the same command to resume",
+            err=True,
+        )
+        raise typer.Exit(130) from None
     counts = ", ".join(f"{n} {s}" for s, n in sorted(report.statuses.items()))
     typer.echo(
         f"wrote {report.store}: {report.total} runs ({counts}); ran {report.ran}, "

@@ -514,6 +514,8 @@ def _read_part(path: Path) -> xr.Dataset | None:
 
 
 def _coord(values: list[Any]) -> np.ndarray:
+    if all(isinstance(v, int) and not isinstance(v, bool) for v in values):
+        return np.asarray(values, dtype=np.int64)
     if all(isinstance(v, int | float) and not isinstance(v, bool) for v in values):
         return np.asarray(values, dtype=float)
     return np.array([v if isinstance(v, str) else json.dumps(v) for v in values], dtype=object)

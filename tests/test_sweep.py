@@ -232,7 +232,8 @@ def test_interrupt_and_killed_worker_lose_no_run_and_resume(tmp_path):
         )
         _wait_for_parts(out, 2, driver)
         driver.send_signal(signal.SIGINT)
-        driver.communicate(timeout=60)
+        _, err = driver.communicate(timeout=60)
+        assert driver.returncode == 130 and b"the finished runs are kept" in err, err
         kept = _parts(out)
         assert 2 <= len(kept) < 12 and not out.exists()
         # 2. resume, and kill one worker part-way: its run moves to the other worker
