@@ -3,7 +3,7 @@
     .venv/bin/python benchmarks/bench_sweep.py [--quick]
 
 1. **Throughput, 2 workers against 1**: a 100-run sweep (HSLM-A1..A10 x 10 speeds over the 32 m
-   span of ``examples/hslm-span.toml``), each worker count into a fresh store, timed from the call
+   span of ``examples/hslm-span.toml``, at dt = 2e-4 s), each worker count into a fresh store, timed from the call
    to the store on disk (LocalCluster start included, and apart: from the first to the last run
    finished, as the workers' own clocks see it). The target is 1.8x with 2 workers on 2 cores.
 2. **Per-run overhead inside a worker** on the paper scenario (``examples/paper-2020.toml``, one
@@ -39,6 +39,7 @@ def hslm_study(folder: Path, runs: int) -> Path:
     text = (
         f'scenario = "{EXAMPLES / "hslm-span.toml"}"\n[axes]\n'
         f'"train.hslm" = {trains!r}\n"train.speed_kmh" = [{", ".join(f"{v:.1f}" for v in speeds)}]\n'
+        '"solver.time_step" = [2.0e-4]\n'  # runs of 0.2-0.5 s of loop: the work, not the dispatch
     ).replace("'", '"')
     path = folder / "hslm.toml"
     path.write_text(text, encoding="utf-8")
@@ -52,6 +53,17 @@ def timed_sweep(study_path: Path, out: Path, workers: int) -> tuple[float, float
     wall = time.perf_counter() - t0
     store = read_store(out)
     return wall, float(np.nansum(store.worker_time_s.values)), store
+
+
+def steady_rate(store) -> float:
+    """Runs per second once every worker has done its first run (imports, compile cache): the runs
+    that started after the last worker's first run ended, over the time until the last one ended."""
+    started = store.started.values.ravel()
+    ended = store.ended.values.ravel()
+    pid = store.worker_pid.values.ravel()
+    warm = max(ended[pid == p][np.argmin(started[pid == p])] for p in np.unique(pid))
+    later = started >= warm
+    return float(later.sum() / (ended[later].max() - warm)) if later.sum() > 1 else float("nan")
 
 
 def main() -> None:
@@ -71,17 +83,22 @@ def main() -> None:
                 wall, busy, store = timed_sweep(study, folder / f"w{workers}-{rep}.nc", workers)
                 rss = np.nanmax(store.worker_peak_rss_mb.values)
                 if workers not in best or wall < best[workers][1]:
-                    best[workers] = (workers, wall, n / wall, busy / n, rss)
+                    best[workers] = (workers, wall, n / wall, steady_rate(store), busy / n, rss)
         rows = [best[1], best[2]]
         load = os.getloadavg()[0]
         print(
             f"1. throughput: {n}-run HSLM sweep (LocalCluster start included; best of {repeats}, "
             f"load average {load:.1f} at the end)"
         )
-        print(f"{'workers':>8} {'wall s':>8} {'runs/s':>8} {'task s/run':>11} {'peak RSS MB':>12}")
-        for w, wall, rate, per, rss in rows:
-            print(f"{w:>8} {wall:8.2f} {rate:8.2f} {per:11.3f} {rss:12.0f}")
-        print(f"   throughput 2 workers / 1 worker: {rows[1][2] / rows[0][2]:.2f} (target 1.8)")
+        print(
+            f"{'workers':>8} {'wall s':>8} {'runs/s':>8} {'warm runs/s':>12} {'task s/run':>11} {'RSS MB':>7}"
+        )
+        for w, wall, rate, warm, per, rss in rows:
+            print(f"{w:>8} {wall:8.2f} {rate:8.2f} {warm:12.2f} {per:11.3f} {rss:7.0f}")
+        print(
+            f"   throughput 2 workers / 1 worker: {rows[1][2] / rows[0][2]:.2f} end to end, "
+            f"{rows[1][3] / rows[0][3]:.2f} once the workers are warm (target 1.8)"
+        )
 
         scales = ", ".join(f"{s:.2f}" for s in np.linspace(0.8, 1.2, paper_runs))
         paper = folder / "paper.toml"

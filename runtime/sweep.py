@@ -51,9 +51,27 @@ if TYPE_CHECKING:
 Scalar = StrictStr | StrictInt | StrictFloat | StrictBool
 Value = Scalar | list[Scalar]
 STATUS_OK, STATUS_DIVERGED, STATUS_FAILED = "ok", "diverged", "failed"
-RUN_TIMINGS = ("setup_time_s", "loop_time_s", "wall_time_s", "worker_time_s", "worker_peak_rss_mb")
+RUN_TIMINGS = (
+    "setup_time_s",
+    "loop_time_s",
+    "wall_time_s",
+    "worker_time_s",
+    "worker_peak_rss_mb",
+    "started",
+    "ended",
+    "worker_pid",
+)
 """Per-run figures kept in the store: timings (``worker_time_s`` is the whole task inside the
-worker) and the worker process's peak resident memory so far (MB)."""
+worker), the worker process's peak resident memory so far (MB), and when the task started and
+ended (Unix time, s) and the worker process's id."""
+
+
+_RUN_UNITS = {
+    "worker_peak_rss_mb": {"units": "MB"},
+    "started": {"units": "s since 1970-01-01"},
+    "ended": {"units": "s since 1970-01-01"},
+    "worker_pid": {"long_name": "process id of the worker that ran it"},
+}
 
 
 class StudyError(ScenarioError):
@@ -475,7 +493,7 @@ def assemble(study: Study, out: Path) -> xr.Dataset:
     data_vars["status"] = (dims, np.array(status, dtype=object).reshape(shape))
     data_vars["message"] = (dims, np.array(message, dtype=object).reshape(shape))
     for k, v in timings.items():
-        data_vars[k] = (dims, np.array(v).reshape(shape), {"units": "MB" if k.endswith("_mb") else "s"})
+        data_vars[k] = (dims, np.array(v).reshape(shape), _RUN_UNITS.get(k, {"units": "s"}))
     data_vars["run_id"] = (dims, np.array([r.run_id for r in study.runs], dtype=object).reshape(shape))
     coords: dict[str, Any] = {}
     for key, values in study.spec.axes.items():
