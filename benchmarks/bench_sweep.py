@@ -3,9 +3,10 @@
     .venv/bin/python benchmarks/bench_sweep.py [--quick]
 
 1. **Throughput, 2 workers against 1**: a 100-run sweep (HSLM-A1..A10 x 10 speeds over the 32 m
-   span of ``examples/hslm-span.toml``, at dt = 2e-4 s), each worker count into a fresh store, timed from the call
-   to the store on disk (LocalCluster start included, and apart: from the first to the last run
-   finished, as the workers' own clocks see it). The target is 1.8x with 2 workers on 2 cores.
+   span of ``examples/hslm-span.toml``, at dt = 2e-4 s), each worker count into a fresh store, timed
+   from the call to the store on disk (LocalCluster start included), and once the workers are warm
+   (the runs that started after every worker's first run, by the runs' own start and end times).
+   The target is 1.8x with 2 workers on 2 cores.
 2. **Per-run overhead inside a worker** on the paper scenario (``examples/paper-2020.toml``, one
    worker, earthquake scales 0.8 ... 1.2): the task's time in the worker (``worker_time_s``: scenario,
    model, initial state, loop, results, metrics, part file) less the loop (``loop_time_s``), as a
