@@ -14,7 +14,6 @@ from __future__ import annotations
 
 import math
 import subprocess
-import sys
 import warnings
 from pathlib import Path
 
@@ -141,9 +140,14 @@ def test_unilateral_contact_metrics_when_present():
 
 
 def _svbi(*args: str) -> subprocess.CompletedProcess:
-    return subprocess.run(
-        [sys.executable, "-m", "svbi.runtime.cli", *args], capture_output=True, text=True, timeout=300
-    )
+    """The command line in this process (typer's runner): exit status, stdout and stderr."""
+    from svbi.runtime.cli import _register, app
+    from typer.testing import CliRunner
+
+    if not app.registered_commands:
+        _register()
+    r = CliRunner().invoke(app, list(args))
+    return subprocess.CompletedProcess(args, r.exit_code, r.stdout, r.stderr)
 
 
 def test_check_exit_status(tmp_path: Path):
