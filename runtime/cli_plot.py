@@ -58,8 +58,7 @@ def plot(
         None, "--intensity", help="Sweep: intensity axis of the fragility curve (default: earthquake.scale)."
     ),
 ) -> None:
-    """Draw the Fig. 4 panels, the constraint violations and a summary for one results file; for a
-    sweep store, the metric against an axis and fragility curves."""
+    """Figures of a results file (Fig. 4 panels, gaps, summary) or of a sweep store (metric, fragility)."""
     out_dir = out if out is not None else results.with_name(f"{results.stem}-figures")
     from svbi.runtime.sweep import is_store
 

@@ -41,8 +41,7 @@ def metrics(
         Path | None, typer.Option("--output", "-o", help="Also write the metrics to this NetCDF file.")
     ] = None,
 ) -> None:
-    """Print the engineering metrics of one run: peaks of deck displacement and acceleration
-    (EN 1990 filter), car-body acceleration, wheel unloading and the filtered wheel force."""
+    """Print the engineering metrics of one run (peaks, when and where; docs/sweep.md)."""
     from svbi.runtime.metrics import metrics_text
 
     _, m = _metrics_of(results)
@@ -110,9 +109,9 @@ def sweep(
     ] = None,
     quiet: Annotated[bool, typer.Option("--quiet", "-q", help="No progress bar.")] = False,
 ) -> None:
-    """Run a study (a base scenario over axes of scenario keys) on Dask; metrics per run in one store.
+    """Run a study (a scenario over axes of its keys) on Dask: metrics per run in one store.
 
-    Finished runs are kept in OUT.parts/; running the same command again resumes."""
+    Finished runs are kept in OUT.parts/; running the same command again resumes (docs/sweep.md)."""
     from svbi.runtime.sweep import StudyError, load_study, run_sweep
 
     if workers is not None and workers < 1:
