@@ -66,6 +66,7 @@ worker), the worker process's peak resident memory so far (MB), and when the tas
 ended (Unix time, s) and the worker process's id."""
 
 
+_UNION_TAGS = {"str", "int", "float", "bool"}
 _RUN_UNITS = {
     "worker_peak_rss_mb": {"units": "MB"},
     "started": {"units": "s since 1970-01-01"},
@@ -172,12 +173,17 @@ def load_study(path: str | Path) -> Study:
         spec = StudySpec.model_validate(data)
     except ValidationError as exc:
         problems = []
+        seen: dict[str, Problem] = {}
         for err in exc.errors():
-            key = ".".join(
-                str(p) for p in err["loc"] if not str(p).startswith(("str", "int", "float", "bool"))
-            )
-            key = key.removesuffix(".list[...]")
-            problems.append(Problem(key or "<study>", err["msg"].lower(), where(key)))
+            # pydantic tags each member of the value union ("str", "list[...]"): one problem per key
+            parts = [str(p) for p in err["loc"]]
+            tagged = any(p in _UNION_TAGS or p.startswith("list[") for p in parts)
+            key = ".".join(p for p in parts if p not in _UNION_TAGS and not p.startswith("list["))
+            message = err["msg"].lower()
+            if tagged:
+                message = f"expected a string, number, boolean or a list of them (got {err.get('input')!r})"
+            seen.setdefault(key, Problem(key or "<study>", message, where(key)))
+        problems = list(seen.values())
         raise StudyError(problems, source) from None
 
     problems: list[Problem] = []

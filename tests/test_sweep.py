@@ -89,6 +89,11 @@ def test_study_errors_name_key_file_and_line(tmp_path):
     text = str(info.value)
     assert f"{bad}:4: zip: the lists must have the same length" in text
     assert f"{bad}:3: axes.train.speed_kmh: value -5.0" in text and "greater than 0" in text
+    write(tmp_path, "types.toml", 'scenario = "base.toml"\n[axes]\n"train.speed_kmh" = [1.0, {a = 1}]\n')
+    with pytest.raises(StudyError) as info:
+        load_study(tmp_path / "types.toml")
+    assert len(info.value.problems) == 1  # one problem per key, not one per member of the union
+    assert "types.toml:3: axes.train.speed_kmh.1: expected a string, number, boolean" in str(info.value)
     write(tmp_path, "missing.toml", 'scenario = "nope.toml"\n[axes]\n"train.speed_kmh" = [1.0]\n')
     with pytest.raises(StudyError, match=r"missing.toml:1: scenario: file not found"):
         load_study(tmp_path / "missing.toml")
