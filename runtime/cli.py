@@ -25,7 +25,7 @@ def _register() -> None:
     from svbi.runtime import cli_model
 
     cli_model.register(app)
-    for name in ("cli_codegen", "cli_run", "cli_plot", "cli_demo"):
+    for name in ("cli_codegen", "cli_run", "cli_plot", "cli_demo", "cli_study"):
         try:
             module = __import__(f"svbi.runtime.{name}", fromlist=["register"])
         except ModuleNotFoundError as exc:

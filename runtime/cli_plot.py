@@ -45,14 +45,51 @@ def _draw(paths: list[Path], out_dir: Path) -> None:
 
 def plot(
     results: Path = typer.Argument(
-        ..., metavar="RESULTS.nc", help="Results NetCDF file written by `svbi run`."
+        ..., metavar="RESULTS.nc", help="Results NetCDF file written by `svbi run`, or a `svbi sweep` store."
     ),
     out: Path | None = typer.Option(
         None, "--out", "-o", help="Folder for the figures (default: <stem>-figures/ next to the file)."
     ),
+    metric: str = typer.Option("peak_deck_acceleration", "--metric", help="Sweep: the metric to draw."),
+    axis: str | None = typer.Option(None, "--axis", help="Sweep: the x axis (default: the speed axis)."),
+    by: str | None = typer.Option(None, "--by", help="Sweep: one curve per value of this axis."),
+    limit: float | None = typer.Option(None, "--limit", help="Sweep: limit line / fragility threshold."),
+    intensity: str | None = typer.Option(
+        None, "--intensity", help="Sweep: intensity axis of the fragility curve (default: earthquake.scale)."
+    ),
 ) -> None:
-    """Draw the Fig. 4 panels, the constraint violations and a summary for one results file."""
-    _draw([results], out if out is not None else results.with_name(f"{results.stem}-figures"))
+    """Figures of a results file (Fig. 4 panels, gaps, summary) or of a sweep store (metric, fragility)."""
+    out_dir = out if out is not None else results.with_name(f"{results.stem}-figures")
+    from svbi.runtime.sweep import is_store
+
+    if results.is_file() and is_store(results):
+        _draw_store(results, out_dir, metric, axis, by, limit, intensity)
+        return
+    _draw([results], out_dir)
+
+
+def _draw_store(
+    path: Path,
+    out_dir: Path,
+    metric: str,
+    axis: str | None,
+    by: str | None,
+    limit: float | None,
+    intensity: str | None,
+) -> None:
+    from svbi.runtime.sweep import read_store
+    from svbi.runtime.sweep_plots import plot_store
+
+    try:
+        written, text = plot_store(read_store(path), out_dir, metric, axis, by, limit, intensity)
+    except ValueError as exc:
+        typer.echo(f"error: {path}: {exc}", err=True)
+        raise typer.Exit(2) from None
+    summary = out_dir / SUMMARY_NAME
+    write_atomic(summary, lambda tmp: tmp.write_text(text, encoding="utf-8"))
+    for p in [*written, summary]:
+        typer.echo(f"wrote {p}")
+    typer.echo(text, nl=False)
 
 
 def compare(

@@ -86,6 +86,8 @@ class Recorder:
             "time": np.zeros(n),
             "midspan_uz": np.zeros((n, b.spans)),
             "midspan_ux": np.zeros((n, b.spans)),
+            "deck_acceleration": np.zeros((n, b.spans)),
+            "end_rotation": np.zeros((n, b.spans, 2)),
             "ground_uz": np.zeros(n) if self.uniform else np.zeros((n, nsup)),
             "ground_ux": np.zeros(n) if self.uniform else np.zeros((n, nsup)),
             "contact_force": np.zeros((n, tr.cars, tr.wheels)),
@@ -142,6 +144,8 @@ class Recorder:
         mid = state.uB[:, self.mid_dofs]
         d["midspan_uz"][k] = mid @ self.mid_w
         d["midspan_ux"][k] = mid @ self.mid_u
+        d["deck_acceleration"][k] = state.aB[:, self.mid_dofs] @ self.mid_w
+        d["end_rotation"][k] = state.uB[:, [2, b.ndof - 1]]  # theta of the first and last node
         d["ground_uz"][k], d["ground_ux"][k] = m.ground.recorded(state.t, b)
         shape = (tr.cars, tr.wheels)
         d["contact_force"][k] = state.P.reshape(shape)
@@ -205,6 +209,16 @@ class Recorder:
                 ("time", "span"),
                 d["midspan_ux"],
                 _a("m", "absolute longitudinal displacement of the neutral axis at midspan"),
+            ),
+            "deck_acceleration": (
+                ("time", "span"),
+                d["deck_acceleration"],
+                _a("m/s^2", "absolute vertical acceleration at midspan (Newmark, unfiltered)"),
+            ),
+            "end_rotation": (
+                ("time", "span", "end"),
+                d["end_rotation"],
+                _a("rad", "absolute rotation of the span's left and right end, counter-clockwise positive"),
             ),
             "ground_uz": (support_dims, d["ground_uz"], _a("m", "vertical ground displacement")),
             "ground_ux": (support_dims, d["ground_ux"], _a("m", "longitudinal ground displacement")),
@@ -278,6 +292,7 @@ class Recorder:
             "wheel": ("wheel", np.arange(1, tr.wheels + 1)),
             "span": ("span", np.arange(1, b.spans + 1)),
             **({"body": ("body", np.array(bodies, dtype=object))} if bodies else {}),
+            "end": ("end", np.array(["left", "right"], dtype=object)),
             "support": ("support", np.arange(1, b.spans * b.nsupport + 1)),
             "support_x": ("support", b.support_x.reshape(-1), _a("m", "position of the support")),
             "support_span": ("support", np.repeat(np.arange(1, b.spans + 1), b.nsupport)),
@@ -395,7 +410,7 @@ def write_netcdf(ds: xr.Dataset, path: str | Path) -> Path:
 
     def write(tmp: Path) -> None:
         out = ds.copy()
-        for name in ("support_component",):
+        for name in ("support_component", "end"):
             if name in out.coords:
                 out.coords[name] = out.coords[name].astype(str)
         try:

@@ -85,6 +85,8 @@ class BridgeSpec(_Table):
     damping_ratio: Annotated[float, Field(ge=0, lt=1)] = 0.02
     elements_per_span: Annotated[int, Field(ge=1)] = 16
     rail_height: float = 0.0
+    track_form: Literal["ballasted", "direct"] = "ballasted"
+    """EN 1990 A2.4.4.2.1 deck acceleration limit of ``svbi check``: 3.5 m/s² ballasted, 5 m/s² direct."""
 
 
 class TrainSpec(_Table):
@@ -594,3 +596,9 @@ def _key_lines(text: str) -> dict[str, int]:
 def _line_from_message(message: str) -> int | None:
     m = re.search(r"line (\d+)", message)
     return int(m.group(1)) if m else None
+
+
+def key_lines(text: str) -> dict[str, int]:
+    """Line number of every table header and key of TOML text, by dotted path (for other files'
+    error messages, e.g. the study files of ``svbi sweep``)."""
+    return _key_lines(text)

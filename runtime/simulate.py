@@ -18,6 +18,7 @@ same way.
 
 from __future__ import annotations
 
+import functools
 import math
 import signal
 import time
@@ -203,21 +204,29 @@ def _irregularity(scenario: Scenario, train: Train, duration: float, end_time: f
     spec = scenario.track
     if spec.irregularity == "none":
         return None
-    from svbi.runtime.excitation.irregularity import SpectralIrregularity, make_irregularity
-
-    exact = make_irregularity(
-        spec.irregularity,
-        seed=spec.seed,
-        length=max(train.speed * duration, 1.0),
-        wavelength_min=spec.wavelength_min,
-        wavelength_max=spec.wavelength_max,
-        start=train.start_position,
-    )
-    if not isinstance(exact, SpectralIrregularity):
-        return exact
+    length = max(train.speed * duration, 1.0)
     dx = spec.wavelength_min / IRREGULARITY_TABLE_DIVISIONS
     x0 = train.start_position
     x1 = x0 + max(train.speed * end_time, 1.0) + 4 * dx
+    args = (spec.irregularity, spec.seed, length, spec.wavelength_min, spec.wavelength_max, x0, x1, dx)
+    if Path(spec.irregularity).is_file():  # a profile file may change between runs: never cached
+        return _irregularity_table.__wrapped__(*args)
+    return _irregularity_table(*args)
+
+
+@functools.lru_cache(maxsize=4)
+def _irregularity_table(
+    kind: str, seed: int, length: float, wl_min: float, wl_max: float, x0: float, x1: float, dx: float
+):  # noqa: ANN202
+    """The tabulated profile, kept per process: runs of a sweep that share the track (e.g. records
+    and intensities of a fragility study) tabulate it once per worker (the table is read-only)."""
+    from svbi.runtime.excitation.irregularity import SpectralIrregularity, make_irregularity
+
+    exact = make_irregularity(
+        kind, seed=seed, length=length, wavelength_min=wl_min, wavelength_max=wl_max, start=x0
+    )
+    if not isinstance(exact, SpectralIrregularity):
+        return exact
     return exact.tabulate(x0, x1, dx)
 
 

@@ -187,6 +187,8 @@ typedef struct {
   double* time; /* nout */
   double* midspan_uz; /* nout x spans */
   double* midspan_ux; /* nout x spans */
+  double* deck_acceleration; /* nout x spans: vertical acceleration at midspan */
+  double* end_rotation; /* nout x spans x 2: rotation of the left and right end nodes */
   double* ground_uz; /* nout (x spans * ns when per support) */
   double* ground_ux; /* nout (x spans * ns when per support) */
   double* contact_force; /* nout x nc */

@@ -17,11 +17,15 @@ int svbi_record(const setup_t* S, const state_t* X, const excitation_t* E, outpu
   double worst_s = 0.0, worst_v = 0.0, worst_b = 0.0;
   O->time[row] = X->t;
   for (s = 0; s < S->spans; ++s) {
-    double uz = 0.0, ux = 0.0;
+    double uz = 0.0, ux = 0.0, az = 0.0;
     for (j = 0; j < NE; ++j) uz += BR(w->bu, s, S->mid_first + j) * S->mid_w[j];
     for (j = 0; j < NE; ++j) ux += BR(w->bu, s, S->mid_first + j) * S->mid_u[j];
+    for (j = 0; j < NE; ++j) az += BR(w->ba, s, S->mid_first + j) * S->mid_w[j];
     O->midspan_uz[row * S->spans + s] = uz;
     O->midspan_ux[row * S->spans + s] = ux;
+    O->deck_acceleration[row * S->spans + s] = az;
+    O->end_rotation[(row * S->spans + s) * 2] = BR(w->bu, s, 2);
+    O->end_rotation[(row * S->spans + s) * 2 + 1] = BR(w->bu, s, S->nd - 1);
   }
   if (E->ground_per_support) {
     long nrec = n_recorded(S);
