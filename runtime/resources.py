@@ -18,6 +18,8 @@ import re
 from dataclasses import dataclass, field
 from typing import TYPE_CHECKING
 
+import numpy as np
+
 if TYPE_CHECKING:
     from svbi.runtime.scenario import Scenario
 
@@ -134,12 +136,19 @@ def estimate_memory(scenario: Scenario) -> MemoryEstimate:
     nc, cars, spans = train.contacts, train.cars, bridge.spans
     nsup = spans * bridge.nsupport
     uniform = _uniform_ground(scenario)
-    # vehicle_u and vehicle_a: every DOF of every car, behind the body_* variables
-    # wheel_uplift with the per-wheel rows; contact_state is one byte per wheel
-    per_row = 1 + 2 * spans + 2 * (1 if uniform else nsup) + 7 * nc + 3 * cars + nsup
-    per_row += 2 * cars * train.vehicle.ndof
+    from svbi.runtime.results import stored_columns
+
+    columns = stored_columns(
+        spans=spans,
+        supports=nsup,
+        uniform=uniform,
+        cars=cars,
+        wheels=train.wheels,
+        vehicle_dofs=train.vehicle.ndof,
+    )
+    per_row = sum(math.prod(shape) * np.dtype(dtype).itemsize for shape, dtype in columns.values())
     est = MemoryEstimate()
-    est.parts["results"] = nout * (per_row * F64 + nc)
+    est.parts["results"] = nout * per_row
     est.parts["force buffer"] = (steps + 1) * nc * F64
     # a unilateral run's full-rate contact states (one byte per wheel and step, once a wheel lifts off)
     est.parts["contact states"] = (steps + 1) * nc if scenario.contact.normal == "unilateral" else 0

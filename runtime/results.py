@@ -65,6 +65,43 @@ class ImportAhead:
             raise error
 
 
+def stored_columns(
+    spans: int, supports: int, uniform: bool, cars: int, wheels: int, vehicle_dofs: int
+) -> dict[str, tuple[tuple[int, ...], type]]:
+    """What the recorder stores per output row: name -> (shape of one row, dtype).
+
+    The one description of the stored arrays: :class:`Recorder` allocates from it and
+    ``resources.estimate_memory`` sizes a run from it before anything is built.
+    """
+    ground = () if uniform else (supports,)
+    per_wheel = (cars, wheels)
+    f = np.float64
+    return {
+        "time": ((), f),
+        "midspan_uz": ((spans,), f),
+        "midspan_ux": ((spans,), f),
+        "deck_acceleration": ((spans,), f),
+        "end_rotation": ((spans, 2), f),
+        "ground_uz": (ground, f),
+        "ground_ux": (ground, f),
+        "contact_force": (per_wheel, f),
+        "creep_force": (per_wheel, f),
+        "creepage": (per_wheel, f),
+        "irregularity": (per_wheel, f),
+        "carbody_uz": ((cars,), f),
+        "carbody_az": ((cars,), f),
+        "carbody_pitch": ((cars,), f),
+        # every vehicle DOF, for the body_* variables (both backends write these rows)
+        "vehicle_u": ((cars, vehicle_dofs), f),
+        "vehicle_a": ((cars, vehicle_dofs), f),
+        "gap_vehicle": (per_wheel, f),
+        "gap_bridge": (per_wheel, f),
+        "gap_support": ((supports,), f),
+        "contact_state": (per_wheel, np.int8),
+        "wheel_uplift": (per_wheel, f),
+    }
+
+
 class Recorder:
     """Collects the output variables of one run."""
 
@@ -83,28 +120,15 @@ class Recorder:
         self.uniform = model.ground.uniform
         nsup = b.spans * b.nsupport
         self.data: dict[str, np.ndarray] = {
-            "time": np.zeros(n),
-            "midspan_uz": np.zeros((n, b.spans)),
-            "midspan_ux": np.zeros((n, b.spans)),
-            "deck_acceleration": np.zeros((n, b.spans)),
-            "end_rotation": np.zeros((n, b.spans, 2)),
-            "ground_uz": np.zeros(n) if self.uniform else np.zeros((n, nsup)),
-            "ground_ux": np.zeros(n) if self.uniform else np.zeros((n, nsup)),
-            "contact_force": np.zeros((n, tr.cars, tr.wheels)),
-            "creep_force": np.zeros((n, tr.cars, tr.wheels)),
-            "creepage": np.zeros((n, tr.cars, tr.wheels)),
-            "irregularity": np.zeros((n, tr.cars, tr.wheels)),
-            "carbody_uz": np.zeros((n, tr.cars)),
-            "carbody_az": np.zeros((n, tr.cars)),
-            "carbody_pitch": np.zeros((n, tr.cars)),
-            # every vehicle DOF, for the body_* variables (both backends write these rows)
-            "vehicle_u": np.zeros((n, tr.cars, tr.vehicle.ndof)),
-            "vehicle_a": np.zeros((n, tr.cars, tr.vehicle.ndof)),
-            "gap_vehicle": np.zeros((n, tr.cars, tr.wheels)),
-            "gap_bridge": np.zeros((n, tr.cars, tr.wheels)),
-            "gap_support": np.zeros((n, nsup)),
-            "contact_state": np.ones((n, tr.cars, tr.wheels), dtype=np.int8),
-            "wheel_uplift": np.zeros((n, tr.cars, tr.wheels)),
+            name: (np.ones if name == "contact_state" else np.zeros)((n, *shape), dtype=dtype)
+            for name, (shape, dtype) in stored_columns(
+                spans=b.spans,
+                supports=nsup,
+                uniform=self.uniform,
+                cars=tr.cars,
+                wheels=tr.wheels,
+                vehicle_dofs=tr.vehicle.ndof,
+            ).items()
         }
         self.forces = np.zeros((s.steps + 1, tr.contacts))
         self.in_contact: np.ndarray | None = None

@@ -88,7 +88,7 @@ def test_study_errors_name_key_file_and_line(tmp_path):
         load_study(bad)
     text = str(info.value)
     assert f"{bad}:4: zip: the lists must have the same length" in text
-    assert f"{bad}:3: axes.train.speed_kmh: value -5.0" in text and "greater than 0" in text
+    assert f"{bad}:3: axes.train.speed_kmh: value -5.0" in text and "greater than or equal to 0" in text
     write(tmp_path, "types.toml", 'scenario = "base.toml"\n[axes]\n"train.speed_kmh" = [1.0, {a = 1}]\n')
     with pytest.raises(StudyError) as info:
         load_study(tmp_path / "types.toml")
