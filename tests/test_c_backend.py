@@ -102,7 +102,7 @@ def scenario(
         ),
         "train": dict(vehicle=vehicle, cars=cars, speed_kmh=300.0),
         "track": dict(irregularity=irregularity, seed=3),
-        "contact": dict(normal=normal),
+        "contact": dict(normal=normal, creep=vehicle == "pioneer-2d"),  # only its wheels spin
         "solver": dict(method=method, backend=backend, time_step=dt, output_every=every, **solver),
     }
     if quake:

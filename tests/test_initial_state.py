@@ -67,6 +67,7 @@ def make_model(vehicle: str, cars: int, spans: int, start_position: float, excit
                 elements_per_span=8,
             ),
             "train": dict(vehicle=vehicle, cars=cars, speed_kmh=300.0, start_position=start_position),
+            "contact": dict(creep=vehicle == "pioneer-2d"),  # only its wheels spin
             "solver": dict(method="localized-dynamic", backend="numpy", time_step=1e-3, duration=0.01),
         }
     )

@@ -130,6 +130,7 @@ def drift_scenario(method: str):
                 elements_per_span=4,
             ),
             "train": dict(vehicle="sprung-mass", speed_kmh=100.0),
+            "contact": dict(creep=False),  # no wheel spin: no creep force to model
             "solver": dict(method=method, backend="numpy", time_step=1e-4, duration=10.0, output_every=100),
         }
     )

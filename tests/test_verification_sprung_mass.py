@@ -112,6 +112,7 @@ def scenario(dt: float, elements: int = 16, method: str = "localized-dynamic"):
                 speed=V,
                 parameters=dict(sprung_mass=M_S, stiffness=K_S, wheel_mass=M_W, damping=0.0),
             ),
+            "contact": dict(creep=False),  # no wheel spin: no creep force to model
             "solver": dict(method=method, backend="numpy", time_step=dt, output_every=1),
         }
     )
