@@ -159,7 +159,9 @@ def size_problems(s: Scenario, values: Mapping[str, Any]) -> Iterable[tuple[str,
             f"{duration:.4g} s ({duration_from}) at solver.time_step = {sol.time_step:g} s is "
             f"{steps:.3g} steps, above the limit of {MAX_STEPS:.0e} ({MAX_STEPS:,}) steps of one run",
         )
-    if trk.irregularity != "none" and duration is not None:
+    if trk.is_profile and duration is not None:
+        yield from _profile_coverage(s, speed, train_length, duration, speed_key, duration_from)
+    elif trk.irregularity != "none" and duration is not None:
         covered = max(speed * duration, 1.0)
         points = covered / (trk.wavelength_min / 50.0)
         if points > MAX_IRREGULARITY_POINTS:
@@ -258,3 +260,27 @@ def creep_warnings(s: Scenario) -> list[str]:
         "DOF of the wheel's body with a wheel radius): no creep force acts there; set "
         "contact.creep = false to run without creep knowingly"
     ]
+
+
+def _profile_coverage(
+    s: Scenario, speed: float, train_length: float, duration: float, speed_key: str, duration_from: str
+) -> Iterable[tuple[str, str]]:
+    """Every wheel's path must lie inside a measured profile: from the last axle at t = 0 to the
+    leading axle at the last step (a profile is used as given, nothing is extrapolated)."""
+    from svbi.runtime.excitation.irregularity import read_profile_cached
+
+    path = s.resolve_path(s.track.irregularity)
+    try:
+        xs, _ = read_profile_cached(path)
+    except (OSError, ValueError):
+        return  # reported by the scenario's own check of the file
+    steps = max(math.ceil(duration / s.solver.time_step - 1e-9), 1)
+    lo = s.train.start_position - train_length
+    hi = s.train.start_position + speed * steps * s.solver.time_step
+    if lo < xs[0] or hi > xs[-1]:
+        yield (
+            "track.irregularity",
+            f"{path} covers x = {xs[0]:.6g} .. {xs[-1]:.6g} m, but the wheels run over x = {lo:.6g} .. "
+            f"{hi:.6g} m (train.start_position, the train's {train_length:.6g} m from leading to last "
+            f"axle, {speed_key} x {duration_from}): extend the profile or shorten the run",
+        )

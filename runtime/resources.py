@@ -205,6 +205,14 @@ def _irregularity_bytes(scenario: Scenario, train: object, duration: float, step
     spec = scenario.track
     if spec.irregularity == "none":
         return 0, 0
+    if spec.is_profile:  # the cubic spline of the measured points: x and 4 coefficients per piece
+        from svbi.runtime.excitation.irregularity import read_profile_cached
+
+        try:
+            points = read_profile_cached(scenario.resolve_path(spec.irregularity))[0].size
+        except (OSError, ValueError):
+            return 0, 0
+        return 5 * points * F64, 2 * points * F64
     from svbi.runtime.simulate import IRREGULARITY_TABLE_DIVISIONS
 
     speed = float(getattr(train, "speed", 0.0))

@@ -79,6 +79,8 @@ def run_inputs(scenario: Scenario) -> dict[str, Path]:
     vehicle = scenario.train.vehicle
     if vehicle not in builtin_topologies():
         inputs["train.vehicle"] = scenario.resolve_path(vehicle)
+    if scenario.track.is_profile:
+        inputs["track.irregularity"] = scenario.resolve_path(scenario.track.irregularity)
     eq = scenario.earthquake
     if eq is not None:
         for comp in ("vertical", "longitudinal"):

@@ -115,12 +115,17 @@ class TrainSpec(_Table):
 
 
 class TrackSpec(_Table):
-    """``[track]``: rail irregularity."""
+    """``[track]``: rail irregularity: a built-in spectrum, or a measured profile file (x, r columns)."""
 
-    irregularity: Literal[IRREGULARITIES] = "none"  # type: ignore[valid-type]
+    irregularity: Annotated[str, Field(min_length=1)] = "none"
     seed: Annotated[int, Field(ge=0)] = 1
     wavelength_min: Positive = 0.5
     wavelength_max: Positive = 80.0
+
+    @property
+    def is_profile(self) -> bool:
+        """A measured profile (a file path) rather than one of :data:`IRREGULARITIES`."""
+        return self.irregularity not in IRREGULARITIES
 
 
 RecordName = Annotated[str, Field(min_length=1)]
@@ -366,6 +371,8 @@ def _semantic_problems(s: Scenario) -> Iterable[tuple[str, str]]:
         yield "solver.duration", f"shorter than one time step ({sol.duration:g} s < {sol.time_step:g} s)"
     if s.earthquake is not None:
         yield from _earthquake_problems(s)
+    if s.track.is_profile:
+        yield from _profile_problems(s)
     try:
         topo = vehicle_topology(s)
     except TopologyError as exc:
@@ -393,6 +400,24 @@ def _semantic_problems(s: Scenario) -> Iterable[tuple[str, str]]:
             yield "train.parameters.axle_loads", "axle loads must be positive (N, downward)"
         return
     yield from _vehicle_problems(s, values)
+
+
+def _profile_problems(s: Scenario) -> Iterable[tuple[str, str]]:
+    """A measured profile must be an existing, well-formed file (its lines are checked on reading);
+    whether it covers the wheels' path is checked with the run's extent (``limits.size_problems``)."""
+    from svbi.runtime.excitation.irregularity import read_profile_cached
+
+    path = s.resolve_path(s.track.irregularity)
+    if not path.is_file():
+        yield (
+            "track.irregularity",
+            f"not {', '.join(repr(k) for k in IRREGULARITIES)} or an existing profile file: {path}",
+        )
+        return
+    try:
+        read_profile_cached(path)
+    except ValueError as exc:
+        yield "track.irregularity", str(exc)
 
 
 def _earthquake_problems(s: Scenario) -> Iterable[tuple[str, str]]:

@@ -204,14 +204,17 @@ def _irregularity(scenario: Scenario, train: Train, duration: float, end_time: f
     spec = scenario.track
     if spec.irregularity == "none":
         return None
+    if spec.is_profile:  # measured: used as given, no onset ramp, no table of our own
+        from svbi.runtime.excitation.irregularity import measured_profile
+
+        return measured_profile(scenario.resolve_path(spec.irregularity))
     length = max(train.speed * duration, 1.0)
     dx = spec.wavelength_min / IRREGULARITY_TABLE_DIVISIONS
     x0 = train.start_position
     x1 = x0 + max(train.speed * end_time, 1.0) + 4 * dx
-    args = (spec.irregularity, spec.seed, length, spec.wavelength_min, spec.wavelength_max, x0, x1, dx)
-    if Path(spec.irregularity).is_file():  # a profile file may change between runs: never cached
-        return _irregularity_table.__wrapped__(*args)
-    return _irregularity_table(*args)
+    return _irregularity_table(
+        spec.irregularity, spec.seed, length, spec.wavelength_min, spec.wavelength_max, x0, x1, dx
+    )
 
 
 @functools.lru_cache(maxsize=4)

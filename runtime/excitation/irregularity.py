@@ -24,6 +24,7 @@ the band exactly, and the RMS of a long sample converges to sqrt(∫ S dΩ).
 
 from __future__ import annotations
 
+import functools
 import math
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -475,6 +476,43 @@ def read_profile(path: str | Path) -> tuple[NDArray[np.float64], NDArray[np.floa
     if len(xs) < 4:
         raise ValueError(f"{p}: an irregularity profile needs at least 4 points (found {len(xs)})")
     return np.array(xs), np.array(rs)
+
+
+def read_profile_cached(path: str | Path) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+    """:func:`read_profile`, read once per file version (path, size, modification time): the
+    scenario's checks and the model build both need it. The arrays are read-only."""
+    p = Path(path).resolve()
+    try:
+        st = p.stat()
+    except OSError as exc:
+        raise ValueError(f"{p}: cannot read irregularity profile ({exc.strerror})") from exc
+    xs, rs = _read_profile_version(str(p), st.st_size, st.st_mtime_ns)
+    return xs, rs
+
+
+@functools.lru_cache(maxsize=8)
+def _read_profile_version(path: str, size: int, mtime_ns: int) -> tuple[NDArray[np.float64], ...]:
+    del size, mtime_ns  # the cache key only: a changed file is read again
+    xs, rs = read_profile(path)
+    xs.flags.writeable = False
+    rs.flags.writeable = False
+    return xs, rs
+
+
+def measured_profile(path: str | Path) -> SampledIrregularity:
+    """A measured profile used as given: no onset ramp (docs/scenario.md, ``[track]``).
+
+    The ramp's step is put 1 m before the first point, so h = 1 wherever the profile is defined;
+    a wheel outside [x_min, x_max] is an error (the scenario checks the wheels' path beforehand).
+    """
+    xs, rs = read_profile_cached(path)
+    return SampledIrregularity(
+        x_min=float(xs[0]),
+        x_max=float(xs[-1]),
+        spline=CubicSpline(xs, rs, bc_type="not-a-knot"),
+        ramp=OnsetRamp(start=float(xs[0]) - 1.0, length=0.0),
+        source=str(path),
+    )
 
 
 IRREGULARITY_KINDS = ("none", "german-low", "german-high")
