@@ -187,22 +187,33 @@ def latex_document(data: dict[str, Any], notes: str = "") -> str:
 
 
 def modes(
-    model: str = typer.Argument(..., help="Built-in vehicle name or path to a topology TOML file."),
+    model: str = typer.Argument(
+        ..., help="Built-in vehicle name, path to a topology TOML file, or a scenario file."
+    ),
     set_: list[str] = typer.Option(
         [],
         "--set",
         help="name=value: a vehicle parameter, or a bridge key (span_length, mass_per_length, "
-        "youngs_modulus, area, second_moment, elements_per_span) to also print span frequencies.",
+        "youngs_modulus, area, second_moment, elements_per_span) to also print span frequencies. "
+        "With a scenario file: a scenario key (train.parameters.stiffness=..., bridge.span_length=...).",
     ),
     as_json: bool = typer.Option(False, "--json", help="Print JSON (key frequencies_hz)."),
     count: int = typer.Option(5, help="Number of span modes to print."),
 ) -> None:
-    """Print the vehicle's natural frequencies on rigid track (Hz, ascending), and span frequencies."""
+    """Print the vehicle's natural frequencies on rigid track (Hz, ascending), and span frequencies.
+
+    Given a scenario file, its vehicle (with ``train.parameters``) and its bridge's spans."""
     import numpy as np
     from svbi.runtime.modes import span_modes, vehicle_modes
 
+    scenario = _scenario_modes(model, set_)
+    spans = ""
+    if scenario is not None:
+        model, overrides, bridge, count_spans = scenario
+        spans = f" (each of the {count_spans} simply supported spans of the scenario)"
+    else:
+        overrides, bridge = _parse_sets(set_)
     vehicle = _load(model)
-    overrides, bridge = _parse_sets(set_)
     try:
         numeric = vehicle.numeric(overrides)
     except TopologyError as exc:
@@ -263,7 +274,7 @@ def modes(
                 "(parameter values many orders of magnitude apart?)"
             )
     if bridge:
-        typer.echo("span: vertical bending frequencies (Hz)")
+        typer.echo(f"span{spans}: vertical bending frequencies (Hz)")
         for i, f in enumerate(out["span_frequencies_hz"], 1):
             typer.echo(f"  mode {i:2d}: {f:10.4f}")
         typer.echo(
@@ -288,6 +299,37 @@ def _load(model: str) -> VehicleModel:
     except TopologyError as exc:
         typer.echo(f"error: {exc}", err=True)
         raise typer.Exit(2) from None
+
+
+def _scenario_modes(path: str, sets: list[str]) -> tuple[str, dict[str, Any], dict[str, float], int] | None:
+    """A scenario file (a TOML file with ``[bridge]`` and ``[train]`` tables, not a topology) as
+    (vehicle reference, its parameter values, its span's keys); None for anything else."""
+    from pathlib import Path
+
+    p = Path(path)
+    if p.suffix != ".toml" or not p.is_file():
+        return None
+    try:
+        data = tomllib.loads(p.read_text(encoding="utf-8"))
+    except (OSError, UnicodeDecodeError, tomllib.TOMLDecodeError):
+        return None  # not a scenario: the topology loader says what is wrong with it
+    if not ("bridge" in data and "train" in data):
+        return None
+    from svbi.runtime.hslm import hslm_axles
+    from svbi.runtime.scenario import ScenarioError, load_scenario, vehicle_ref
+
+    try:
+        sc = load_scenario(p, overrides=sets)
+    except ScenarioError as exc:
+        typer.echo(f"error: {exc}", err=True)
+        raise typer.Exit(2) from None
+    parameters: dict[str, Any] = dict(sc.train.parameters)
+    if sc.train.hslm is not None:
+        loads, offsets, length = hslm_axles(sc.train.hslm)
+        parameters.update(axle_loads=list(loads), axle_offsets=list(offsets), car_length=length)
+    b = sc.bridge
+    bridge = {key: float(getattr(b, key)) for key in BRIDGE_KEYS}
+    return vehicle_ref(sc), parameters, bridge, b.spans
 
 
 def _parse_sets(items: list[str]) -> tuple[dict[str, Any], dict[str, float]]:

@@ -52,6 +52,8 @@ REQUIRED_VARIABLES: dict[str, tuple[str, ...]] = {
 }
 # Variables a panel needs but whose absence is only noted (e.g. a moving-load train has no car body).
 OPTIONAL_VARIABLES: dict[str, tuple[str, ...]] = {
+    "midspan_uz_rel": ("time", "span"),
+    "midspan_ux_rel": ("time", "span"),
     "contact_force_filtered": ("time", "car", "wheel"),
     "carbody_uz": ("time", "car"),
     "carbody_az": ("time", "car"),
@@ -339,16 +341,43 @@ def _where(runs: Sequence[Run], dim: str, index: int) -> str:
     return _index_name(runs[0].data, dim, index) if dim in runs[0].data.sizes else "?"
 
 
+def _absolute_and_relative(ax: Axes, runs: Sequence[Run], var: str, ylabel: str, title: str) -> None:
+    """The deformation (``<var>_rel``: relative to the ground under the span) in the run's style, and
+    the absolute response faded behind it: under an earthquake the absolute displacement is mostly the
+    ground's, which is what the paper's "very small" longitudinal response leaves out."""
+    missing: list[str] = []
+    relative = False
+    for run in runs:
+        da = _series(run.data, var, {"span": 0})
+        if da is None:
+            missing.append(f"{var} missing in {run.label}")
+            continue
+        rel = _series(run.data, f"{var}_rel", {"span": 0})
+        if rel is None:  # results of svbi before the relative outputs: the absolute one as it was
+            _draw(ax, da["time"], np.asarray(da.values, dtype=float) * 1e3, run.style, run.label)
+            continue
+        relative = True
+        ax.plot(
+            _seconds(da["time"]), np.asarray(da.values, dtype=float) * 1e3, color=run.style.color,
+            lw=max(run.style.width, 1.0), alpha=0.3, zorder=run.style.zorder - 10,
+            label=f"{run.label}, absolute",
+        )  # fmt: skip
+        _draw(ax, rel["time"], np.asarray(rel.values, dtype=float) * 1e3, run.style, f"{run.label}, relative")
+    if relative:
+        title += ": relative to the ground (bold), absolute (faded)"
+    _finish(ax, title, ylabel, _run_notes(runs, missing))
+
+
 def panel_midspan_uz(ax: Axes, runs: Sequence[Run]) -> None:
-    """Fig. 4(a): vertical displacement at the midspan of span 1."""
+    """Fig. 4(a): vertical displacement at the midspan of span 1, relative and absolute."""
     title = f"(a) Vertical displacement at midspan of span {_where(runs, 'span', 0)}"
-    _time_history(ax, runs, "midspan_uz", {"span": 0}, 1e3, "vertical displacement $u_z$ (mm)", title)
+    _absolute_and_relative(ax, runs, "midspan_uz", "vertical displacement $u_z$ (mm)", title)
 
 
 def panel_midspan_ux(ax: Axes, runs: Sequence[Run]) -> None:
-    """Fig. 4(b): longitudinal displacement at the midspan of span 1."""
+    """Fig. 4(b): longitudinal displacement at the midspan of span 1, relative and absolute."""
     title = f"(b) Longitudinal displacement at midspan of span {_where(runs, 'span', 0)}"
-    _time_history(ax, runs, "midspan_ux", {"span": 0}, 1e3, "longitudinal displacement $u_x$ (mm)", title)
+    _absolute_and_relative(ax, runs, "midspan_ux", "longitudinal displacement $u_x$ (mm)", title)
 
 
 def panel_contact_force(ax: Axes, runs: Sequence[Run]) -> None:

@@ -223,6 +223,7 @@ class Recorder:
         attrs = {**attrs, **self._contact_summary(d, unloading)}
         per_wheel = ("time", "car", "wheel")
         support_dims = ("time",) if self.uniform else ("time", "support")
+        ground_z, ground_x = self._ground_under_spans(d["ground_uz"], d["ground_ux"])
         data_vars = {
             "midspan_uz": (
                 ("time", "span"),
@@ -233,6 +234,24 @@ class Recorder:
                 ("time", "span"),
                 d["midspan_ux"],
                 _a("m", "absolute longitudinal displacement of the neutral axis at midspan"),
+            ),
+            "midspan_uz_rel": (
+                ("time", "span"),
+                d["midspan_uz"] - ground_z,
+                _a(
+                    "m",
+                    "vertical displacement at midspan relative to the ground under the span: less the "
+                    "mean of the ground at its two vertical bearings (the span's rigid-body motion)",
+                ),
+            ),
+            "midspan_ux_rel": (
+                ("time", "span"),
+                d["midspan_ux"] - ground_x,
+                _a(
+                    "m",
+                    "longitudinal displacement at midspan relative to the ground at the span's fixed "
+                    "bearing (which carries the deck along)",
+                ),
             ),
             "deck_acceleration": (
                 ("time", "span"),
@@ -325,6 +344,20 @@ class Recorder:
         import xarray as xr  # with pandas, 0.4 s of imports: needed only once the run is done
 
         return xr.Dataset(data_vars=data_vars, coords=coords, attrs=attrs)
+
+    def _ground_under_spans(self, gz: np.ndarray, gx: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """The ground each span moves with as a rigid body (time x span): vertically, the mean of the
+        ground at its two vertical bearings (a rigid simply supported span follows the line
+        between them, at midspan their mean); longitudinally, the ground at its fixed bearing."""
+        if self.uniform:
+            return gz[:, None], gx[:, None]
+        b = self.model.bridge
+        per_span = (gz.shape[0], b.spans, b.nsupport)
+        vertical = np.array([c == "vertical" for c in SUPPORT_COMPONENTS])
+        return (
+            gz.reshape(per_span)[:, :, vertical].mean(axis=2),
+            gx.reshape(per_span)[:, :, ~vertical].mean(axis=2),
+        )
 
     def _static_loads(self) -> np.ndarray:
         tr = self.model.train
