@@ -353,7 +353,7 @@ class CStepper:
         self.reference = numpy_steppers()[method](model, state)
         self.unilateral = getattr(self.reference, "act", None) is not None
         self.handovers = 0
-        """Unilateral localized runs: how many times NumPy took steps over from the C loop."""
+        """Unilateral runs: how many times NumPy took steps over from the C loop."""
         self.state = state
         self.contacts = None
         self.keep: list[Any] = []
@@ -589,16 +589,15 @@ class CStepper:
         """Run every step, writing into ``recorder``; raises ``simulate.Diverged`` like the NumPy loop.
 
         Unilateral contact (docs/method.md section 12): the C loop runs the bilateral step, so a
-        chunk in which a contact force went tensile is not valid. localized-dynamic then rolls the
-        chunk back and lets the NumPy stepper (same state, same recorder) take the steps from its
-        start until every wheel has been on its rail, with no change of the active set, for
-        ``HANDBACK_STEPS`` steps; the C loop goes on from there. The coupled methods keep their
-        multipliers in C: their run is handed to NumPy as a whole (``LiftOffNotInC``).
+        chunk in which a contact force went tensile is not valid. The chunk is rolled back and the
+        NumPy stepper of the same method (same state, multipliers and recorder) takes the steps from
+        the tensile one until every wheel has been on its rail, with no change of the active set,
+        for ``HANDBACK_STEPS`` steps; the C loop goes on from there.
         """
         steps = self.model.settings.steps
         self.setup.force_limit = float(guard.force_limit)
         out = self._outputs(recorder)
-        hybrid = self.unilateral and self.method == "localized-dynamic"
+        hybrid = self.unilateral
         n = 0
         size = chunk or 64
         while n < steps:
@@ -636,8 +635,6 @@ class CStepper:
                 continue
             if status:
                 self._stop(status, recorder, guard)
-            if self.unilateral:
-                self._check_tension(recorder, done_before)
             if bar is not None:
                 bar.update(count)
             n += count
@@ -652,6 +649,7 @@ class CStepper:
         st = self.state
         snap: dict[str, Any] = {k: np.array(getattr(st, k)) for k in self.STATE_NAMES}
         snap["_rec"] = (recorder.count, recorder.steps_done, st.t)
+        snap["_lam"] = {k: v.copy() for k, v in self.lam.items()}
         return snap
 
     def _restore(self, snap: dict[str, Any], recorder: Any) -> None:
@@ -661,20 +659,42 @@ class CStepper:
             setattr(st, k, self.c_arrays[k])
         recorder.count, recorder.steps_done, st.t = snap["_rec"]
         self.cstate.t = st.t
+        for k, v in snap["_lam"].items():
+            np.copyto(self.lam[k], v)
+
+    def _multipliers_to_reference(self) -> None:
+        """coupled-dynamic: the C loop's dynamic multipliers (lambda, lambda', lambda'') to the NumPy
+        stepper, which keeps them as three arrays each (the other methods have none)."""
+        for key, arr in self.lam.items():
+            triple = getattr(self.reference, key, None)
+            if triple is not None:
+                shape = np.shape(triple[0])
+                for k in range(3):
+                    triple[k] = arr[k].reshape(shape).copy()
+
+    def _multipliers_from_reference(self) -> None:
+        for key, arr in self.lam.items():
+            triple = getattr(self.reference, key, None)
+            if triple is not None:
+                for k in range(3):
+                    arr[k] = np.asarray(triple[k], dtype=float).reshape(-1)
 
     def _numpy_steps(self, n: int, recorder: Any, guard: Any, bar: Any) -> int:
-        """NumPy localized-dynamic steps from step n until the wheels have been quietly on their
-        rails for HANDBACK_STEPS steps; returns the next step. The state goes back to C's arrays."""
+        """NumPy steps of the run's method from step n until the wheels have been quietly on their
+        rails for HANDBACK_STEPS steps; returns the next step. The state and the multipliers go
+        back to C's arrays."""
         ref, st = self.reference, self.state
         act = ref.act
         steps, every = self.model.settings.steps, self.model.settings.output_every
+        aux_is_wheel = self.method == "coupled-classic"
+        self._multipliers_to_reference()
         quiet = 0
         while n < steps:
             st = ref.step(n)
             guard.check_finite(st)
             recorder.force(n + 1, st.P, st.contact_state)
             if (n + 1) % every == 0:
-                gaps = recorder.record(st, ref.contacts, False)
+                gaps = recorder.record(st, ref.contacts, aux_is_wheel)
                 guard.check_gaps(st, gaps)
             if bar is not None:
                 bar.update(1)
@@ -686,6 +706,7 @@ class CStepper:
             np.copyto(self.c_arrays[k], getattr(st, k))
             setattr(st, k, self.c_arrays[k])
         self.cstate.t = st.t
+        self._multipliers_from_reference()
         self.handovers += 1
         return n
 
@@ -696,21 +717,6 @@ class CStepper:
             row, j = np.argwhere(f < 0.0)[0]
             return done_before + 1 + int(row), int(j)
         return None
-
-    def _check_tension(self, recorder: Any, done_before: int) -> None:
-        """Unilateral contact on the C loop: as long as no contact force goes tensile the run is the
-        bilateral one (docs/method.md section 12); the first tensile force hands the run to NumPy."""
-        from svbi.runtime.unilateral import LiftOffNotInC
-
-        hit = self._tensile(recorder, done_before)
-        if hit is not None:
-            car, wheel = divmod(hit[1], self.model.train.wheels)
-            t = hit[0] * self.model.dt
-            raise LiftOffNotInC(
-                f"solver.backend = 'c' does not implement unilateral contact yet, and wheel {wheel + 1} "
-                f"of car {car + 1} lifts off at t = {t:.6g} s; running the NumPy backend instead "
-                "(same method and results, slower)"
-            )
 
     def _stop(self, status: int, recorder: Any, guard: Any) -> None:
         from svbi.runtime.simulate import Diverged

@@ -36,7 +36,6 @@ from svbi.runtime.results import ImportAhead, Recorder
 from svbi.runtime.run_output import RunInterrupted, signal_name
 from svbi.runtime.scenario import Scenario, load_scenario, validate_scenario, vehicle_ref
 from svbi.runtime.train import Train, vehicle_model
-from svbi.runtime.unilateral import LiftOffNotInC
 
 if TYPE_CHECKING:
     import xarray as xr
@@ -296,18 +295,7 @@ def simulate(
     try:
         if run_loop is not None:  # a compiled loop: whole chunks of steps per call, GIL released
             ahead = ImportAhead([*recorder.modules_after_loop(), *import_ahead])
-            try:
-                run_loop(recorder, guard, bar)
-            except LiftOffNotInC as exc:  # a wheel lifts off: redo the run on NumPy (section 12)
-                warnings.warn(str(exc), BackendFallback, stacklevel=2)
-                backend, cls = stepper_class("numpy", s.method)
-                state = initial_state(model, start)
-                stepper, run_loop = cls(model, state), None
-                recorder = Recorder(model)
-                recorder.force(0, state.P, state.contact_state)
-                recorder.record(state, model.contacts(0.0), aux_is_wheel)
-                if bar is not None:
-                    bar.reset()
+            run_loop(recorder, guard, bar)
         for n in range(s.steps if run_loop is None else 0):
             st = stepper.step(n)
             guard.check_finite(st)

@@ -29,11 +29,6 @@ class ContactWarning(UserWarning):
     """A bilateral run in which the rail pulls a wheel (tensile filtered contact force)."""
 
 
-class LiftOffNotInC(RuntimeError):
-    """A unilateral run on the C backend reached a tensile contact force: the C loop does not
-    release wheels (yet), so the run is redone on the NumPy backend (``simulate``)."""
-
-
 class ActiveSetError(RuntimeError):
     """The active set of a step did not settle (should not happen; the message names the wheels)."""
 

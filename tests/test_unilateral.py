@@ -375,12 +375,26 @@ def test_c_localized_hands_lift_offs_to_numpy_steps_and_back(speed, start):
         assert float(np.abs(c[name] - d[name]).max()) <= 1e-9 * peak, name
 
 
-def test_c_coupled_run_that_lifts_off_is_redone_on_numpy():
-    with pytest.warns(BackendFallback, match=r"lifts off at t = 0\.169"):
-        c = run(method="coupled-dynamic", backend="c", dt=2e-4, duration=0.4)
-    assert c.attrs["backend"] == "numpy" and c.attrs["backend_requested"] == "c"
-    d = run(method="coupled-dynamic", backend="numpy", dt=2e-4, duration=0.4)
-    assert float(np.abs(c.contact_force - d.contact_force).max()) == 0.0
+@pytest.mark.parametrize("method", ["coupled-dynamic", "coupled-classic"])
+def test_c_coupled_methods_hand_lift_offs_to_numpy_steps_and_back(method):
+    """As for localized-dynamic: C runs while every wheel is on its rail, NumPy (with the C loop's
+    dynamic multipliers) takes the steps around each event, and the C loop goes on. The backends'
+    own round-off difference is the scale: the same run with bilateral contact (measured 1e-11 of
+    the force peak for coupled-dynamic; 5e-10 for coupled-classic, whose index-1 rows are ill
+    conditioned), and the events may amplify it by a few (measured 3.4e-10 and 1.8e-9)."""
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", BackendFallback)
+        c = pioneer(method, 200.0, 5.0, backend="c")
+        cb = pioneer(method, 200.0, 5.0, backend="c", normal="bilateral")
+    d = pioneer(method, 200.0, 5.0)
+    db = pioneer(method, 200.0, 5.0, normal="bilateral")
+    assert c.attrs["backend"] == "c" and c.attrs["liftoffs"] == d.attrs["liftoffs"] >= 5
+    assert (c.contact_state == d.contact_state).all()
+    for name in ("contact_force", "wheel_uplift", "carbody_uz", "carbody_az", "midspan_uz"):
+        peak = float(np.abs(d[name]).max())
+        scale = float(np.abs(db[name]).max())  # zero for wheel_uplift: no wheel lifts off there
+        base = max(float(np.abs(cb[name] - db[name]).max()) / scale if scale > 0 else 0.0, 1e-10)
+        assert float(np.abs(c[name] - d[name]).max()) <= 10 * base * peak, name
 
 
 def test_results_summary(localized, reference):
