@@ -18,47 +18,29 @@ from typing import Any
 
 import numpy as np
 from svbi.runtime.assembly import Contacts, Model, State
-from svbi.runtime.contact_rows import ContactRowKernel, point_row, support_constraint_masses
-from svbi.runtime.coupled_dynamic import Triplets, solve_sparse
-from svbi.runtime.newmark import Newmark
+from svbi.runtime.monolithic import Monolithic, Triplets, solve_sparse
 from svbi.runtime.unilateral import ActiveSet, Impact, is_unilateral
 
 
-class CoupledClassic:
+class CoupledClassic(Monolithic):
     """Index-1 monolithic stepper; see the module docstring."""
 
     name = "coupled-classic"
 
     def __init__(self, model: Model, state: State) -> None:
-        self.model = model
-        self.state = state
-        s = model.settings
-        b, tr = model.bridge, model.train
-        self.nm = nm = Newmark(s.time_step)
-        self.point = point_row(s.time_step, 0.0, 0.0)
-        self.rows = ContactRowKernel(b.element_length, model.speed, s.time_step, 0.0, 0.0)
-        self.moving_load = tr.moving_load
-        nd, ns = b.ndof, b.nsupport
-        self.nV = 0 if self.moving_load else tr.ndof
-        self.NV = tr.cars * self.nV
-        self.NB = b.spans * nd
-        self.nc = 0 if self.moving_load else tr.contacts
-        self.NS = b.spans * ns
-        self.oB = self.NV
+        self._layout(model, state, 0.0, 0.0)  # kappa = zeta = 0: the acceleration-level rows
+        tr = model.train
+        nm = self.nm
         self.oP = self.oB + self.NB
         self.oR = self.oP + self.nc
         self.n = self.oR + self.NS
-        sup_elem_dof = [0 if d == 0 else (1 if d == 1 else 4) for d in b.support_dofs]
-        self.sG = nm.a0 * np.tile(
-            support_constraint_masses(b.element_length, b.mass_per_length, sup_elem_dof), b.spans
-        )
+        self.sG = nm.a0 * self.support_masses
         self.sC = nm.a0 * float(np.mean(tr.wheel_masses)) if not self.moving_load else 1.0
         if not self.moving_load:
             # an index-1 contact carries the wheel with it: the wheel and its aux point are one body
             state.ug = (state.uV @ tr.W).reshape(-1)
             state.PV = state.P.copy()
         self.const = self._constant_part()
-        self.contacts: Contacts | None = None
         self.act: ActiveSet | None = None
         if is_unilateral(model):  # docs/method.md section 12
             self.act = ActiveSet(tr.contacts)
@@ -72,18 +54,9 @@ class CoupledClassic:
 
     def _constant_part(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         m, nm = self.model, self.nm
-        b, tr = m.bridge, m.train
+        tr = m.train
         T = Triplets()
-        k_hat_B = nm.effective(b.K, b.C, b.M)
-        nd, ns = b.ndof, b.nsupport
-        for s in range(b.spans):
-            o = self.oB + s * nd
-            T.dense(o, o, k_hat_B)
-            rows = o + b.support_dofs
-            cols = self.oR + s * ns + np.arange(ns)
-            sG = self.sG[s * ns : (s + 1) * ns]
-            T.add(rows, cols, -sG)
-            T.add(cols, rows, sG)
+        self._bridge_blocks(T, self.oR, self.sG)
         if not self.moving_load:
             v = tr.vehicle
             k_hat_V = nm.effective(v.K, v.C, v.M)
@@ -97,32 +70,20 @@ class CoupledClassic:
 
     def step(self, n: int) -> State:
         m, nm, st = self.model, self.nm, self.state
-        b, tr = m.bridge, m.train
+        tr = m.train
         t = (n + 1) * m.dt
         c = m.contacts(t)
         self.contacts = c
         rows = self.rows(c.loc.xi)
-        nd = b.ndof
         rhs = np.zeros(self.n)
         T = Triplets()
 
-        PB, QB = nm.history(st.uB, st.vB, st.aB)
-        q, q1, q2 = m.supports(t)
-        sup = b.support_dofs
-        q_hat = self.point.target(PB[:, sup], QB[:, sup], q, q1, q2).reshape(-1)
-        fB = PB @ b.M + QB @ b.C + q1 @ b.CT.T
-        rhs[self.oR :] = self.sG * q_hat
-
-        on = c.on
-        sel = np.flatnonzero(on)
-        span = c.loc.span
-        idx = c.element_dofs()
-        gdofs = self.oB + span[:, None] * nd + idx
+        bs = self._bridge_step(t)
+        PB, QB, fB = bs.PB, bs.QB, bs.fB
+        rhs[self.oR :] = self.sG * bs.q_hat
 
         if self.moving_load:
-            P = np.where(on, tr.axle_loads, 0.0)
-            np.add.at(fB, (span[sel, None], idx[sel]), -rows.N0[sel] * P[sel, None])
-            rhs[self.oB : self.oB + self.NB] = fB.reshape(-1)
+            self._moving_loads(bs, c, rows.N0, rhs)
             x = solve_sparse(self.const, T, self.n, rhs)
             self._finish_bridge(x, PB, QB)
             st.P = tr.axle_loads.copy()
@@ -130,6 +91,8 @@ class CoupledClassic:
             st.t = t
             return st
 
+        cd = self._contact_dofs(c)
+        on, sel, span, idx, gdofs = cd.on, cd.sel, cd.span, cd.idx, cd.gdofs
         # vehicle unknowns are the increments over the step (Newmark.update_increment)
         PtV, QtV = nm.increment_history(st.vV, st.aV)
         PV_, QV_ = nm.total_history(st.uV, PtV, QtV)
@@ -235,9 +198,3 @@ class CoupledClassic:
                 uplift = wheel - (np.where(on, rail_on, c.q) + c.r)
             if not act.update(P, uplift, t):
                 return x
-
-    def _finish_bridge(self, x: np.ndarray, PB: np.ndarray, QB: np.ndarray) -> None:
-        st, b = self.state, self.model.bridge
-        uB = x[self.oB : self.oB + self.NB].reshape(b.spans, b.ndof)
-        st.vB, st.aB = self.nm.update(uB, PB, QB)
-        st.uB = uB

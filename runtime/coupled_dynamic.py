@@ -28,69 +28,11 @@ from __future__ import annotations
 from typing import Any
 
 import numpy as np
-import scipy.sparse as sps
-import scipy.sparse.linalg as spla
 from svbi.codegen.plain_types import GRAVITY
 from svbi.runtime.assembly import Contacts, Model, State
-from svbi.runtime.contact_rows import (
-    BridgeConstraintMass,
-    ContactRowKernel,
-    point_row,
-    support_constraint_masses,
-    vehicle_constraint_masses,
-)
-from svbi.runtime.newmark import Newmark
+from svbi.runtime.contact_rows import BridgeConstraintMass, vehicle_constraint_masses
+from svbi.runtime.monolithic import Monolithic, Triplets, solve_sparse
 from svbi.runtime.unilateral import ActiveSet, Impact, is_unilateral
-
-
-class Triplets:
-    """COO entries of a sparse matrix, collected from blocks."""
-
-    def __init__(self) -> None:
-        self.rows: list[np.ndarray] = []
-        self.cols: list[np.ndarray] = []
-        self.vals: list[np.ndarray] = []
-
-    def dense(self, r0: int, c0: int, block: np.ndarray) -> None:
-        nz = np.nonzero(block)
-        self.add(nz[0] + r0, nz[1] + c0, block[nz])
-
-    def add(self, r: np.ndarray, c: np.ndarray, v: np.ndarray) -> None:
-        self.rows.append(np.asarray(r, dtype=np.intp).ravel())
-        self.cols.append(np.asarray(c, dtype=np.intp).ravel())
-        self.vals.append(np.asarray(v, dtype=float).ravel())
-
-    def arrays(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        if not self.rows:
-            e = np.zeros(0)
-            return e.astype(np.intp), e.astype(np.intp), e
-        return np.concatenate(self.rows), np.concatenate(self.cols), np.concatenate(self.vals)
-
-
-def solve_sparse(
-    const: tuple[np.ndarray, np.ndarray, np.ndarray], step: Triplets, n: int, rhs: np.ndarray
-) -> np.ndarray:
-    """Assemble constant + per-step entries into CSC and solve with a sparse LU (SuperLU).
-
-    The entries are unique by construction, so we sort them into CSC ourselves (scipy's COO
-    conversion, which also sums duplicates, costs more than the factorisation on small systems).
-    """
-    r1, c1, v1 = const
-    r2, c2, v2 = step.arrays()
-    rows = np.concatenate([r1, r2])
-    cols = np.concatenate([c1, c2])
-    vals = np.concatenate([v1, v2])
-    key = cols * n + rows
-    order = np.argsort(key)
-    if np.any(np.diff(key[order]) == 0):  # pragma: no cover - a duplicate slipped in: sum it
-        A = sps.csc_matrix((vals, (rows, cols)), shape=(n, n))
-    else:
-        indptr = np.zeros(n + 1, dtype=np.int32)
-        np.cumsum(np.bincount(cols, minlength=n), out=indptr[1:])
-        A = sps.csc_matrix((n, n))
-        A.data, A.indices, A.indptr = vals[order], rows[order].astype(np.int32), indptr
-        A.has_sorted_indices = True
-    return spla.splu(A).solve(rhs)
 
 
 def support_reactions(model: Model, state: State, contacts: Contacts, P: np.ndarray) -> np.ndarray:
@@ -107,40 +49,25 @@ def support_reactions(model: Model, state: State, contacts: Contacts, P: np.ndar
     return f[:, b.support_dofs]
 
 
-class CoupledDynamic:
+class CoupledDynamic(Monolithic):
     """Monolithic stepper with dynamic multipliers; see the module docstring."""
 
     name = "coupled-dynamic"
 
     def __init__(self, model: Model, state: State) -> None:
-        self.model = model
-        self.state = state
         s = model.settings
+        self._layout(model, state, s.kappa, s.zeta)
         b, tr = model.bridge, model.train
-        self.nm = Newmark(s.time_step)
-        self.point = point_row(s.time_step, s.kappa, s.zeta)
-        self.rows = ContactRowKernel(b.element_length, model.speed, s.time_step, s.kappa, s.zeta)
         omega = s.kappa / s.time_step
         self.c2 = 2 * s.zeta * omega
         self.w2 = omega * omega
         self.d = self.point.d
-        self.moving_load = tr.moving_load
-        nd, ns = b.ndof, b.nsupport
-        self.nV = 0 if self.moving_load else tr.ndof
-        self.NV = tr.cars * self.nV
-        self.NB = b.spans * nd
-        self.nc = 0 if self.moving_load else tr.contacts
-        self.NS = b.spans * ns
-        self.oB = self.NV
         self.oLV = self.oB + self.NB
         self.oLB = self.oLV + self.nc
         self.oG = self.oLB + self.nc
         self.oLG = self.oG + self.nc
         self.n = self.oLG + self.NS
-        sup_elem_dof = [0 if d == 0 else (1 if d == 1 else 4) for d in b.support_dofs]
-        self.mG = np.tile(
-            support_constraint_masses(b.element_length, b.mass_per_length, sup_elem_dof), b.spans
-        )
+        self.mG = self.support_masses
         self.DG = self.d * self.mG
         # multipliers start consistent with the initial forces (method-notes section 5)
         c0 = model.contacts(0.0)
@@ -156,7 +83,6 @@ class CoupledDynamic:
             self.lamV = self._initial_lambda(state.PV, self.mV)
             self.lamB = self._initial_lambda(state.P, self._mB(c0))
         self.const = self._constant_part()
-        self.contacts: Contacts | None = None
         self.act: ActiveSet | None = None
         if is_unilateral(model):  # docs/method.md section 12
             self.act = ActiveSet(tr.contacts)
@@ -184,17 +110,9 @@ class CoupledDynamic:
 
     def _constant_part(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         m, nm = self.model, self.nm
-        b, tr = m.bridge, m.train
+        tr = m.train
         T = Triplets()
-        k_hat_B = nm.effective(b.K, b.C, b.M)
-        nd, ns = b.ndof, b.nsupport
-        for s in range(b.spans):
-            o = self.oB + s * nd
-            T.dense(o, o, k_hat_B)
-            rows = o + b.support_dofs
-            cols = self.oLG + s * ns + np.arange(ns)
-            T.add(rows, cols, -self.DG[s * ns : (s + 1) * ns])
-            T.add(cols, rows, self.DG[s * ns : (s + 1) * ns])
+        self._bridge_blocks(T, self.oLG, self.DG)
         if not self.moving_load:
             v = tr.vehicle
             k_hat_V = nm.effective(v.K, v.C, tr.M_active)
@@ -220,29 +138,17 @@ class CoupledDynamic:
         c = m.contacts(t)
         self.contacts = c
         rows = self.rows(c.loc.xi)
-        nd, ns = b.ndof, b.nsupport
         rhs = np.zeros(self.n)
         T = Triplets()
 
-        PB, QB = nm.history(st.uB, st.vB, st.aB)
-        q, q1, q2 = m.supports(t)
-        sup = b.support_dofs
-        q_hat = self.point.target(PB[:, sup], QB[:, sup], q, q1, q2).reshape(-1)
-        fB = PB @ b.M + QB @ b.C + q1 @ b.CT.T
+        bs = self._bridge_step(t)
+        PB, QB, fB = bs.PB, bs.QB, bs.fB
         HG, _ = self._force(self.lamG, self.DG, self.mG)
-        fB[:, sup] -= HG.reshape(b.spans, ns)
-        rhs[self.oLG : self.oLG + self.NS] = self.DG * q_hat
-
-        on = c.on
-        sel = np.flatnonzero(on)
-        span = c.loc.span
-        idx = c.element_dofs()
-        gdofs = self.oB + span[:, None] * nd + idx  # global bridge DOFs of each contact's element
+        fB[:, b.support_dofs] -= HG.reshape(b.spans, b.nsupport)
+        rhs[self.oLG : self.oLG + self.NS] = self.DG * bs.q_hat
 
         if self.moving_load:
-            P = np.where(on, tr.axle_loads, 0.0)
-            np.add.at(fB, (span[sel, None], idx[sel]), -rows.N0[sel] * P[sel, None])
-            rhs[self.oB : self.oB + self.NB] = fB.reshape(-1)
+            self._moving_loads(bs, c, rows.N0, rhs)
             x = solve_sparse(self.const, T, self.n, rhs)
             self._finish_bridge(x, PB, QB)
             self._update_lambda(self.lamG, x[self.oLG :])
@@ -251,6 +157,8 @@ class CoupledDynamic:
             st.t = t
             return st
 
+        cd = self._contact_dofs(c)
+        on, sel, span, idx, gdofs = cd.on, cd.sel, cd.span, cd.idx, cd.gdofs
         # vehicle unknowns are the increments over the step (Newmark.update_increment)
         PtV, QtV = nm.increment_history(st.vV, st.aV)
         PV_, QV_ = nm.total_history(st.uV, PtV, QtV)
@@ -388,12 +296,6 @@ class CoupledDynamic:
         for k in range(3):  # a free wheel's force is zero: so is its multiplier
             self.lamB[k][out] = 0.0
         st.contact_state = act.in_contact
-
-    def _finish_bridge(self, x: np.ndarray, PB: np.ndarray, QB: np.ndarray) -> None:
-        st, b = self.state, self.model.bridge
-        uB = x[self.oB : self.oB + self.NB].reshape(b.spans, b.ndof)
-        st.vB, st.aB = self.nm.update(uB, PB, QB)
-        st.uB = uB
 
     def _update_lambda(self, lam: list[np.ndarray], delta: np.ndarray) -> None:
         Pt, Qt = self.nm.increment_history(lam[1], lam[2])

@@ -32,7 +32,7 @@ import scipy.sparse.linalg as spla
 from svbi.codegen.plain_types import GRAVITY
 from svbi.runtime.assembly import Model, State
 from svbi.runtime.contact_rows import ShapeKernel
-from svbi.runtime.coupled_dynamic import Triplets
+from svbi.runtime.monolithic import Triplets
 from svbi.runtime.train import Train
 
 
