@@ -20,6 +20,7 @@ from dataclasses import dataclass
 
 import numpy as np
 import scipy.linalg as sla
+from svbi.codegen.plain_types import GRAVITY
 from svbi.runtime.modes import span_matrices, span_support_dofs
 
 SUPPORT_COMPONENTS = ("longitudinal", "vertical", "vertical")
@@ -83,6 +84,9 @@ class Bridge:
         ends = np.where(self.support_dofs == 3 * self.elements + 1, self.span_length, 0.0)
         self.support_x = np.arange(self.spans)[:, None] * self.span_length + ends[None, :]
         """Position of every support constraint, shape ``(spans, nsupport)``."""
+        self.dead_load_reactions = self._dead_load_reactions()
+        """Support forces carrying the span's own weight, shape ``(nsupport,)`` (results
+        ``support_reaction``: the bridge DOFs are measured from this dead-load state)."""
 
     # ----------------------------------------------------------------------------------------------
     def _vertical_frequencies(self) -> np.ndarray:
@@ -102,6 +106,17 @@ class Bridge:
             return 0.0, 2 * ratio / w1
         w1, w2 = self.vertical_frequencies[:2]
         return 2 * ratio * w1 * w2 / (w1 + w2), 2 * ratio / (w1 + w2)
+
+    def _dead_load_reactions(self) -> np.ndarray:
+        """The consistent gravity load ``-g M e_z`` (``e_z``: unit vertical translation of every
+        node) on the span with its supports held: ``R = (K u - f)`` at the support DOFs."""
+        ez = np.zeros(self.ndof)
+        ez[1::3] = 1.0
+        f = -GRAVITY * (self.M @ ez)
+        free = np.setdiff1d(np.arange(self.ndof), self.support_dofs)
+        u = np.zeros(self.ndof)
+        u[free] = sla.solve(self.K[np.ix_(free, free)], f[free], assume_a="sym")
+        return (self.K @ u - f)[self.support_dofs]
 
     def _quasi_static_field(self) -> np.ndarray:
         """``T`` (ndof x nsupport): the rigid-body field of a span for unit support motions."""

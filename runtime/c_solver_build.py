@@ -72,6 +72,7 @@ OUTPUT_NAMES = (
     "gap_vehicle",
     "gap_bridge",
     "gap_support",
+    "support_reaction",
 )
 """Stored output arrays of the C loop, in the order of its ``Outputs`` struct's pointers."""
 STATUS_SINGULAR = 4
@@ -229,6 +230,7 @@ SETUP_FIELDS = [
     F("MC_m", "double*", "M on that pattern"),
     F("MC_c", "double*", "C on that pattern"),
     F("CT", "double*", "nd x ns: C T, damping of the quasi-static support motion"),
+    F("react_rows", "double*", "3 x ns x nd: rows of M, C and K at the support DOFs (support reactions)"),
     F("Khat_band", "double*", "nd x (band_p + 1): lower band of K^ = K + a1 C + a0 M"),
     F("Khat_ff_band", "double*", "nfree x (band_pf + 1): lower band of K^ on the free DOFs"),
     F("Khat_fs", "double*", "nfree x ns: K^ coupling free DOFs to support DOFs"),
@@ -336,6 +338,7 @@ OUTPUT_FIELDS = [
     F("gap_vehicle", "mdouble*", "nout x nc"),
     F("gap_bridge", "mdouble*", "nout x nc"),
     F("gap_support", "mdouble*", "nout x spans * ns"),
+    F("support_reaction", "mdouble*", "nout x spans * ns: support forces beyond the dead load"),
     F("forces", "mdouble*", "(steps + 1) x nc: contact force at every step"),
 ]
 

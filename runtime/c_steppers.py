@@ -484,6 +484,8 @@ class CStepper:
         S.MC_ptr, S.MC_idx = self._arr(ptr, np.int32), self._arr(idx, np.int32)
         S.MC_m, S.MC_c = self._arr(b.M[rows, idx]), self._arr(b.C[rows, idx])
         S.CT = self._arr(b.CT)
+        sup_rows = np.asarray(b.support_dofs)
+        S.react_rows = self._arr(np.stack([b.M[sup_rows], b.C[sup_rows], b.K[sup_rows]]))
         band, p = _lower_band(k_hat)
         S.Khat_band, S.band_p = self._arr(band), p
         band_f, pf = _lower_band(k_hat[np.ix_(free, free)])

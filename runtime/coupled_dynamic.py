@@ -32,21 +32,8 @@ from svbi.codegen.plain_types import GRAVITY
 from svbi.runtime.assembly import Contacts, Model, State
 from svbi.runtime.contact_rows import BridgeConstraintMass, vehicle_constraint_masses
 from svbi.runtime.monolithic import Monolithic, Triplets, solve_sparse
+from svbi.runtime.reactions import support_reactions
 from svbi.runtime.unilateral import ActiveSet, Impact, is_unilateral
-
-
-def support_reactions(model: Model, state: State, contacts: Contacts, P: np.ndarray) -> np.ndarray:
-    """Support forces ``R_G`` (spans x nsupport) from the bridge equations of motion."""
-    b = model.bridge
-    _, q1, _ = model.supports(state.t)
-    f = state.aB @ b.M + (state.vB - q1 @ b.T.T) @ b.C + state.uB @ b.K
-    from svbi.runtime.contact_rows import ShapeKernel
-
-    (N0,) = ShapeKernel(b.element_length)(contacts.loc.xi)
-    idx = contacts.element_dofs()
-    sel = np.flatnonzero(contacts.on)
-    np.add.at(f, (contacts.loc.span[sel, None], idx[sel]), N0[sel] * P[sel, None])
-    return f[:, b.support_dofs]
 
 
 class CoupledDynamic(Monolithic):

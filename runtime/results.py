@@ -24,6 +24,7 @@ from svbi.runtime.atomic import write_atomic
 from svbi.runtime.body_outputs import body_variables
 from svbi.runtime.bridge import SUPPORT_COMPONENTS
 from svbi.runtime.contact_rows import AxialShapeKernel, ShapeKernel
+from svbi.runtime.reactions import support_reactions
 
 if TYPE_CHECKING:
     import xarray as xr
@@ -97,6 +98,7 @@ def stored_columns(
         "gap_vehicle": (per_wheel, f),
         "gap_bridge": (per_wheel, f),
         "gap_support": ((supports,), f),
+        "support_reaction": ((supports,), f),
         "contact_state": (per_wheel, np.int8),
         "wheel_uplift": (per_wheel, f),
     }
@@ -180,6 +182,7 @@ class Recorder:
         q, _, _ = m.supports(state.t)
         gaps: dict[str, np.ndarray] = {"support": (q - state.uB[:, b.support_dofs]).reshape(-1)}
         d["gap_support"][k] = gaps["support"]
+        d["support_reaction"][k] = support_reactions(m, state, contacts, state.P).reshape(-1)
         if tr.moving_load:
             gaps["vehicle"] = gaps["bridge"] = np.zeros(tr.contacts)
         else:
@@ -313,6 +316,15 @@ class Recorder:
             "gap_vehicle": (per_wheel, d["gap_vehicle"], _a("m", "wheel - auxiliary point gap (Eq. 18)")),
             "gap_bridge": (per_wheel, d["gap_bridge"], _a("m", "auxiliary point - rail gap (Eqs. 20-21)")),
             "gap_support": (("time", "support"), d["gap_support"], _a("m", "ground - support gap (Eq. 23)")),
+            "support_reaction": (
+                ("time", "support"),
+                d["support_reaction"] + np.tile(b.dead_load_reactions, b.spans),
+                _a(
+                    "N",
+                    "force of each support constraint on the deck (support_component: its direction; "
+                    "up or forward positive), the deck's own weight included",
+                ),
+            ),
             "contact_state": (
                 per_wheel,
                 d["contact_state"],
@@ -353,7 +365,7 @@ class Recorder:
             return gz[:, None], gx[:, None]
         b = self.model.bridge
         per_span = (gz.shape[0], b.spans, b.nsupport)
-        vertical = np.array([c == "vertical" for c in SUPPORT_COMPONENTS])
+        vertical = b.support_vertical
         return (
             gz.reshape(per_span)[:, :, vertical].mean(axis=2),
             gx.reshape(per_span)[:, :, ~vertical].mean(axis=2),

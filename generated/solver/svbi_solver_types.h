@@ -106,6 +106,7 @@ typedef struct {
   const double* MC_m; /* M on that pattern */
   const double* MC_c; /* C on that pattern */
   const double* CT; /* nd x ns: C T, damping of the quasi-static support motion */
+  const double* react_rows; /* 3 x ns x nd: rows of M, C and K at the support DOFs (support reactions) */
   const double* Khat_band; /* nd x (band_p + 1): lower band of K^ = K + a1 C + a0 M */
   const double* Khat_ff_band; /* nfree x (band_pf + 1): lower band of K^ on the free DOFs */
   const double* Khat_fs; /* nfree x ns: K^ coupling free DOFs to support DOFs */
@@ -203,6 +204,7 @@ typedef struct {
   double* gap_vehicle; /* nout x nc */
   double* gap_bridge; /* nout x nc */
   double* gap_support; /* nout x spans * ns */
+  double* support_reaction; /* nout x spans * ns: support forces beyond the dead load */
   double* forces; /* (steps + 1) x nc: contact force at every step */
 } svbi_solver_outputs;
 

@@ -10,6 +10,36 @@ static void worst_of(double* worst, double g) {
   if (a != a || a > *worst) *worst = a;
 }
 
+/* svbi.runtime.reactions.support_reactions: what the span's equation of motion leaves over at each
+ * support DOF, R = [M a + C (v - T q') + K u]_s + [N P]_s (beyond the dead load, added in Python). */
+static void support_reactions(const setup_t* S, const state_t* X, outputs_t* O, const work_t* w, long row) {
+  int s, j, d, i, nd = S->nd, ns = S->ns, NS = S->spans * S->ns;
+  const double* Mr = S->react_rows;
+  const double* Cr = S->react_rows + (long)ns * nd;
+  const double* Kr = S->react_rows + 2L * ns * nd;
+  for (s = 0; s < S->spans; ++s) {
+    const double* q1 = w->qs + NS + (long)s * ns;
+    for (j = 0; j < ns; ++j) {
+      double r = 0.0;
+      for (d = 0; d < nd; ++d)
+        r += Mr[j * nd + d] * BR(w->ba, s, d) + Cr[j * nd + d] * BR(w->bv, s, d) + Kr[j * nd + d] * BR(w->bu, s, d);
+      for (i = 0; i < ns; ++i) r -= S->CT[S->sup[j] * ns + i] * q1[i];
+      O->support_reaction[row * NS + s * ns + j] = r;
+    }
+  }
+  for (i = 0; i < S->nc; ++i) {
+    int c = i, k; /* index order: the sum of the NumPy side (np.add.at) */
+    const double* N0;
+    if (!w->con[c]) continue;
+    N0 = w->crow + (long)c * ROW_COLS + COL_N0;
+    for (k = 0; k < NNZ_N0; ++k) {
+      int dof = w->cfirst[c] + nz_N0[k];
+      for (j = 0; j < ns; ++j)
+        if (S->sup[j] == dof) O->support_reaction[row * NS + w->cspan[c] * ns + j] += N0[nz_N0[k]] * X->P[c];
+    }
+  }
+}
+
 int svbi_record(const setup_t* S, const state_t* X, const excitation_t* E, outputs_t* O, const work_t* w,
                   info_t* I) {
   long row = O->row;
@@ -53,6 +83,7 @@ int svbi_record(const setup_t* S, const state_t* X, const excitation_t* E, outpu
       worst_of(&worst_s, g);
     }
   }
+  support_reactions(S, X, O, w, row);
 #if SVBI_MOVING_LOAD
   for (i = 0; i < nc; ++i) {
     O->gap_vehicle[row * nc + i] = 0.0;
