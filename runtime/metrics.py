@@ -159,6 +159,20 @@ def _moving_load(ds: xr.Dataset) -> bool:
         return False
 
 
+METRIC_INPUTS = (
+    "midspan_uz",
+    "deck_acceleration",
+    "end_rotation",
+    "carbody_az",
+    "contact_force",
+    "contact_force_filtered",
+    "contact_state",
+    "wheel_uplift",
+)
+"""The results variables :func:`compute_metrics` reads (with ``time`` and the attributes): a sweep
+worker builds only these (``Recorder.dataset(variables=...)``) when it keeps no history."""
+
+
 def compute_metrics(ds: xr.Dataset) -> xr.Dataset:
     """The metrics of one results Dataset (module docstring), with ``<name>_time`` for each peak.
 

@@ -14,7 +14,7 @@ import importlib
 import importlib.util
 import os
 import threading
-from collections.abc import Iterable
+from collections.abc import Collection, Iterable
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
@@ -31,6 +31,7 @@ if TYPE_CHECKING:
 
 FILTER_ORDER = 4
 FILTER_BLOCK = 1 << 22  # samples (32 MiB) of forces filtered at once
+FILTER_THREADS = min(2, os.cpu_count() or 1)  # blocks of the force filter filtered at once
 
 
 class ImportAhead:
@@ -213,12 +214,15 @@ class Recorder:
         return gaps
 
     # ----------------------------------------------------------------------------------------------
-    def dataset(self, attrs: dict[str, Any]) -> xr.Dataset:
-        """The Dataset of the rows recorded so far."""
+    def dataset(self, attrs: dict[str, Any], variables: Collection[str] | None = None) -> xr.Dataset:
+        """The Dataset of the rows recorded so far: every variable, or only ``variables`` (a sweep
+        keeps what its metrics need, ``svbi.runtime.metrics.METRIC_INPUTS``)."""
         m, k = self.model, self.count
         b, tr = m.bridge, m.train
         d = {name: arr[:k] for name, arr in self.data.items()}
-        bodies, body_vars = body_variables(tr.vehicle.dof_names, d.pop("vehicle_u"), d.pop("vehicle_a"))
+        u, a = d.pop("vehicle_u"), d.pop("vehicle_a")
+        wanted = variables is None or any(v.startswith("body_") for v in variables)
+        bodies, body_vars = body_variables(tr.vehicle.dof_names, u, a) if wanted else ([], {})
         filtered = self._filtered(k)
         static = self._static_loads()
         with np.errstate(divide="ignore", invalid="ignore"):
@@ -353,6 +357,8 @@ class Recorder:
             "support_span": ("support", np.repeat(np.arange(1, b.spans + 1), b.nsupport)),
             "support_component": ("support", np.array(list(SUPPORT_COMPONENTS) * b.spans, dtype=object)),
         }
+        if variables is not None:
+            data_vars = {name: v for name, v in data_vars.items() if name in variables}
         import xarray as xr  # with pandas, 0.4 s of imports: needed only once the run is done
 
         return xr.Dataset(data_vars=data_vars, coords=coords, attrs=attrs)
@@ -457,11 +463,26 @@ class Recorder:
         rows = raw[::every][:k]
         out = np.empty_like(rows)
         # a few contacts at a time: sosfiltfilt holds several full-rate copies of what it filters
-        # (3 GB for 100 cars over a 32 km viaduct at dt = 1e-3 s), each column is filtered alone
-        width = max(1, FILTER_BLOCK // n)
-        for j in range(0, raw.shape[1], width):
-            block = sig.sosfiltfilt(sos, raw[:, j : j + width], axis=0, padlen=padlen)
-            out[:, j : j + width] = block[::every][:k]
+        # (3 GB for 100 cars over a 32 km viaduct at dt = 1e-3 s), each column is filtered alone;
+        # the blocks on two threads (scipy's sosfilt releases the GIL): the filter is the largest
+        # part of the work after the loop, and the columns are independent (bit-identical results)
+        ncol = raw.shape[1]
+        threads = FILTER_THREADS if ncol > 1 else 1
+        width = max(1, min(FILTER_BLOCK // n, -(-ncol // threads)))
+
+        def block(j: int) -> None:
+            filtered = sig.sosfiltfilt(sos, raw[:, j : j + width], axis=0, padlen=padlen)
+            out[:, j : j + width] = filtered[::every][:k]
+
+        starts = range(0, ncol, width)
+        if threads > 1 and len(starts) > 1:
+            from concurrent.futures import ThreadPoolExecutor
+
+            with ThreadPoolExecutor(threads) as pool:
+                list(pool.map(block, starts))
+        else:
+            for j in starts:
+                block(j)
         return out.reshape(-1, tr.cars, tr.wheels)
 
 

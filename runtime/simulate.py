@@ -254,6 +254,7 @@ def simulate(
     model: Model | None = None,
     clock_start: float | None = None,
     import_ahead: Sequence[str] = (),
+    variables: Sequence[str] | None = None,
 ) -> xr.Dataset:
     """Run a scenario and return the results (DESIGN.md section 4).
 
@@ -265,7 +266,8 @@ def simulate(
     ``clock_start`` is the ``time.perf_counter()`` at which the caller began (``svbi run`` passes
     the time before it loaded the scenario), so that ``setup_time_s`` counts it; ``import_ahead``
     names modules the caller needs after the run (``svbi run``: the NetCDF writer), imported in the
-    background with the results' own while a compiled loop runs (``results.ImportAhead``).
+    background with the results' own while a compiled loop runs (``results.ImportAhead``);
+    ``variables`` keeps only those results variables (a sweep's metrics need a few of them).
 
     Timing attributes (DESIGN.md section 4): ``setup_time_s`` from the start (``clock_start`` or
     the call) to the first step (scenario, model build, initial state, stepper set-up),
@@ -341,7 +343,7 @@ def simulate(
         attrs["incomplete"] = message
     if ahead is not None:
         ahead.join()
-    ds = recorder.dataset(attrs)
+    ds = recorder.dataset(attrs, variables)
     ds.attrs["wall_time_s"] = time.perf_counter() - t_start
     if interrupted is not None:  # the caller gets the exception, and the partial results with it
         raise RunInterrupted(getattr(interrupted, "signum", signal.SIGINT), ds) from None
