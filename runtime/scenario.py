@@ -73,11 +73,51 @@ class _Table(BaseModel):
     model_config = ConfigDict(extra="forbid", strict=True, allow_inf_nan=False, validate_default=True)
 
 
+_SECTION_KEYS = (
+    "mass_per_length",
+    "youngs_modulus",
+    "area",
+    "second_moment",
+    "damping_ratio",
+    "elements_per_span",
+)
+
+
+class GirderSpec(_Table):
+    """``[[bridge.girders]]``: one deck in the direction of travel, continuous over its interior
+    supports. Section keys left out take the ``[bridge]`` defaults."""
+
+    spans: Annotated[list[Positive], Field(min_length=1)]
+    """Span lengths (m) in the direction of travel; one entry is a simply supported span."""
+    fixed_support: Annotated[int, Field(ge=0)] = 0
+    """Which of the girder's support lines (0 = its first) carries the fixed bearing."""
+    mass_per_length: Positive | None = None
+    youngs_modulus: Positive | None = None
+    area: Positive | None = None
+    second_moment: Positive | None = None
+    damping_ratio: Annotated[float, Field(ge=0, lt=1)] | None = None
+    elements_per_span: Annotated[int, Field(ge=1)] | None = None
+
+
+class PierSpec(_Table):
+    """``[[bridge.piers]]``: a pier column under one support line (not yet modelled: refused)."""
+
+    support: Annotated[int, Field(ge=0)]
+    height: Positive
+    mass_per_length: Positive
+    youngs_modulus: Positive
+    area: Positive
+    second_moment: Positive
+    bearing_stiffness_vertical: Positive | None = None
+    bearing_stiffness_longitudinal: Positive | None = None
+
+
 class BridgeSpec(_Table):
-    """``[bridge]``: a chain of identical simply supported spans."""
+    """``[bridge]``: the section defaults and either the shorthand ``spans`` x ``span_length`` (a chain
+    of identical simply supported spans) or the long form ``[[bridge.girders]]``."""
 
     spans: Annotated[int, Field(ge=1)] = 1
-    span_length: Positive
+    span_length: Positive | None = None
     mass_per_length: Positive
     youngs_modulus: Positive
     area: Positive
@@ -87,6 +127,56 @@ class BridgeSpec(_Table):
     rail_height: float = 0.0
     track_form: Literal["ballasted", "direct"] = "ballasted"
     """EN 1990 A2.4.4.2.1 deck acceleration limit of ``svbi check``: 3.5 m/s² ballasted, 5 m/s² direct."""
+    girders: list[GirderSpec] | None = None
+    piers: list[PierSpec] | None = None
+
+    @model_validator(mode="after")
+    def _one_form(self) -> BridgeSpec:
+        if self.girders is None:
+            if self.span_length is None:
+                raise ValueError("@bridge.span_length: required key is missing (or give [[bridge.girders]])")
+            return self
+        both = sorted({"spans", "span_length"} & self.model_fields_set)
+        if both:
+            raise ValueError(
+                f"@bridge.{both[0]}: the shorthand cannot be combined with the long form [[bridge.girders]]"
+            )
+        if not self.long_form_problems():
+            # the long form within today's model: the same chain of identical simply supported spans
+            self.spans = len(self.girders)
+            self.span_length = self.girders[0].spans[0]
+        return self
+
+    def long_form_problems(self) -> list[tuple[str, str]]:
+        """(key, message) for each long-form feature the mechanics does not model yet: every girder
+        must be one span, all spans equal, no section overrides, fixed bearing at the first line, no
+        piers. Refused, never approximated."""
+        out: list[tuple[str, str]] = []
+        if self.piers:
+            out.append(
+                ("bridge.piers", "piers are not modelled yet; give rigid supports (no [[bridge.piers]])")
+            )
+        for i, g in enumerate(self.girders or []):
+            key = f"bridge.girders[{i}]"
+            if len(g.spans) != 1:
+                out.append((f"{key}.spans", "continuous girders (more than one span) are not modelled yet"))
+            first = self.girders[0].spans[0] if self.girders else None
+            if any(length != first for length in g.spans):
+                out.append((f"{key}.spans", f"unequal spans are not modelled yet (first span {first:g} m)"))
+            if g.fixed_support != 0:
+                out.append(
+                    (
+                        f"{key}.fixed_support",
+                        "only 0 (the fixed bearing at the girder's first support) is modelled",
+                    )
+                )
+            for name in _SECTION_KEYS:
+                value = getattr(g, name)
+                if value is not None and value != getattr(self, name):
+                    out.append(
+                        (f"{key}.{name}", "a girder section different from [bridge]'s is not modelled yet")
+                    )
+        return out
 
 
 class TrainSpec(_Table):
@@ -219,7 +309,12 @@ class Scenario(_Table):
         return path if path.is_absolute() else self._base_dir / path
 
     def to_dict(self) -> dict[str, Any]:
-        return self.model_dump(mode="json", exclude_none=True)
+        out = self.model_dump(mode="json", exclude_none=True)
+        if self.bridge.girders is not None:
+            # the long form echoes as written: spans/span_length are derived from the girders
+            out["bridge"].pop("spans", None)
+            out["bridge"].pop("span_length", None)
+        return out
 
     def to_toml(self) -> str:
         """Normalised TOML text: every key, defaults filled in (echoed into the results)."""
@@ -283,7 +378,8 @@ def validate_scenario(
                 return f"--set {spec}"
         parts = key.split(".")
         while parts:
-            line = lines.get(".".join(parts))
+            # a list member (spans[0]) is written on its key's line
+            line = lines.get(".".join(parts)) or lines.get(re.sub(r"\[\d+\]$", "", ".".join(parts)))
             if line:
                 return f"{source}:{line}"
             parts.pop()
@@ -357,6 +453,10 @@ def _semantic_problems(s: Scenario) -> Iterable[tuple[str, str]]:
     from svbi.codegen.plain_types import TopologyError
 
     t, sol, trk = s.train, s.solver, s.track
+    bridge_problems = s.bridge.long_form_problems()
+    yield from bridge_problems
+    if bridge_problems:
+        return
     if trk.wavelength_min >= trk.wavelength_max:
         yield (
             "track.wavelength_min",
@@ -545,6 +645,8 @@ def time_step_warnings(s: Scenario) -> list[str]:
 _ALLOWED_BY_TABLE: dict[str, type[BaseModel]] = {
     "": Scenario,
     "bridge": BridgeSpec,
+    "bridge.girders": GirderSpec,
+    "bridge.piers": PierSpec,
     "train": TrainSpec,
     "track": TrackSpec,
     "earthquake": EarthquakeSpec,
@@ -575,7 +677,7 @@ def _problem(err: Mapping[str, Any], where: Any) -> Problem:
     value = err.get("input")
     if kind == "extra_forbidden":
         table = _dotted(loc[:-1])
-        model = _ALLOWED_BY_TABLE.get(table)
+        model = _ALLOWED_BY_TABLE.get(re.sub(r"\[\d+\]", "", table))
         allowed = f" (allowed: {', '.join(model.model_fields)})" if model else ""
         message = f"unknown key{allowed}"
     elif kind == "missing":
@@ -584,6 +686,9 @@ def _problem(err: Mapping[str, Any], where: Any) -> Problem:
         message = f"must be a table ([{key}] or {key}.<key> = ...), got {value!r}"
     elif kind == "value_error":
         message = str(err.get("ctx", {}).get("error", err.get("msg", "")))
+        if message.startswith("@"):
+            # a check across keys names the key it is about: "@bridge.span_length: ..."
+            key, message = message[1:].split(": ", 1)
     else:
         message = err.get("msg", "invalid").replace("Input should be", "must be")
         if value is not None and not isinstance(value, dict):
@@ -605,11 +710,18 @@ def _key_lines(text: str) -> dict[str, int]:
     """Line number of every table header and key in TOML text, by dotted path."""
     lines: dict[str, int] = {}
     table = ""
+    arrays: dict[str, int] = {}
     for number, line in enumerate(text.splitlines(), start=1):
         m = _HEADER.match(line)
         if m:
             table = _clean_key(m.group(1))
             lines.setdefault(table, number)
+            if line.lstrip().startswith("[["):
+                # an array of tables: [[bridge.girders]] number i is bridge.girders[i] (pydantic's key)
+                index = arrays.get(table, 0)
+                arrays[table] = index + 1
+                table = f"{table}[{index}]"
+                lines.setdefault(table, number)
             continue
         m = _KEY.match(line)
         if m:

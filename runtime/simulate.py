@@ -34,7 +34,14 @@ from svbi.runtime.creep_law import CreepParameters
 from svbi.runtime.initial import initial_state
 from svbi.runtime.results import ImportAhead, Recorder
 from svbi.runtime.run_output import RunInterrupted, signal_name
-from svbi.runtime.scenario import Scenario, load_scenario, validate_scenario, vehicle_ref
+from svbi.runtime.scenario import (
+    Problem,
+    Scenario,
+    ScenarioError,
+    load_scenario,
+    validate_scenario,
+    vehicle_ref,
+)
 from svbi.runtime.train import Train, vehicle_model
 
 if TYPE_CHECKING:
@@ -150,6 +157,10 @@ def run_extent(scenario: Scenario, hold_train: bool = False) -> tuple[Bridge, Tr
 
 def build_model(scenario: Scenario, hold_train: bool = False) -> Model:
     """Numbers for everything: bridge, train, excitations and solver settings."""
+    refused = scenario.bridge.long_form_problems()
+    if refused:
+        # a scenario validated with check=False still may not run a bridge the mechanics lacks
+        raise ScenarioError([Problem(k, m, scenario.source) for k, m in refused], scenario.source)
     ss = scenario.solver
     bridge, train, duration, steps = run_extent(scenario, hold_train)
     settings = Settings(
