@@ -194,3 +194,29 @@ def test_shorthand_and_long_form_together_or_neither(tmp_path):
     assert any(
         f"s.toml:{line_of(text, '[bridge]')}: bridge.span_length: required key is missing" in p for p in found
     ), found
+
+
+def test_modes_of_a_refused_scenario_is_one_line(tmp_path):
+    from svbi.runtime.cli import _register, app
+    from typer.testing import CliRunner
+
+    _register()
+    text = LONG.format(backend="numpy").replace(
+        "spans = [24.0]\nfixed_support", "spans = [24.0, 30.0]\nfixed_support"
+    )
+    path = tmp_path / "bridge.toml"
+    path.write_text(text, encoding="utf-8")
+    result = CliRunner().invoke(app, ["modes", str(path)])
+    assert result.exit_code == 2
+    assert "bridge.girders[1].spans: continuous girders" in result.output
+
+
+def test_override_of_the_shorthand_on_a_long_form_names_the_set(tmp_path):
+    path = tmp_path / "s.toml"
+    path.write_text(LONG.format(backend="numpy"), encoding="utf-8")
+    with pytest.raises(ScenarioError) as info:
+        load_scenario(path, overrides=["bridge.span_length=30.0"])
+    found = [str(p) for p in info.value.problems]
+    assert any(
+        p.startswith("--set bridge.span_length=30.0: bridge.span_length: the shorthand") for p in found
+    ), found
