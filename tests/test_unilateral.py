@@ -69,7 +69,7 @@ def sprung_mass_scenario(
                 start_position=-10.0,  # on the approach track, which moves with the ground
                 parameters=dict(sprung_mass=M_S, wheel_mass=M_W, stiffness=K_S, damping=C_S),
             ),
-            "contact": dict(normal=normal),
+            "contact": dict(normal=normal, creep=False),  # no wheel spin: nothing to creep
             "solver": dict(
                 method=method,
                 backend=backend,
