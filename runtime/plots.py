@@ -660,6 +660,9 @@ def plot_results(results: Results, out_dir: str | os.PathLike[str], dpi: int = D
 SUMMARY_ROWS: dict[str, str] = {
     "midspan_uz": "max |midspan_uz| span 1 (mm)",
     "midspan_ux": "max |midspan_ux| span 1 (mm)",
+    "midspan_uz_rel": "max |midspan_uz_rel| span 1 (mm)",
+    "midspan_ux_rel": "max |midspan_ux_rel| span 1 (mm)",
+    "support_reaction": "max support reaction (kN)",
     "contact_force": "max contact force, all wheels (kN)",
     "contact_force_filtered": "max filtered contact force (kN)",
     "carbody_az": "max |carbody_az| car 1 (m/s2)",
@@ -694,6 +697,9 @@ def _summary_values(runs: Sequence[Run]) -> dict[str, dict[str, float | None]]:
         peaks: dict[str, tuple[xr.DataArray | None, float]] = {
             "midspan_uz": (_abs(_series(ds, "midspan_uz", span1)), 1e3),
             "midspan_ux": (_abs(_series(ds, "midspan_ux", span1)), 1e3),
+            "midspan_uz_rel": (_abs(_series(ds, "midspan_uz_rel", span1)), 1e3),
+            "midspan_ux_rel": (_abs(_series(ds, "midspan_ux_rel", span1)), 1e3),
+            "support_reaction": (ds.get("support_reaction"), 1e-3),
             "contact_force": (ds.get("contact_force"), 1e-3),
             "contact_force_filtered": (ds.get("contact_force_filtered"), 1e-3),
             "carbody_az": (_abs(_series(ds, "carbody_az", car1)), 1.0),
