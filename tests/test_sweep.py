@@ -262,3 +262,17 @@ def test_interrupt_and_killed_worker_lose_no_run_and_resume(tmp_path):
             if p.poll() is None:
                 os.killpg(p.pid, signal.SIGKILL)
                 p.wait(timeout=30)
+
+
+def test_workers_keep_dask_thread_limits_without_the_malloc_trim_threshold():
+    """The LocalCluster's workers: one BLAS/OpenMP thread each (Dask's default), and glibc's dynamic
+    mmap threshold left alone (``sweep.worker_environment``: the per-run overhead halves)."""
+    import dask
+    import distributed  # noqa: F401 - loads Dask's distributed defaults
+    from svbi.runtime.sweep import worker_environment
+
+    env = worker_environment()
+    assert "MALLOC_TRIM_THRESHOLD_" not in env
+    assert "MALLOC_TRIM_THRESHOLD_" in dask.config.get("distributed.nanny.pre-spawn-environ")  # untouched
+    for name in ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS"):
+        assert int(env[name]) == 1
