@@ -99,6 +99,34 @@ def element_stiffness() -> sp.Matrix:
 
 
 @cache
+def column_rotation() -> sp.Matrix:
+    """Global ``(u, w, theta)`` of both nodes to the local DOFs of an element whose axis points up.
+
+    A pier column is the frame element turned a quarter turn anticlockwise (its local x along global
+    z): local axial ``= w``, local transverse ``= -u``, rotation unchanged.
+    """
+    phi = sp.pi / 2
+    c, s = sp.cos(phi), sp.sin(phi)
+    node = sp.Matrix([[c, s, 0], [-s, c, 0], [0, 0, 1]])
+    return sp.diag(node, node)
+
+
+@cache
+def column_mass() -> sp.Matrix:
+    """Consistent mass of a vertical column element in global DOFs ``[u1, w1, theta1, u2, w2,
+    theta2]`` (node 1 at the bottom): ``R^T M_e R``."""
+    r = column_rotation()
+    return (r.T * element_mass() * r).applyfunc(sp.factor)
+
+
+@cache
+def column_stiffness() -> sp.Matrix:
+    """Stiffness of a vertical column element in global DOFs (node 1 at the bottom): ``R^T K_e R``."""
+    r = column_rotation()
+    return (r.T * element_stiffness() * r).applyfunc(sp.factor)
+
+
+@cache
 def normal_row(order: int = 0) -> sp.Matrix:
     """Row of ``W_N^B(x)`` (Eq. 10) for a contact at ``xi``, or its ``order``-th x-derivative."""
     if order not in (0, 1, 2):

@@ -464,6 +464,31 @@ def _k_element_stiffness() -> KernelSpec:
 
 
 @beam_kernel
+def _k_column_mass() -> KernelSpec:
+    from svbi.codegen import beam
+
+    return _beam_spec(
+        "column_mass",
+        "Consistent mass of a vertical (pier) column element in global DOFs [u1, w1, theta1, u2, w2, "
+        "theta2], node 1 at the bottom: the frame element turned a quarter turn.",
+        _section(),
+        [("M_c", beam.column_mass())],
+    )
+
+
+@beam_kernel
+def _k_column_stiffness() -> KernelSpec:
+    from svbi.codegen import beam
+
+    return _beam_spec(
+        "column_stiffness",
+        "Stiffness of a vertical (pier) column element in global DOFs, node 1 at the bottom.",
+        _section(),
+        [("K_c", beam.column_stiffness())],
+    )
+
+
+@beam_kernel
 def _k_contact_rows() -> KernelSpec:
     from svbi.codegen import beam
 

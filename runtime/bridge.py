@@ -21,10 +21,15 @@ from dataclasses import dataclass
 import numpy as np
 import scipy.linalg as sla
 from svbi.codegen.plain_types import GRAVITY
-from svbi.runtime.modes import span_matrices, span_support_dofs
+from svbi.runtime.modes import column_matrices, span_matrices
 
 SUPPORT_COMPONENTS = ("longitudinal", "vertical", "vertical")
-"""Component of each support constraint of a span, in the order of ``span_support_dofs``."""
+"""Component of each support constraint of a span of the shorthand bridge, in the order of
+``span_support_dofs``."""
+
+LONGITUDINAL, VERTICAL, ROTATION = 0, 1, 2
+"""Component codes of a support constraint (``Bridge.support_component``)."""
+COMPONENT_NAMES = ("longitudinal", "vertical", "rotation")
 
 
 @dataclass(frozen=True)
@@ -43,8 +48,82 @@ class Location:
         return 3 * self.element
 
 
+@dataclass(frozen=True)
+class Section:
+    """A cross-section: mass per length (kg/m), E (Pa), A (m^2), I (m^4) and the damping ratio."""
+
+    mass_per_length: float
+    youngs_modulus: float
+    area: float
+    second_moment: float
+    damping_ratio: float
+
+
+@dataclass(frozen=True)
+class Girder:
+    """A deck continuous over ``len(spans)`` spans (one span: simply supported)."""
+
+    spans: tuple[float, ...]
+    section: Section
+    fixed_support: int = 0
+    """Which of its support lines (0 = its first) carries the fixed (longitudinal) bearing."""
+
+
+@dataclass(frozen=True)
+class Pier:
+    """A pier column under support line ``support`` (0 = first abutment), fixed at its base."""
+
+    support: int
+    height: float
+    section: Section
+
+
+@dataclass
+class SubKind:
+    """Matrices shared by every substructure (span or pier) with the same geometry, section,
+    damping and support layout."""
+
+    M: np.ndarray
+    K: np.ndarray
+    C: np.ndarray
+    length: float
+    element_length: float
+    section: Section
+    pier: bool
+    support_dofs: np.ndarray
+    """Three support slots (DOF of each; meaningful where ``support_active``)."""
+    support_active: np.ndarray
+    alpha: float
+    beta: float
+
+
+@dataclass(frozen=True)
+class Links:
+    """Constraints ``u[a_sub, a_dof] - u[b_sub, b_dof] = 0`` between substructures: a girder's
+    continuity over an interior support (u, w, theta) and the bearings on pier tops (w, and u
+    at the fixed bearing). Imposed like the supports, as stabilised gaps (Eq. 22 with no ground)."""
+
+    a_sub: np.ndarray
+    a_dof: np.ndarray
+    b_sub: np.ndarray
+    b_dof: np.ndarray
+    kind: tuple[str, ...]
+
+    def __len__(self) -> int:
+        return len(self.a_sub)
+
+
 class Bridge:
-    """Numeric matrices of one span (all spans are equal) and the geometry of the span chain."""
+    """The bridge as substructures: its spans (each with its own nodes, ``elements_per_span``
+    frame elements) and its pier columns (as many column elements), joined by :class:`Links` and
+    tied to the ground by support constraints (Eqs. 22-24).
+
+    ``Bridge(spans, span_length, ...)`` is the shorthand chain of identical simply supported spans
+    (the paper's bridge). ``girders``/``piers`` give the long form (``docs/scenario.md``); a long
+    form without piers whose girders are single equal spans of the default section builds the
+    same arrays as the shorthand. Substructure ``s < spans`` is span ``s``; then the piers in
+    their given order.
+    """
 
     def __init__(
         self,
@@ -57,54 +136,226 @@ class Bridge:
         damping_ratio: float,
         elements_per_span: int,
         rail_height: float = 0.0,
+        girders: list[Girder] | None = None,
+        piers: list[Pier] | None = None,
     ) -> None:
-        self.spans = int(spans)
-        self.span_length = float(span_length)
+        default = Section(
+            float(mass_per_length),
+            float(youngs_modulus),
+            float(area),
+            float(second_moment),
+            float(damping_ratio),
+        )
+        if girders is None:
+            girders = [Girder((float(span_length),), default)] * int(spans)
+        self.girders = list(girders)
+        self.piers = list(piers or [])
         self.elements = int(elements_per_span)
-        self.element_length = self.span_length / self.elements
-        self.mass_per_length = float(mass_per_length)
-        self.youngs_modulus = float(youngs_modulus)
-        self.area = float(area)
-        self.second_moment = float(second_moment)
-        self.damping_ratio = float(damping_ratio)
         self.rail_height = float(rail_height)
         self.ndof = 3 * (self.elements + 1)
-        self.M, self.K = span_matrices(
-            self.span_length, self.elements, youngs_modulus, area, second_moment, mass_per_length
+        self.span_lengths = np.array([length for g in self.girders for length in g.spans], dtype=float)
+        self.spans = len(self.span_lengths)
+        self.nsub = self.spans + len(self.piers)
+        self.span_starts = np.concatenate([[0.0], np.cumsum(self.span_lengths)[:-1]])
+        self.line_x = np.concatenate([[0.0], np.cumsum(self.span_lengths)])
+        """Position of every support line (abutments and piers), ``spans + 1`` entries."""
+        self.span_girder = np.repeat(np.arange(len(self.girders)), [len(g.spans) for g in self.girders])
+        self.uniform = (
+            not self.piers
+            and all(len(g.spans) == 1 and g.fixed_support == 0 for g in self.girders)
+            and len({(g.spans, g.section) for g in self.girders}) == 1
         )
-        self.support_dofs = np.array(span_support_dofs(self.elements))
-        self.nsupport = len(self.support_dofs)
-        self.E = np.zeros((self.ndof, self.nsupport))
-        self.E[self.support_dofs, np.arange(self.nsupport)] = 1.0
-        self.vertical_frequencies = self._vertical_frequencies()
-        self.alpha, self.beta = self._rayleigh(self.damping_ratio)
-        self.C = self.alpha * self.M + self.beta * self.K
-        self.T = self._quasi_static_field()
-        self.CT = self.C @ self.T
-        ends = np.where(self.support_dofs == 3 * self.elements + 1, self.span_length, 0.0)
-        self.support_x = np.arange(self.spans)[:, None] * self.span_length + ends[None, :]
-        """Position of every support constraint, shape ``(spans, nsupport)``."""
-        self.dead_load_reactions = self._dead_load_reactions()
-        """Support forces carrying the span's own weight, shape ``(nsupport,)`` (results
-        ``support_reaction``: the bridge DOFs are measured from this dead-load state)."""
+        """The paper's bridge: identical simply supported spans on rigid supports, fixed bearing
+        on the left (what the C backend runs)."""
+        self._build()
 
     # ----------------------------------------------------------------------------------------------
-    def _vertical_frequencies(self) -> np.ndarray:
-        """Circular frequencies (rad/s) of the vertical modes of one span, supports held."""
-        free = np.setdiff1d(np.arange(self.ndof), self.support_dofs)
+    def _build(self) -> None:
+        ne, nd = self.elements, self.ndof
+        pier_at = {p.support: i for i, p in enumerate(self.piers)}
+        for p in self.piers:
+            if not 0 <= p.support <= self.spans:
+                raise ValueError(f"pier support line {p.support} is not one of 0..{self.spans}")
+        sup_dof = np.zeros((self.nsub, 3), dtype=np.intp)
+        sup_dof[:] = [0, 1, 3 * ne + 1]
+        sup_comp = np.tile([LONGITUDINAL, VERTICAL, VERTICAL], (self.nsub, 1))
+        sup_active = np.zeros((self.nsub, 3), dtype=bool)
+        sup_x = np.zeros((self.nsub, 3))
+        links: list[tuple[int, int, int, int, str]] = []
+        top = 3 * ne  # a pier's top node: u at 3 ne, w at 3 ne + 1
+
+        def hold(span: int, slot: int, dof: int, line: int, what: str) -> None:
+            """A bearing of ``span`` on support line ``line``: to the ground, or to a pier top."""
+            sup_dof[span, slot] = dof
+            sup_x[span, slot] = self.line_x[line]
+            if line in pier_at:
+                pier = self.spans + pier_at[line]
+                links.append((span, dof, pier, top + (0 if what == "u" else 1), f"bearing-{what}"))
+            else:
+                sup_active[span, slot] = True
+
+        s0 = 0
+        for g in self.girders:
+            k = len(g.spans)
+            if not 0 <= g.fixed_support <= k:
+                raise ValueError(f"fixed_support {g.fixed_support} is not one of the girder's lines 0..{k}")
+            for j in range(k):
+                s = s0 + j
+                if j == 0:
+                    hold(s, 1, 1, s, "w")
+                else:  # continuous over the interior support: the start node follows the span behind
+                    links += [(s - 1, 3 * ne + d, s, d, f"continuity-{n}") for d, n in enumerate("uwt")]
+                hold(s, 2, 3 * ne + 1, s + 1, "w")
+                if g.fixed_support == j:
+                    hold(s, 0, 0, s, "u")
+                elif g.fixed_support == j + 1:
+                    hold(s, 0, 3 * ne, s + 1, "u")
+            s0 += k
+        for i, p in enumerate(self.piers):
+            sub = self.spans + i
+            sup_dof[sub] = [0, 1, 2]
+            sup_comp[sub] = [LONGITUDINAL, VERTICAL, ROTATION]
+            sup_active[sub] = True
+            sup_x[sub] = self.line_x[p.support]
+        self.support_dof = sup_dof
+        self.support_component = sup_comp
+        self.support_active = sup_active
+        self.support_x_all = sup_x
+        """Position of every support slot, ``(nsub, 3)`` (see ``support_active``)."""
+        la = np.array(links, dtype=object).reshape(-1, 5)
+        self.links = Links(
+            la[:, 0].astype(np.intp),
+            la[:, 1].astype(np.intp),
+            la[:, 2].astype(np.intp),
+            la[:, 3].astype(np.intp),
+            tuple(la[:, 4]),
+        )
+        self._kinds()
+        if self.uniform:
+            k0 = self.kinds[0]
+            self.span_length = float(self.span_lengths[0])
+            self.element_length = k0.element_length
+            self.mass_per_length = k0.section.mass_per_length
+            self.youngs_modulus = k0.section.youngs_modulus
+            self.area = k0.section.area
+            self.second_moment = k0.section.second_moment
+            self.damping_ratio = k0.section.damping_ratio
+            self.M, self.K, self.C = k0.M, k0.K, k0.C
+            self.alpha, self.beta = k0.alpha, k0.beta
+            self.support_dofs = k0.support_dofs
+            self.nsupport = 3
+            self.E = np.zeros((nd, 3))
+            self.E[self.support_dofs, np.arange(3)] = 1.0
+            self.vertical_frequencies = self._girder_frequencies(self.girders[0])
+            self.T = self._quasi_static_field()
+            self.CT = self.C @ self.T
+            self.support_x = sup_x
+            """Position of every support constraint, shape ``(spans, nsupport)``."""
+            self.dead_load_reactions = self._dead_load_reactions()
+            """Support forces carrying the span's own weight, shape ``(nsupport,)`` (results
+            ``support_reaction``: the bridge DOFs are measured from this dead-load state)."""
+        else:
+            self.span_length = float(self.span_lengths[0])
+            self._global()
+
+    def _kinds(self) -> None:
+        """Group the substructures by everything their matrices depend on."""
+        ne = self.elements
+        keys: dict[tuple, int] = {}
+        self.kinds: list[SubKind] = []
+        kind = np.zeros(self.nsub, dtype=np.intp)
+        girder_damping = [
+            self._rayleigh(self._girder_frequencies(g), g.section.damping_ratio) for g in self.girders
+        ]
+        for s in range(self.nsub):
+            if s < self.spans:
+                g = self.girders[self.span_girder[s]]
+                length, section, pier = float(self.span_lengths[s]), g.section, False
+                alpha, beta = girder_damping[self.span_girder[s]]
+            else:
+                p = self.piers[s - self.spans]
+                length, section, pier = p.height, p.section, True
+                alpha, beta = self._rayleigh(self._pier_frequencies(p), section.damping_ratio)
+            key = (
+                pier,
+                length,
+                section,
+                tuple(self.support_dof[s]),
+                tuple(self.support_active[s]),
+                alpha,
+                beta,
+            )
+            if key not in keys:
+                build = column_matrices if pier else span_matrices
+                sec = (section.youngs_modulus, section.area, section.second_moment, section.mass_per_length)
+                M, K = build(length, ne, *sec)
+                keys[key] = len(self.kinds)
+                self.kinds.append(
+                    SubKind(
+                        M,
+                        K,
+                        alpha * M + beta * K,
+                        length,
+                        length / ne,
+                        section,
+                        pier,
+                        self.support_dof[s].copy(),
+                        self.support_active[s].copy(),
+                        alpha,
+                        beta,
+                    )
+                )
+            kind[s] = keys[key]
+        self.kind = kind
+        self.kind_members = [np.flatnonzero(kind == k) for k in range(len(self.kinds))]
+        self.span_element_length = self.span_lengths / ne
+
+    # ----------------------------------------------------------------------------------------------
+    def _girder_matrices(self, g: Girder) -> tuple[np.ndarray, np.ndarray, list[int], int]:
+        """A girder alone as one continuous beam (shared nodes): M, K, the DOFs its bearings hold
+        on rigid supports (w at every line, u at the fixed line) and its number of nodes."""
+        ne = self.elements
+        sec = g.section
+        nodes = ne * len(g.spans) + 1
+        M, K = np.zeros((3 * nodes, 3 * nodes)), np.zeros((3 * nodes, 3 * nodes))
+        for j, length in enumerate(g.spans):
+            m, k = span_matrices(
+                length, ne, sec.youngs_modulus, sec.area, sec.second_moment, sec.mass_per_length
+            )
+            o = slice(3 * ne * j, 3 * ne * j + self.ndof)
+            M[o, o] += m
+            K[o, o] += k
+        held = [3 * ne * j + 1 for j in range(len(g.spans) + 1)] + [3 * ne * g.fixed_support]
+        return M, K, held, nodes
+
+    def _girder_frequencies(self, g: Girder) -> np.ndarray:
+        """Circular frequencies (rad/s) of the vertical modes of a girder on rigid supports."""
+        M, K, held, _ = self._girder_matrices(g)
+        free = np.setdiff1d(np.arange(M.shape[0]), held)
         bending = np.array([i for i in free if i % 3 != 0])
         sub = np.ix_(bending, bending)
-        eig = sla.eigh(self.K[sub], self.M[sub], eigvals_only=True)
+        eig = sla.eigh(K[sub], M[sub], eigvals_only=True)
         return np.sqrt(np.clip(eig, 0.0, None))
 
-    def _rayleigh(self, ratio: float) -> tuple[float, float]:
-        """``alpha, beta`` giving the damping ratio on the first two vertical modes."""
+    def _pier_frequencies(self, p: Pier) -> np.ndarray:
+        """Circular frequencies (rad/s) of the sway modes of a pier alone, a fixed-base cantilever."""
+        sec = p.section
+        M, K = column_matrices(
+            p.height, self.elements, sec.youngs_modulus, sec.area, sec.second_moment, sec.mass_per_length
+        )
+        sway = np.array([i for i in range(3, M.shape[0]) if i % 3 != 1])
+        eig = sla.eigh(K[np.ix_(sway, sway)], M[np.ix_(sway, sway)], eigvals_only=True)
+        return np.sqrt(np.clip(eig, 0.0, None))
+
+    @staticmethod
+    def _rayleigh(frequencies: np.ndarray, ratio: float) -> tuple[float, float]:
+        """``alpha, beta`` giving the damping ratio at the first two circular frequencies."""
         if ratio == 0.0:
             return 0.0, 0.0
-        if len(self.vertical_frequencies) < 2:
-            w1 = self.vertical_frequencies[0]
+        if len(frequencies) < 2:
+            w1 = frequencies[0]
             return 0.0, 2 * ratio / w1
-        w1, w2 = self.vertical_frequencies[:2]
+        w1, w2 = frequencies[:2]
         return 2 * ratio * w1 * w2 / (w1 + w2), 2 * ratio / (w1 + w2)
 
     def _dead_load_reactions(self) -> np.ndarray:
@@ -135,13 +386,131 @@ class Bridge:
         return T
 
     # ----------------------------------------------------------------------------------------------
+    # the whole bridge as one structure (links merge DOFs): modes, quasi-static field, dead load
+    def _global(self) -> None:
+        """Global numbering (every link merges two DOFs), the quasi-static field ``T`` of the
+        active supports as a sparse map to every substructure DOF, ``C T`` for the damping load
+        on the motion relative to the ground, and the dead-load reactions."""
+        import scipy.sparse as sps
+        import scipy.sparse.linalg as spla
+
+        nd, nsub = self.ndof, self.nsub
+        parent = np.arange(nsub * nd)
+
+        def find(i: int) -> int:
+            while parent[i] != i:
+                parent[i] = parent[parent[i]]
+                i = parent[i]
+            return i
+
+        L = self.links
+        for a_s, a_d, b_s, b_d in zip(L.a_sub, L.a_dof, L.b_sub, L.b_dof, strict=True):
+            ra, rb = find(a_s * nd + a_d), find(b_s * nd + b_d)
+            if ra != rb:
+                parent[max(ra, rb)] = min(ra, rb)
+        roots = np.array([find(i) for i in range(nsub * nd)])
+        uniq, gmap = np.unique(roots, return_inverse=True)
+        self.global_dof = gmap.reshape(nsub, nd)
+        """Global DOF of every substructure DOF (links merged), ``(nsub, ndof)``."""
+        self.nglobal = len(uniq)
+        rows, cols, mv, kv = [], [], [], []
+        for s in range(nsub):
+            kd = self.kinds[self.kind[s]]
+            g = self.global_dof[s]
+            rr, cc = np.meshgrid(g, g, indexing="ij")
+            rows.append(rr.ravel())
+            cols.append(cc.ravel())
+            mv.append(kd.M.ravel())
+            kv.append(kd.K.ravel())
+        shape = (self.nglobal, self.nglobal)
+        r, c = np.concatenate(rows), np.concatenate(cols)
+        self.M_global = sps.csc_matrix((np.concatenate(mv), (r, c)), shape=shape)
+        self.K_global = sps.csc_matrix((np.concatenate(kv), (r, c)), shape=shape)
+        act = self.support_active
+        self.support_global = self.global_dof[np.nonzero(act)[0], self.support_dof[act]]
+        """Global DOF of every active support constraint (row-major over ``(nsub, 3)``)."""
+        if len(np.unique(self.support_global)) != len(self.support_global):
+            raise ValueError("two support constraints hold the same DOF (check the piers' support lines)")
+        free = np.setdiff1d(np.arange(self.nglobal), self.support_global)
+        self.free_global = free
+        K = self.K_global
+        lu = spla.splu(K[free][:, free].tocsc())
+        nsup = len(self.support_global)
+        Tg = np.zeros((self.nglobal, nsup))
+        Tg[self.support_global, np.arange(nsup)] = 1.0
+        Tg[free] = -lu.solve(np.asarray(K[free][:, self.support_global].todense()))
+        Tg[np.abs(Tg) < 1e-14] = 0.0
+        # per substructure: T_s = Tg[global_dof[s]]; C T as one sparse map (nsub*ndof x nsup)
+        blocks = [self.kinds[self.kind[s]].C @ Tg[self.global_dof[s]] for s in range(nsub)]
+        self.CT_map = sps.csr_matrix(np.vstack(blocks))
+        self.T_map = sps.csr_matrix(np.vstack([Tg[self.global_dof[s]] for s in range(nsub)]))
+        ez = np.zeros(self.nglobal)
+        for s in range(nsub):
+            ez[self.global_dof[s][1::3]] = 1.0
+        f = -GRAVITY * (self.M_global @ ez)
+        u = np.zeros(self.nglobal)
+        u[free] = lu.solve(f[free])
+        self.dead_load_global = (K @ u - f)[self.support_global]
+        """Dead-load reaction of every active support constraint, N."""
+
+    def natural_frequencies(self, count: int = 10) -> np.ndarray:
+        """The lowest natural frequencies (Hz) of the whole bridge, supports held."""
+        M, K, free = self.assembled()
+        k, m = K[np.ix_(free, free)], M[np.ix_(free, free)]
+        n = len(free)
+        eig = sla.eigh(k, m, eigvals_only=True, subset_by_index=[0, min(count, n) - 1])
+        return np.sqrt(np.clip(eig, 0.0, None)) / (2 * np.pi)
+
+    def assembled(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """Dense global ``M``, ``K`` (links merged) and the free DOFs (active supports held)."""
+        if self.uniform:
+            nd = self.ndof
+            n = self.spans * nd
+            M, K = np.zeros((n, n)), np.zeros((n, n))
+            for s in range(self.spans):
+                o = slice(s * nd, (s + 1) * nd)
+                M[o, o], K[o, o] = self.M, self.K
+            held = (np.arange(self.spans)[:, None] * nd + self.support_dofs[None, :]).ravel()
+            return M, K, np.setdiff1d(np.arange(n), held)
+        return self.M_global.toarray(), self.K_global.toarray(), self.free_global
+
+    # ----------------------------------------------------------------------------------------------
+    # per-step operations on the substructures (the uniform bridge keeps its one-matrix form)
+    def per_kind(self, X: np.ndarray, name: str) -> np.ndarray:
+        """``X[s] @ kind(s).<name>`` for every substructure row of ``X`` (``nsub x ndof``)."""
+        if self.uniform:
+            return X @ getattr(self, name)
+        out = np.empty_like(X)
+        for k, members in enumerate(self.kind_members):
+            out[members] = X[members] @ getattr(self.kinds[k], name)
+        return out
+
+    def history_load(self, P: np.ndarray, Q: np.ndarray, q1: np.ndarray) -> np.ndarray:
+        """The bridge rows' known load ``M P + C Q + C T q'`` (damping on the motion relative to
+        the ground), ``nsub x ndof``; ``q1``: the support targets' velocities ``(nsub, 3)``."""
+        if self.uniform:
+            return P @ self.M + Q @ self.C + q1 @ self.CT.T
+        return self.per_kind(P, "M") + self.per_kind(Q, "C") + self.support_damping_load(q1)
+
+    def support_damping_load(self, q1: np.ndarray) -> np.ndarray:
+        if self.uniform:
+            return q1 @ self.CT.T
+        return (self.CT_map @ q1[self.support_active]).reshape(self.nsub, self.ndof)
+
+    def quasi_static_velocity(self, q1: np.ndarray) -> np.ndarray:
+        """``T q'``: the velocity of the quasi-static field of the support motion, ``nsub x ndof``."""
+        if self.uniform:
+            return q1 @ self.T.T
+        return (self.T_map @ q1[self.support_active]).reshape(self.nsub, self.ndof)
+
+    # ----------------------------------------------------------------------------------------------
     @property
     def length(self) -> float:
-        return self.spans * self.span_length
+        return float(self.line_x[-1])
 
     @property
     def support_vertical(self) -> np.ndarray:
-        """Mask of the vertical support constraints, shape ``(nsupport,)``."""
+        """Mask of the vertical support constraints, shape ``(nsupport,)`` (uniform bridge)."""
         return np.array([c == "vertical" for c in SUPPORT_COMPONENTS])
 
     def locate(self, x: np.ndarray) -> Location:
@@ -149,16 +518,22 @@ class Bridge:
         (clamped to the span) and local coordinate of the points ``x``. Off the bridge, span,
         element and ``xi`` are clamped placeholders: always use them together with ``on``."""
         x = np.asarray(x, dtype=float)
-        span_f = np.floor(x * (1.0 / self.span_length))
-        on = (span_f >= 0) & (span_f < self.spans)
-        span = np.clip(span_f, 0, self.spans - 1)
-        local = (x - span * self.span_length) * (1.0 / self.element_length)
+        if self.uniform:
+            span_f = np.floor(x * (1.0 / self.span_length))
+            on = (span_f >= 0) & (span_f < self.spans)
+            span = np.clip(span_f, 0, self.spans - 1)
+            local = (x - span * self.span_length) * (1.0 / self.element_length)
+        else:
+            on = (x >= 0.0) & (x < self.length)
+            span = np.clip(np.searchsorted(self.line_x, x, side="right") - 1, 0, self.spans - 1)
+            local = (x - self.span_starts[span]) / self.span_element_length[span]
         element = np.clip(np.floor(local), 0, self.elements - 1)
         xi = np.clip(local - element, 0.0, 1.0)
         return Location(x, on, span.astype(np.intp), element.astype(np.intp), xi)
 
     def midspan_location(self) -> tuple[int, float]:
-        """Element and local coordinate of the midspan point (same for every span)."""
-        local = 0.5 * self.span_length
-        element = min(int(np.floor(local / self.element_length)), self.elements - 1)
-        return element, local / self.element_length - element
+        """Element and local coordinate of the midspan point (same for every span: every span has
+        ``elements_per_span`` equal elements)."""
+        local = 0.5 * self.elements
+        element = min(int(np.floor(local)), self.elements - 1)
+        return element, local - element

@@ -62,6 +62,30 @@ def span_matrices(
     return m, k
 
 
+def column_matrices(
+    height: float,
+    elements: int,
+    youngs_modulus: float,
+    area: float,
+    second_moment: float,
+    mass_per_length: float,
+) -> tuple[np.ndarray, np.ndarray]:
+    """Assembled mass and stiffness of a pier column in global DOFs ``(u, w, theta)`` per node,
+    node 0 at the base, node ``elements`` at the top (generated ``column_mass/column_stiffness``)."""
+    kernels = frame2d()
+    le = height / elements
+    section = (youngs_modulus, area, second_moment, mass_per_length)
+    me = np.asarray(kernels.column_mass(section, le), dtype=float)
+    ke = np.asarray(kernels.column_stiffness(section, le), dtype=float)
+    n = 3 * (elements + 1)
+    m, k = np.zeros((n, n)), np.zeros((n, n))
+    for e in range(elements):
+        idx = slice(3 * e, 3 * e + 6)
+        m[idx, idx] += me
+        k[idx, idx] += ke
+    return m, k
+
+
 def span_support_dofs(elements: int) -> list[int]:
     """Support DOFs of one span: the fixed bearing (u and w at the left node), w at the right node."""
     return [0, 1, 3 * elements + 1]
