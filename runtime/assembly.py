@@ -22,7 +22,7 @@ from dataclasses import dataclass, field
 from typing import Any, Protocol
 
 import numpy as np
-from svbi.runtime.bridge import Bridge, Location
+from svbi.runtime.bridge import LONGITUDINAL, VERTICAL, Bridge, Location
 from svbi.runtime.creep_law import CreepParameters
 from svbi.runtime.train import Train
 
@@ -64,7 +64,21 @@ class Ground:
         return (z, z, z), (z, z, z)
 
     def supports(self, t: float, bridge: Bridge) -> Triple:
-        """Targets ``q, q', q''`` of every support constraint, shape ``(spans, nsupport)``."""
+        """Targets ``q, q', q''`` of every support constraint, shape ``(spans, nsupport)`` (the
+        paper's bridge) or ``(nsub, 3)`` (``Bridge.support_component``; a pier base does not
+        rotate)."""
+        if not bridge.uniform:
+            x = bridge.support_x_all
+            comp = bridge.support_component
+            vert, lon = self.motion(t, x.reshape(-1))
+            return tuple(  # type: ignore[return-value]
+                np.where(
+                    comp == VERTICAL,
+                    v.reshape(x.shape),
+                    np.where(comp == LONGITUDINAL, h.reshape(x.shape), 0.0),
+                )
+                for v, h in zip(vert, lon, strict=True)
+            )
         x = bridge.support_x
         vert, lon = self.motion(t, x.reshape(-1))
         mask = bridge.support_vertical[None, :]
@@ -99,7 +113,7 @@ class Ground:
         if self.uniform:
             (qz, _, _), (qx, _, _) = self.motion(t, np.zeros(1))
             return qz[0], qx[0]
-        (qz, _, _), (qx, _, _) = self.motion(t, bridge.support_x.reshape(-1))
+        (qz, _, _), (qx, _, _) = self.motion(t, bridge.support_table.x)
         return qz, qx
 
 
@@ -121,7 +135,7 @@ class GroundAtRest(Ground):
         return z, z
 
     def supports(self, t: float, bridge: Bridge) -> Triple:
-        return self._z(bridge.support_x.shape)
+        return self._z(bridge.support_x_all.shape)
 
     def under(self, t: float, x: np.ndarray, speed: float) -> Triple:
         return self._z(np.shape(x))

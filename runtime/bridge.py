@@ -78,6 +78,19 @@ class Pier:
     section: Section
 
 
+@dataclass(frozen=True)
+class SupportTable:
+    """The active support constraints as the results list them (dimension ``support``)."""
+
+    flat: np.ndarray
+    """Index of each into the ``(nsub, 3)`` support slots, row-major."""
+    x: np.ndarray
+    sub: np.ndarray
+    component: np.ndarray
+    dead_load: np.ndarray
+    """Reaction carrying the bridge's own weight, N."""
+
+
 @dataclass
 class SubKind:
     """Matrices shared by every substructure (span or pier) with the same geometry, section,
@@ -497,16 +510,49 @@ class Bridge:
             return q1 @ self.CT.T
         return (self.CT_map @ q1[self.support_active]).reshape(self.nsub, self.ndof)
 
-    def quasi_static_velocity(self, q1: np.ndarray) -> np.ndarray:
-        """``T q'``: the velocity of the quasi-static field of the support motion, ``nsub x ndof``."""
+    def quasi_static(self, q1: np.ndarray) -> np.ndarray:
+        """``T q``: the quasi-static field of the support motion ``q`` (or its rates), ``nsub x ndof``."""
         if self.uniform:
             return q1 @ self.T.T
         return (self.T_map @ q1[self.support_active]).reshape(self.nsub, self.ndof)
+
+    @property
+    def support_table(self) -> SupportTable:
+        if self.uniform:
+            flat = np.arange(self.spans * 3)
+            dead = np.tile(self.dead_load_reactions, self.spans)
+            names = np.array(list(SUPPORT_COMPONENTS) * self.spans, dtype=object)
+        else:
+            flat = np.flatnonzero(self.support_active.ravel())
+            dead = self.dead_load_global
+            names = np.array([COMPONENT_NAMES[c] for c in self.support_component.ravel()[flat]], dtype=object)
+        return SupportTable(flat, self.support_x_all.ravel()[flat], flat // 3, names, dead)
+
+    def reaction_at_supports(self, F: np.ndarray) -> np.ndarray:
+        """The support forces for the nodal force residual ``F`` (``nsub x ndof``) of the equations
+        of motion: at each active support, summed over the DOFs a link merges with it (the link
+        forces cancel), in the order of :attr:`support_table`."""
+        if self.uniform:
+            return F[:, self.support_dofs].reshape(-1)
+        total = np.bincount(self.global_dof.ravel(), weights=F.ravel(), minlength=self.nglobal)
+        return total[self.support_global]
 
     # ----------------------------------------------------------------------------------------------
     @property
     def length(self) -> float:
         return float(self.line_x[-1])
+
+    @property
+    def contact_element_length(self) -> float | np.ndarray:
+        """Element length of the spans: one value for the paper's bridge, else one per span (the
+        contact kernels then evaluate each contact with its span's)."""
+        return self.element_length if self.uniform else self.span_element_length
+
+    def at_supports(self, X: np.ndarray) -> np.ndarray:
+        """The values of ``X`` (``nsub x ndof``) at the support slots, ``(nsub, 3)``."""
+        if self.uniform:
+            return X[:, self.support_dofs]
+        return X[np.arange(self.nsub)[:, None], self.support_dof]
 
     @property
     def support_vertical(self) -> np.ndarray:

@@ -492,7 +492,7 @@ class CStepper:
         S.Khat_ff_band, S.band_pf = self._arr(band_f), pf
         S.Khat_fs = self._arr(k_hat[np.ix_(free, sup)])
         if code == 0:
-            S.S = self._arr(ref.bridge.S)
+            S.S = self._arr(ref.bridge.S[0])
         em, xim = b.midspan_location()
         S.mid_first = 3 * em
         S.mid_w = self._arr(ShapeKernel(b.element_length)(np.array([xim]))[0][0])

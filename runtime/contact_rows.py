@@ -37,6 +37,33 @@ class XiPolynomials:
         return powers @ self.coefficients
 
 
+class SpanPolynomials:
+    """:class:`XiPolynomials` per span: the element length differs between spans of unequal
+    length, so each distinct value has its own coefficients (one table for the paper's bridge)."""
+
+    def __init__(self, element_length: float | np.ndarray, build: Any) -> None:
+        """``build(le)`` returns the coefficient table for elements of length ``le``;
+        ``element_length`` is one value or one per span."""
+        les = np.atleast_1d(np.asarray(element_length, dtype=float))
+        uniq, self.group = np.unique(les, return_inverse=True)
+        self.element_lengths = uniq
+        self.polys = [XiPolynomials(build(float(x))) for x in uniq]
+
+    def __call__(self, xi: np.ndarray, span: np.ndarray | None = None) -> np.ndarray:
+        if len(self.polys) == 1:
+            return self.polys[0](xi)
+        if span is None:
+            raise ValueError("spans of unequal length: give the span of every point")
+        xi = np.asarray(xi, dtype=float)
+        g = self.group[np.asarray(span)]
+        out = np.zeros((len(xi), self.polys[0].coefficients.shape[1]))
+        for k, poly in enumerate(self.polys):
+            sel = np.flatnonzero(g == k)
+            if len(sel):
+                out[sel] = poly(xi[sel])
+        return out
+
+
 # --------------------------------------------------------------------------------------------------
 # contact rows on the bridge (Eqs. 10, 20-21 and their Newmark discretisation)
 
@@ -107,16 +134,19 @@ class ContactRowKernel:
     omega^2 g = 0`` with Newmark's relations at t_{n+1} (method-notes section 2b).
     """
 
-    def __init__(self, le: float, speed: float, dt: float, kappa: float, zeta: float) -> None:
+    def __init__(self, le: float | np.ndarray, speed: float, dt: float, kappa: float, zeta: float) -> None:
         # v = 0 (a held train) is a valid value: the tables are polynomials in v.
-        shapes = shape_tables(le)
-        d, rows = bridge_row_tables(le, speed, dt, kappa, zeta)
-        blocks = [shapes["N0"], shapes["N1"], shapes["N2"], rows["W_hat"], rows["c_P_ue"], rows["c_Q_ue"]]
-        self._poly = XiPolynomials(np.hstack([*blocks, rows["c_scalars"]]))
-        self.d = d
+        def table(le: float) -> np.ndarray:
+            shapes = shape_tables(le)
+            _, rows = bridge_row_tables(le, speed, dt, kappa, zeta)
+            blocks = [shapes["N0"], shapes["N1"], shapes["N2"], rows["W_hat"], rows["c_P_ue"], rows["c_Q_ue"]]
+            return np.hstack([*blocks, rows["c_scalars"]])
 
-    def __call__(self, xi: np.ndarray) -> ContactRows:
-        vals = self._poly(xi)
+        self._poly = SpanPolynomials(le, table)
+        self.d = bridge_row_tables(float(self._poly.element_lengths[0]), speed, dt, kappa, zeta)[0]
+
+    def __call__(self, xi: np.ndarray, span: np.ndarray | None = None) -> ContactRows:
+        vals = self._poly(xi, span)
         six = [vals[:, 6 * k : 6 * k + 6] for k in range(6)]
         s = vals[:, 36:]
         return ContactRows(*six, s[:, 0], s[:, 1], s[:, 2], s[:, 3], s[:, 4])
@@ -125,13 +155,14 @@ class ContactRowKernel:
 class ShapeKernel:
     """``W_N^B`` (and optionally its x-derivatives) at local coordinates ``xi`` of one element size."""
 
-    def __init__(self, le: float, orders: tuple[int, ...] = (0,)) -> None:
-        shapes = shape_tables(le)
-        self._poly = XiPolynomials(np.hstack([shapes[f"N{order}"] for order in orders]))
+    def __init__(self, le: float | np.ndarray, orders: tuple[int, ...] = (0,)) -> None:
+        self._poly = SpanPolynomials(
+            le, lambda le: np.hstack([shape_tables(le)[f"N{order}"] for order in orders])
+        )
         self.orders = orders
 
-    def __call__(self, xi: np.ndarray) -> tuple[np.ndarray, ...]:
-        vals = self._poly(xi)
+    def __call__(self, xi: np.ndarray, span: np.ndarray | None = None) -> tuple[np.ndarray, ...]:
+        vals = self._poly(xi, span)
         return tuple(vals[:, 6 * k : 6 * k + 6] for k in range(len(self.orders)))
 
 
@@ -148,12 +179,15 @@ class AxialShapeKernel:
 class TangentialKernel:
     """``W_T^B = u - h dw/dx`` and its x-derivative (Eqs. 10, 16) at ``xi``: ``(n, 12)``."""
 
-    def __init__(self, le: float, rail_height: float) -> None:
-        shapes = shape_tables(le, rail_height)
-        self._poly = XiPolynomials(np.hstack([shapes["T0"], shapes["T1"]]))
+    def __init__(self, le: float | np.ndarray, rail_height: float) -> None:
+        def table(le: float) -> np.ndarray:
+            shapes = shape_tables(le, rail_height)
+            return np.hstack([shapes["T0"], shapes["T1"]])
 
-    def __call__(self, xi: np.ndarray) -> np.ndarray:
-        return self._poly(xi)
+        self._poly = SpanPolynomials(le, table)
+
+    def __call__(self, xi: np.ndarray, span: np.ndarray | None = None) -> np.ndarray:
+        return self._poly(xi, span)
 
 
 # --------------------------------------------------------------------------------------------------

@@ -106,11 +106,10 @@ def initial_state(model: Model, start: str = "rigid-track") -> State:
     """The state at t = 0 (see the module docstring); ``start`` is "rigid-track" or "static"."""
     b, tr = model.bridge, model.train
     q, q1, _ = model.supports(0.0)
-    uB = q @ b.T.T
-    vB = q1 @ b.T.T
+    uB = b.quasi_static(q)
+    vB = b.quasi_static(q1)
     c = model.contacts(0.0)
-    shapes = ShapeKernel(b.element_length, (0, 1, 2))
-    N0, _, _ = shapes(c.loc.xi)
+    (N0,) = ShapeKernel(b.contact_element_length)(c.loc.xi, c.loc.span)
     idx = c.element_dofs()
     rail = np.where(c.on, np.einsum("ij,ij->i", N0, uB[c.loc.span[:, None], idx]), c.q) + c.r
 
@@ -151,6 +150,8 @@ class Layout:
         [car displacements | span displacements | contact forces | support reactions | free modes]
 
     with the equations in the same order (cars, spans, contact rows, support rows, free-mode rows).
+    "Spans" are all substructures (spans, then piers); the support rows are the three support slots
+    of every substructure (an inactive slot's row is ``R = 0``), then the links.
     """
 
     cars: int
@@ -163,6 +164,8 @@ class Layout:
     """Contact forces among the unknowns (0 for moving loads, whose forces are known)."""
     nz: int
     """Free modes held per car."""
+    nl: int = 0
+    """Links between substructures."""
 
     @property
     def oB(self) -> int:
@@ -178,7 +181,7 @@ class Layout:
 
     @property
     def oZ(self) -> int:
-        return self.oS + self.spans * self.ns
+        return self.oS + self.spans * self.ns + self.nl
 
     @property
     def n(self) -> int:
@@ -199,7 +202,9 @@ class LinearSystem:
 
 def _layout(model: Model, nV: int, nc: int, nz: int) -> Layout:
     b, tr = model.bridge, model.train
-    return Layout(tr.cars, b.spans, nV, b.ndof, b.nsupport, nc, nz)
+    if b.uniform:
+        return Layout(tr.cars, b.spans, nV, b.ndof, b.nsupport, nc, nz)
+    return Layout(tr.cars, b.nsub, nV, b.ndof, 3, nc, nz, len(b.links))
 
 
 def _repeated(
@@ -213,7 +218,7 @@ def _repeated(
 
 
 def _assemble(
-    model: Model, lay: Layout, vehicle_block: np.ndarray | None, span_block: np.ndarray, Z: np.ndarray
+    model: Model, lay: Layout, vehicle_block: np.ndarray | None, span_block: str, Z: np.ndarray
 ) -> sps.csc_matrix:
     """The bordered matrix of the static problem and of the consistent accelerations.
 
@@ -226,12 +231,30 @@ def _assemble(
     """
     b, tr = model.bridge, model.train
     T = Triplets()
-    _repeated(T, lay.oB, lay.nd, lay.oB, lay.nd, span_block, lay.spans)
-    # supports: -E R in the span rows, E^T u_B in the support rows
-    sup = lay.oB + lay.nd * np.arange(lay.spans)[:, None] + b.support_dofs[None, :]
     rct = lay.oS + np.arange(lay.spans * lay.ns).reshape(lay.spans, lay.ns)
-    T.add(sup, rct, np.full(sup.shape, -1.0))
-    T.add(rct, sup, np.full(sup.shape, 1.0))
+    if b.uniform:
+        _repeated(T, lay.oB, lay.nd, lay.oB, lay.nd, getattr(b, span_block), lay.spans)
+        # supports: -E R in the span rows, E^T u_B in the support rows
+        sup = lay.oB + lay.nd * np.arange(lay.spans)[:, None] + b.support_dofs[None, :]
+        T.add(sup, rct, np.full(sup.shape, -1.0))
+        T.add(rct, sup, np.full(sup.shape, 1.0))
+    else:
+        for k, members in enumerate(b.kind_members):
+            block = getattr(b.kinds[k], span_block)
+            for s in members:
+                T.dense(lay.oB + lay.nd * s, lay.oB + lay.nd * s, block)
+        sup = lay.oB + lay.nd * np.arange(lay.spans)[:, None] + b.support_dof
+        act = b.support_active
+        T.add(sup[act], rct[act], np.full(int(act.sum()), -1.0))
+        T.add(rct[act], sup[act], np.full(int(act.sum()), 1.0))
+        T.add(rct[~act], rct[~act], np.ones(int((~act).sum())))
+        L = b.links
+        rl = lay.oS + lay.spans * lay.ns + np.arange(lay.nl)
+        ua, ub = lay.oB + lay.nd * L.a_sub + L.a_dof, lay.oB + lay.nd * L.b_sub + L.b_dof
+        T.add(ua, rl, np.full(lay.nl, -1.0))  # the link force pulls a and b together
+        T.add(ub, rl, np.full(lay.nl, 1.0))
+        T.add(rl, ua, np.full(lay.nl, 1.0))
+        T.add(rl, ub, np.full(lay.nl, -1.0))
     if vehicle_block is not None:
         nV, nw = lay.nV, tr.wheels
         _repeated(T, 0, nV, 0, nV, vehicle_block, lay.cars)
@@ -240,7 +263,7 @@ def _assemble(
         _repeated(T, 0, nV, lay.oP, nw, -tr.W, lay.cars)  # -W P
         _repeated(T, lay.oP, nw, 0, nV, tr.W.T, lay.cars)  # W^T u_V
         c = model.contacts(0.0)
-        (N0,) = ShapeKernel(b.element_length)(c.loc.xi)
+        (N0,) = ShapeKernel(b.contact_element_length)(c.loc.xi, c.loc.span)
         on = np.flatnonzero(c.on)
         dofs = lay.oB + lay.nd * c.loc.span[on, None] + c.element_dofs()[on]
         cols = np.broadcast_to(lay.oP + on[:, None], dofs.shape)
@@ -264,8 +287,10 @@ def static_system(model: Model) -> LinearSystem:
     rhs = np.zeros(lay.n)
     rhs[: lay.oB] = np.tile(tr.F_full, tr.cars)
     rhs[lay.oP : lay.oS] = c.r + np.where(c.on, 0.0, c.q)
-    rhs[lay.oS : lay.oZ] = q.reshape(-1)
-    return LinearSystem(_assemble(model, lay, tr.vehicle.K, b.K, Z), rhs, lay)
+    rhs[lay.oS : lay.oS + q.size] = (
+        q.reshape(-1) if b.uniform else np.where(b.support_active, q, 0.0).reshape(-1)
+    )
+    return LinearSystem(_assemble(model, lay, tr.vehicle.K, "K", Z), rhs, lay)
 
 
 def static_on_bridge(model: Model) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -290,26 +315,28 @@ def acceleration_system(
     v = model.speed
     c = model.contacts(0.0)
     _, q1, q2 = model.supports(0.0)
-    N0, N1, N2 = ShapeKernel(b.element_length, (0, 1, 2))(c.loc.xi)
+    N0, N1, N2 = ShapeKernel(b.contact_element_length, (0, 1, 2))(c.loc.xi, c.loc.span)
     idx = c.element_dofs()
     span = c.loc.span
     nV = 0 if tr.moving_load else tr.ndof
     lay = _layout(model, nV, 0 if tr.moving_load else tr.contacts, 0)
     rhs = np.zeros(lay.n)
-    fB = -(vB - q1 @ b.T.T) @ b.C - uB @ b.K
+    fB = -b.per_kind(vB - b.quasi_static(q1), "C") - b.per_kind(uB, "K")
     if tr.moving_load:
         on = np.flatnonzero(c.on)
         np.add.at(fB, (span[on, None], idx[on]), -N0[on] * P[on, None])
-        A = _assemble(model, lay, None, b.M, np.zeros((0, 0)))
+        A = _assemble(model, lay, None, "M", np.zeros((0, 0)))
     else:
         rhs[: lay.oB] = (tr.F_full[None, :] - vV @ tr.vehicle.C.T - uV @ tr.vehicle.K.T).reshape(-1)
         conv = 2 * v * np.einsum("ij,ij->i", N1, vB[span[:, None], idx]) + v * v * np.einsum(
             "ij,ij->i", N2, uB[span[:, None], idx]
         )
         rhs[lay.oP : lay.oS] = v * v * c.r2 + np.where(c.on, conv, c.q2)
-        A = _assemble(model, lay, tr.vehicle.M, b.M, np.zeros((nV, 0)))
+        A = _assemble(model, lay, tr.vehicle.M, "M", np.zeros((nV, 0)))
     rhs[lay.oB : lay.oP] = fB.reshape(-1)
-    rhs[lay.oS : lay.oZ] = q2.reshape(-1)
+    rhs[lay.oS : lay.oS + q2.size] = (
+        q2.reshape(-1) if b.uniform else np.where(b.support_active, q2, 0.0).reshape(-1)
+    )
     return LinearSystem(A, rhs, lay)
 
 

@@ -27,6 +27,7 @@ from svbi.codegen.plain_types import GRAVITY
 from svbi.runtime.assembly import Contacts, Model, State
 from svbi.runtime.contact_rows import ContactRowKernel, ContactRows, ShapeKernel, point_row
 from svbi.runtime.newmark import Newmark
+from svbi.runtime.substructures import SubstructureCompliance
 from svbi.runtime.unilateral import ActiveSet, Impact, is_unilateral, landing_rows, predicted_uplift
 
 
@@ -41,19 +42,12 @@ def _solve(A: np.ndarray, b: np.ndarray) -> np.ndarray:
 _gesv = sla.get_lapack_funcs("gesv", dtype=np.float64)
 
 
-class BridgeCompliance:
-    """``S`` and ``R`` of one span: ``u = S f + R q_hat`` solves ``K^ u = f + E R_G``, ``E^T u = q_hat``."""
-
-    def __init__(self, model: Model, nm: Newmark) -> None:
-        b = model.bridge
-        k_hat = nm.effective(b.K, b.C, b.M)
-        k_inv = sla.cho_solve(sla.cho_factor(k_hat), np.eye(b.ndof))
-        k_inv = 0.5 * (k_inv + k_inv.T)
-        ke = k_inv @ b.E
-        se_inv = np.linalg.inv(b.E.T @ ke)
-        self.S = k_inv - ke @ se_inv @ ke.T
-        self.S = 0.5 * (self.S + self.S.T)
-        self.R = ke @ se_inv
+def bridge_compliance(model: Model, nm: Newmark) -> SubstructureCompliance:
+    """``S`` and ``R`` of every substructure: ``u = S f + R q_hat`` solves ``K^ u = f + E R_G``,
+    ``E^T u = q_hat`` (``svbi.runtime.substructures``), with the bridge's links."""
+    b = model.bridge
+    kinds = [b] if b.uniform else b.kinds
+    return SubstructureCompliance(b, [nm.effective(k.K, k.C, k.M) for k in kinds])
 
 
 class LocalizedDynamic:
@@ -67,8 +61,9 @@ class LocalizedDynamic:
         s = model.settings
         self.nm = nm = Newmark(s.time_step)
         self.point = point_row(s.time_step, s.kappa, s.zeta)
-        self.rows = ContactRowKernel(model.bridge.element_length, model.speed, s.time_step, s.kappa, s.zeta)
-        self.bridge = BridgeCompliance(model, nm)
+        b = model.bridge
+        self.rows = ContactRowKernel(b.contact_element_length, model.speed, s.time_step, s.kappa, s.zeta)
+        self.bridge = bridge_compliance(model, nm)
         tr = model.train
         self.moving_load = tr.moving_load
         if not self.moving_load:
@@ -78,7 +73,7 @@ class LocalizedDynamic:
         if is_unilateral(model):  # docs/method.md section 12
             self.act = ActiveSet(tr.contacts)
             self.impact = Impact(model)
-            self.shape = ShapeKernel(model.bridge.element_length)
+            self.shape = ShapeKernel(b.contact_element_length)
             state.contact_state = self.act.in_contact
 
     def _vehicle_setup(self) -> None:
@@ -102,26 +97,30 @@ class LocalizedDynamic:
         b, tr = m.bridge, m.train
         t = (n + 1) * m.dt
         c = m.contacts(t)
-        rows = self.rows(c.loc.xi)
+        rows = self.rows(c.loc.xi, c.loc.span)
         self.contacts = c
 
-        # bridge predictor (all contact forces zero), supports at their targets
+        # bridge predictor (all contact forces zero), supports at their targets, links closed
         PB, QB = nm.history(st.uB, st.vB, st.aB)
         q, q1, q2 = m.supports(t)
-        sup = b.support_dofs
-        q_hat = self.point.target(PB[:, sup], QB[:, sup], q, q1, q2)
-        fB = PB @ b.M + QB @ b.C + q1 @ b.CT.T
+        PS, QS = b.at_supports(PB), b.at_supports(QB)
+        q_hat = self.point.target(PS, QS, q, q1, q2)
+        fB = b.history_load(PB, QB, q1)
         creep = m.creep
         if creep is not None:  # explicit: the creep force of t_n loads this step (docs/method.md)
             creep.add_bridge_load(fB, st.creep_force, c)
-        uB_t = fB @ self.bridge.S + q_hat @ self.bridge.R.T
+        uB_t = self.bridge.held(fB, q_hat)
+        bc = self.bridge
+        if bc.nlinks:  # the link gaps follow their own stabilised rows (no ground: target 0)
+            g_hat = self.point.target(bc.link_gap(PB), bc.link_gap(QB), 0.0, 0.0, 0.0)
+            uB_t, _ = bc.linked(uB_t, g_hat)
 
         on = c.on
         span = c.loc.span
         idx = c.element_dofs()
         if self.moving_load:
             P = np.where(on, tr.axle_loads, 0.0)
-            uB = uB_t - self._bridge_load(c, rows, idx, P) @ self.bridge.S
+            uB = uB_t - self.bridge.field(self._bridge_load(c, rows, idx, P))
             self._finish_bridge(uB, PB, QB)
             st.P = tr.axle_loads.copy()
             st.PV = st.P
@@ -156,9 +155,13 @@ class LocalizedDynamic:
 
         # interface: (F_B + F*) P = rhs
         W_full, N_full = self._placed_rows(c, rows, idx)
-        WS = W_full @ self.bridge.S
         same = on[:, None] & on[None, :] & (span[:, None] == span[None, :])
-        F_B = np.where(same, WS @ N_full.T, 0.0)
+        if bc.nlinks:
+            F_B = bc.pair(W_full, N_full, span, on)
+        else:
+            F_B = np.where(
+                same, (W_full @ bc.S[0] if b.uniform else bc.rows_times(W_full, span)) @ N_full.T, 0.0
+            )
         Wu = np.einsum("ij,ij->i", W_full, uB_t[span])
         Bd = (d_V.reshape(tr.cars, tr.wheels) @ self.B.T).reshape(-1)
         rhs = h_B - p_t + Wu - self.c_g * Bd
@@ -171,7 +174,7 @@ class LocalizedDynamic:
         PV = ((self.c_g * P - d_V).reshape(tr.cars, tr.wheels) @ self.B.T).reshape(-1)
         ug = p_t + self.c_g * (P - PV)
         duV = duV_t + PV.reshape(tr.cars, tr.wheels) @ self.A.T
-        uB = uB_t - self._bridge_load(c, rows, idx, np.where(on, P, 0.0)) @ self.bridge.S
+        uB = uB_t - bc.field(self._bridge_load(c, rows, idx, np.where(on, P, 0.0)))
 
         st.vV, st.aV = nm.update_increment(duV, PtV, QtV)
         st.uV = st.uV + duV
@@ -216,7 +219,7 @@ class LocalizedDynamic:
             else:
                 A2, r2 = A.copy(), rhs.copy()
                 if FNN is None:
-                    FNN = np.where(same, (N_full @ self.bridge.S) @ N_full.T, 0.0)
+                    FNN = self.bridge.pair(N_full, N_full, c.loc.span, c.on)
                     Nu = np.einsum("ij,ij->i", N_full, uB_t[c.loc.span])
                     land = landing_rows(self.model, c, self.shape)
                 L = act.landing
@@ -231,7 +234,7 @@ class LocalizedDynamic:
             uplift = None
             if not act.active.all():
                 if FNN is None:
-                    FNN = np.where(same, (N_full @ self.bridge.S) @ N_full.T, 0.0)
+                    FNN = self.bridge.pair(N_full, N_full, c.loc.span, c.on)
                     Nu = np.einsum("ij,ij->i", N_full, uB_t[c.loc.span])
                     land = landing_rows(self.model, c, self.shape)
                 PV = ((self.c_g * P - d_V).reshape(tr.cars, tr.wheels) @ self.B.T).reshape(-1)
@@ -260,7 +263,7 @@ class LocalizedDynamic:
     def _bridge_load(self, c: Contacts, rows: ContactRows, idx: np.ndarray, P: np.ndarray) -> np.ndarray:
         """``sum_i N_i P_i`` per span, shape ``(spans, ndof)``."""
         b = self.model.bridge
-        load = np.zeros((b.spans, b.ndof))
+        load = np.zeros((b.nsub, b.ndof))
         sel = np.flatnonzero(c.on)
         np.add.at(load, (c.loc.span[sel, None], idx[sel]), rows.N0[sel] * P[sel, None])
         return load

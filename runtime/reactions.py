@@ -17,12 +17,15 @@ from svbi.runtime.contact_rows import ShapeKernel
 
 
 def support_reactions(model: Model, state: State, contacts: Contacts, P: np.ndarray) -> np.ndarray:
-    """Support forces ``R_G`` (spans x nsupport) beyond the dead load, at ``state.t``."""
+    """Support forces ``R_G`` beyond the dead load at ``state.t``: ``(spans, nsupport)`` for the
+    paper's bridge, else one per active support (``Bridge.support_table``)."""
     b = model.bridge
     _, q1, _ = model.supports(state.t)
-    f = state.aB @ b.M + (state.vB - q1 @ b.T.T) @ b.C + state.uB @ b.K
-    (N0,) = ShapeKernel(b.element_length)(contacts.loc.xi)
+    f = b.per_kind(state.aB, "M") + b.per_kind(state.vB - b.quasi_static(q1), "C") + b.per_kind(state.uB, "K")
+    (N0,) = ShapeKernel(b.contact_element_length)(contacts.loc.xi, contacts.loc.span)
     idx = contacts.element_dofs()
     sel = np.flatnonzero(contacts.on)
     np.add.at(f, (contacts.loc.span[sel, None], idx[sel]), N0[sel] * P[sel, None])
-    return f[:, b.support_dofs]
+    if b.uniform:
+        return f[:, b.support_dofs]
+    return b.reaction_at_supports(f)

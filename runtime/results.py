@@ -22,7 +22,6 @@ import numpy as np
 from svbi.runtime.assembly import Contacts, Model, State
 from svbi.runtime.atomic import write_atomic
 from svbi.runtime.body_outputs import body_variables
-from svbi.runtime.bridge import SUPPORT_COMPONENTS
 from svbi.runtime.contact_rows import AxialShapeKernel, ShapeKernel
 from svbi.runtime.reactions import support_reactions
 
@@ -68,7 +67,7 @@ class ImportAhead:
 
 
 def stored_columns(
-    spans: int, supports: int, uniform: bool, cars: int, wheels: int, vehicle_dofs: int
+    spans: int, supports: int, uniform: bool, cars: int, wheels: int, vehicle_dofs: int, piers: int = 0
 ) -> dict[str, tuple[tuple[int, ...], type]]:
     """What the recorder stores per output row: name -> (shape of one row, dtype).
 
@@ -84,6 +83,7 @@ def stored_columns(
         "midspan_ux": ((spans,), f),
         "deck_acceleration": ((spans,), f),
         "end_rotation": ((spans, 2), f),
+        **({"pier_top_ux": ((piers,), f)} if piers else {}),
         "ground_uz": (ground, f),
         "ground_ux": (ground, f),
         "contact_force": (per_wheel, f),
@@ -117,11 +117,15 @@ class Recorder:
         self.cars, self.wheels = tr.cars, tr.wheels
         em, xim = b.midspan_location()
         self.mid_dofs = slice(3 * em, 3 * em + 6)
-        self.mid_w = ShapeKernel(b.element_length)(np.array([xim]))[0][0]
+        spans = np.arange(b.spans)
+        self.mid_w = ShapeKernel(b.contact_element_length)(np.full(b.spans, xim), spans)[0]
+        """Midspan row of every span (their element lengths differ when the spans do)."""
         self.mid_u = AxialShapeKernel()(np.array([xim]))[0]
-        self.shape = ShapeKernel(b.element_length)
+        self.shape = ShapeKernel(b.contact_element_length)
         self.uniform = model.ground.uniform
-        nsup = b.spans * b.nsupport
+        self.supports = b.support_table
+        nsup = len(self.supports.flat)
+        self.piers = b.nsub - b.spans
         self.data: dict[str, np.ndarray] = {
             name: (np.ones if name == "contact_state" else np.zeros)((n, *shape), dtype=dtype)
             for name, (shape, dtype) in stored_columns(
@@ -131,6 +135,7 @@ class Recorder:
                 cars=tr.cars,
                 wheels=tr.wheels,
                 vehicle_dofs=tr.vehicle.ndof,
+                piers=self.piers,
             ).items()
         }
         self.forces = np.zeros((s.steps + 1, tr.contacts))
@@ -168,11 +173,14 @@ class Recorder:
         m, k, d = self.model, self.count, self.data
         b, tr = m.bridge, m.train
         d["time"][k] = state.t
-        mid = state.uB[:, self.mid_dofs]
-        d["midspan_uz"][k] = mid @ self.mid_w
+        ns = b.spans
+        mid = state.uB[:ns, self.mid_dofs]
+        d["midspan_uz"][k] = np.einsum("ij,ij->i", mid, self.mid_w)
         d["midspan_ux"][k] = mid @ self.mid_u
-        d["deck_acceleration"][k] = state.aB[:, self.mid_dofs] @ self.mid_w
-        d["end_rotation"][k] = state.uB[:, [2, b.ndof - 1]]  # theta of the first and last node
+        d["deck_acceleration"][k] = np.einsum("ij,ij->i", state.aB[:ns, self.mid_dofs], self.mid_w)
+        d["end_rotation"][k] = state.uB[:ns, [2, b.ndof - 1]]  # theta of the first and last node
+        if self.piers:
+            d["pier_top_ux"][k] = state.uB[ns:, 3 * b.elements]
         d["ground_uz"][k], d["ground_ux"][k] = m.ground.recorded(state.t, b)
         shape = (tr.cars, tr.wheels)
         d["contact_force"][k] = state.P.reshape(shape)
@@ -181,7 +189,9 @@ class Recorder:
             d["creep_force"][k] = state.creep_force.reshape(shape)
             d["creepage"][k] = state.creepage.reshape(shape)
         q, _, _ = m.supports(state.t)
-        gaps: dict[str, np.ndarray] = {"support": (q - state.uB[:, b.support_dofs]).reshape(-1)}
+        gaps: dict[str, np.ndarray] = {
+            "support": (q - b.at_supports(state.uB)).reshape(-1)[self.supports.flat]
+        }
         d["gap_support"][k] = gaps["support"]
         d["support_reaction"][k] = support_reactions(m, state, contacts, state.P).reshape(-1)
         if tr.moving_load:
@@ -322,7 +332,7 @@ class Recorder:
             "gap_support": (("time", "support"), d["gap_support"], _a("m", "ground - support gap (Eq. 23)")),
             "support_reaction": (
                 ("time", "support"),
-                d["support_reaction"] + np.tile(b.dead_load_reactions, b.spans),
+                d["support_reaction"] + self.supports.dead_load,
                 _a(
                     "N",
                     "force of each support constraint on the deck (support_component: its direction; "
@@ -352,11 +362,28 @@ class Recorder:
             "span": ("span", np.arange(1, b.spans + 1)),
             **({"body": ("body", np.array(bodies, dtype=object))} if bodies else {}),
             "end": ("end", np.array(["left", "right"], dtype=object)),
-            "support": ("support", np.arange(1, b.spans * b.nsupport + 1)),
-            "support_x": ("support", b.support_x.reshape(-1), _a("m", "position of the support")),
-            "support_span": ("support", np.repeat(np.arange(1, b.spans + 1), b.nsupport)),
-            "support_component": ("support", np.array(list(SUPPORT_COMPONENTS) * b.spans, dtype=object)),
+            "support": ("support", np.arange(1, len(self.supports.flat) + 1)),
+            "support_x": ("support", self.supports.x, _a("m", "position of the support")),
+            "support_span": (
+                "support",
+                np.where(self.supports.sub < b.spans, self.supports.sub + 1, 0),
+                _a("1", "span whose bearing it holds (0: a pier base)"),
+            ),
+            "support_component": ("support", self.supports.component),
         }
+        if self.piers:
+            coords["pier"] = ("pier", np.arange(1, self.piers + 1))
+            coords["pier_line"] = ("pier", np.array([p.support for p in b.piers]), _a("1", "support line"))
+            coords["support_pier"] = (
+                "support",
+                np.where(self.supports.sub >= b.spans, self.supports.sub - b.spans + 1, 0),
+                _a("1", "pier whose base it holds (0: a span's bearing)"),
+            )
+            data_vars["pier_top_ux"] = (
+                ("time", "pier"),
+                d["pier_top_ux"],
+                _a("m", "absolute longitudinal displacement of the pier top"),
+            )
         if variables is not None:
             data_vars = {name: v for name, v in data_vars.items() if name in variables}
         import xarray as xr  # with pandas, 0.4 s of imports: needed only once the run is done
@@ -370,12 +397,33 @@ class Recorder:
         if self.uniform:
             return gz[:, None], gx[:, None]
         b = self.model.bridge
+        if not b.uniform:
+            return self._ground_under_general_spans()
         per_span = (gz.shape[0], b.spans, b.nsupport)
         vertical = b.support_vertical
         return (
             gz.reshape(per_span)[:, :, vertical].mean(axis=2),
             gx.reshape(per_span)[:, :, ~vertical].mean(axis=2),
         )
+
+    def _ground_under_general_spans(self) -> tuple[np.ndarray, np.ndarray]:
+        """Continuous girders, piers: vertically the mean of the ground at the span's two support
+        lines, longitudinally the ground at its girder's fixed line (evaluated at the stored times)."""
+        m = self.model
+        b = m.bridge
+        t = self.data["time"][: self.count]
+        fixed = []
+        s0 = 0
+        for g in b.girders:
+            fixed += [s0 + g.fixed_support] * len(g.spans)
+            s0 += len(g.spans)
+        gz = np.zeros((len(t), b.spans))
+        gx = np.zeros((len(t), b.spans))
+        for i, ti in enumerate(t):
+            (qz, _, _), (qx, _, _) = m.ground.motion(float(ti), b.line_x)
+            gz[i] = 0.5 * (qz[:-1] + qz[1:])
+            gx[i] = qx[fixed]
+        return gz, gx
 
     def _static_loads(self) -> np.ndarray:
         tr = self.model.train

@@ -100,7 +100,8 @@ class GirderSpec(_Table):
 
 
 class PierSpec(_Table):
-    """``[[bridge.piers]]``: a pier column under one support line (not yet modelled: refused)."""
+    """``[[bridge.piers]]``: a pier column under one support line, fixed at its base, carrying the
+    girders' bearings on that line at its top (rigid bearings)."""
 
     support: Annotated[int, Field(ge=0)]
     height: Positive
@@ -108,6 +109,8 @@ class PierSpec(_Table):
     youngs_modulus: Positive
     area: Positive
     second_moment: Positive
+    damping_ratio: Annotated[float, Field(ge=0, lt=1)] | None = None
+    """Rayleigh damping on the pier's first two sway modes; default ``[bridge] damping_ratio``."""
     bearing_stiffness_vertical: Positive | None = None
     bearing_stiffness_longitudinal: Positive | None = None
 
@@ -141,41 +144,76 @@ class BridgeSpec(_Table):
             raise ValueError(
                 f"@bridge.{both[0]}: the shorthand cannot be combined with the long form [[bridge.girders]]"
             )
-        if not self.long_form_problems():
-            # the long form within today's model: the same chain of identical simply supported spans
-            self.spans = len(self.girders)
-            self.span_length = self.girders[0].spans[0]
+        self.spans = sum(len(g.spans) for g in self.girders)
+        self.span_length = self.girders[0].spans[0]
         return self
 
     def long_form_problems(self) -> list[tuple[str, str]]:
-        """(key, message) for each long-form feature the mechanics does not model yet: every girder
-        must be one span, all spans equal, no section overrides, fixed bearing at the first line, no
-        piers. Refused, never approximated."""
+        """(key, message) for each long-form input the mechanics cannot build: every span has
+        ``elements_per_span`` elements (no per-girder override), one pier per support line inside
+        the bridge, a fixed bearing on one of the girder's lines, rigid bearings. Refused, never
+        approximated."""
         out: list[tuple[str, str]] = []
-        if self.piers:
-            out.append(
-                ("bridge.piers", "piers are not modelled yet; give rigid supports (no [[bridge.piers]])")
-            )
+        lines = self.spans + 1
+        seen: dict[int, int] = {}
+        for i, p in enumerate(self.piers or []):
+            key = f"bridge.piers[{i}]"
+            if p.support >= lines:
+                out.append((f"{key}.support", f"support line {p.support} is not one of 0..{lines - 1}"))
+            if p.support in seen:
+                out.append((f"{key}.support", f"support line {p.support} already has pier {seen[p.support]}"))
+            seen.setdefault(p.support, i)
+            for name in ("bearing_stiffness_vertical", "bearing_stiffness_longitudinal"):
+                if getattr(p, name) is not None:
+                    out.append((f"{key}.{name}", "flexible bearings are not modelled yet (rigid if omitted)"))
         for i, g in enumerate(self.girders or []):
             key = f"bridge.girders[{i}]"
-            if len(g.spans) != 1:
-                out.append((f"{key}.spans", "continuous girders (more than one span) are not modelled yet"))
-            first = self.girders[0].spans[0] if self.girders else None
-            if any(length != first for length in g.spans):
-                out.append((f"{key}.spans", f"unequal spans are not modelled yet (first span {first:g} m)"))
-            if g.fixed_support != 0:
+            if g.fixed_support > len(g.spans):
                 out.append(
                     (
                         f"{key}.fixed_support",
-                        "only 0 (the fixed bearing at the girder's first support) is modelled",
+                        f"{g.fixed_support} is not one of the girder's lines 0..{len(g.spans)}",
                     )
                 )
-            for name in _SECTION_KEYS:
-                value = getattr(g, name)
-                if value is not None and value != getattr(self, name):
-                    out.append(
-                        (f"{key}.{name}", "a girder section different from [bridge]'s is not modelled yet")
+            if g.elements_per_span is not None and g.elements_per_span != self.elements_per_span:
+                out.append(
+                    (
+                        f"{key}.elements_per_span",
+                        "every span has [bridge] elements_per_span elements; no per-girder value",
                     )
+                )
+        return out
+
+    def layout(self) -> tuple[list[Any], list[Any]]:
+        """The runtime's girders and piers (``svbi.runtime.bridge``) of the long form."""
+        from svbi.runtime.bridge import Girder, Pier, Section
+
+        def section(g: Any) -> Section:
+            def pick(name: str) -> float:
+                value = getattr(g, name, None)
+                return float(getattr(self, name) if value is None else value)
+
+            return Section(
+                *(
+                    pick(n)
+                    for n in ("mass_per_length", "youngs_modulus", "area", "second_moment", "damping_ratio")
+                )
+            )
+
+        girders = [
+            Girder(tuple(float(x) for x in g.spans), section(g), g.fixed_support) for g in self.girders or []
+        ]
+        piers = [Pier(p.support, float(p.height), section(p)) for p in self.piers or []]
+        return girders, piers
+
+    def line_positions(self) -> list[float]:
+        """Position (m) of every support line: 0, then the end of each span."""
+        lengths = (
+            [x for g in self.girders for x in g.spans] if self.girders else [self.span_length] * self.spans
+        )
+        out = [0.0]
+        for x in lengths:
+            out.append(out[-1] + float(x))
         return out
 
 

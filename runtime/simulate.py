@@ -139,6 +139,7 @@ def run_extent(scenario: Scenario, hold_train: bool = False) -> tuple[Bridge, Tr
         bs.damping_ratio,
         bs.elements_per_span,
         bs.rail_height,
+        *(bs.layout() if bs.girders is not None else ()),
     )
     ref = vehicle_ref(scenario)
     model_sym = vehicle_model(ref)
@@ -289,7 +290,17 @@ def simulate(
     if model is None:
         model = build_model(scenario, hold_train=hold_train)
     s = model.settings
-    backend, cls = stepper_class(s.backend, s.method)
+    requested = s.backend
+    if requested in ("c", "casadi") and not model.bridge.uniform:
+        warnings.warn(
+            f"solver.backend = {requested!r} runs the paper's bridge (identical simply supported spans "
+            "on rigid supports); this bridge (continuous girders, unequal spans or piers) runs on the "
+            "NumPy backend",
+            BackendFallback,
+            stacklevel=2,
+        )
+        requested = "numpy"
+    backend, cls = stepper_class(requested, s.method)
     state = initial_state(model, start)
     stepper = cls(model, state)
     backend = getattr(stepper, "backend", backend)  # a compiled backend that fell back says so

@@ -23,6 +23,7 @@ import scipy.linalg as sla
 from svbi.codegen.plain_types import GRAVITY
 from svbi.runtime.assembly import Contacts, Model, State
 from svbi.runtime.contact_rows import ShapeKernel
+from svbi.runtime.substructures import SubstructureCompliance
 
 
 class ContactWarning(UserWarning):
@@ -52,7 +53,7 @@ class Landing:
 
 def landing_rows(model: Model, contacts: Contacts, shape: ShapeKernel) -> Landing:
     """The landing rows of every contact at the step's locations (used for the landing ones)."""
-    (N0,) = shape(contacts.loc.xi)
+    (N0,) = shape(contacts.loc.xi, contacts.loc.span)
     c = contacts
     return Landing(N0, np.where(c.on, c.r, c.q + c.r))
 
@@ -146,13 +147,10 @@ class Impact:
         self.MinvW = np.linalg.solve(v.M, tr.W)  # ndof x nw
         self.MinvC = np.linalg.solve(v.M, v.C)
         self.GV = tr.W.T @ self.MinvW
-        m_inv = np.linalg.inv(b.M)
-        m_inv = 0.5 * (m_inv + m_inv.T)
-        me = m_inv @ b.E
-        self.S_M = m_inv - me @ np.linalg.solve(b.E.T @ me, me.T)
-        self.S_M = 0.5 * (self.S_M + self.S_M.T)
-        self.SMC = self.S_M @ b.C
-        self.shapes = ShapeKernel(b.element_length, (0, 1, 2))
+        kinds = [b] if b.uniform else b.kinds
+        self.S_M = SubstructureCompliance(b, [k.M for k in kinds], cholesky=False)
+        """Mass compliance of the substructures, supports held, links imposed."""
+        self.shapes = ShapeKernel(b.contact_element_length, (0, 1, 2))
         self.m_g = np.tile(tr.aux_masses, tr.cars)
 
     # ----------------------------------------------------------------------------------------------
@@ -164,14 +162,13 @@ class Impact:
         if sel.size:  # N_j^T S_M N_k for contacts on the same span
             Nf = np.zeros((tr.contacts, b.ndof))
             Nf[sel[:, None], idx[sel]] = N0[sel]
-            same = on[:, None] & on[None, :] & (span[:, None] == span[None, :])
-            G += np.where(same, (Nf @ self.S_M) @ Nf.T, 0.0)
+            G += self.S_M.pair(Nf, Nf, span, on)
         return G
 
     def _bridge_field(self, c: Contacts, N0: np.ndarray, idx: np.ndarray, f: np.ndarray) -> np.ndarray:
         """``sum_i N_i f_i`` per span, ``(spans, ndof)``."""
         b = self.model.bridge
-        load = np.zeros((b.spans, b.ndof))
+        load = np.zeros((b.nsub, b.ndof))
         sel = np.flatnonzero(c.on)
         np.add.at(load, (c.loc.span[sel, None], idx[sel]), N0[sel] * f[sel, None])
         return load
@@ -198,7 +195,7 @@ class Impact:
         wheels let go again (consistent force tensile: they touch with zero relative velocity and
         leave at once)."""
         tr = self.model.train
-        shapes = self.shapes(c.loc.xi)
+        shapes = self.shapes(c.loc.xi, c.loc.span)
         N0 = shapes[0]
         idx = c.element_dofs()
         G = self._G(c, N0, idx)
@@ -212,7 +209,7 @@ class Impact:
         impulse = np.zeros(tr.contacts)
         impulse[act] = np.linalg.solve(G[np.ix_(act, act)], target[act])
         dvV = impulse.reshape(shape) @ self.MinvW.T
-        dvB = -self._bridge_field(c, N0, idx, impulse) @ self.S_M
+        dvB = -self.S_M.field(self._bridge_field(c, N0, idx, impulse))
         st.vV = st.vV + dvV
         st.vg = st.vg + (dvV @ tr.W).reshape(-1)
         st.vB = st.vB + dvB
@@ -221,7 +218,7 @@ class Impact:
         _, ra = self._rail_rates(st, c, shapes, idx)
         g2 = st.ag - ra
         daV0 = -(dvV @ self.MinvC.T)  # the damping force follows the velocity jump
-        daB0 = -(dvB @ self.SMC.T)
+        daB0 = -self.S_M.field(self.model.bridge.per_kind(dvB, "C"))
         N0ue = lambda X: np.einsum("ij,ij->i", N0, X[c.loc.span[:, None], idx])  # noqa: E731
         dg0 = (daV0 @ tr.W).reshape(-1) - np.where(c.on, N0ue(daB0), 0.0)
         want = np.where(landing, -g2, 0.0) - dg0
@@ -241,7 +238,7 @@ class Impact:
                 break
             dropped |= bad
         daV = daV0 + J.reshape(shape) @ self.MinvW.T
-        daB = daB0 - self._bridge_field(c, N0, idx, J) @ self.S_M
+        daB = daB0 - self.S_M.field(self._bridge_field(c, N0, idx, J))
         st.aV = st.aV + daV
         st.ag = st.ag + (daV @ tr.W).reshape(-1)
         st.aB = st.aB + daB

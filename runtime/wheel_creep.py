@@ -59,7 +59,7 @@ class CreepForces:
         for radius in np.unique(radii[rolling]):
             mask = np.tile(rolling & (radii == radius), tr.cars)
             self.laws.append((CreepLaw(replace(params, wheel_radius=float(radius))), mask))
-        self.rows = TangentialKernel(b.element_length, b.rail_height)
+        self.rows = TangentialKernel(b.contact_element_length, b.rail_height)
         self.longitudinal_ground = not _at_rest(model.ground, "longitudinal")
         self._rows_cache: tuple[Contacts, np.ndarray, np.ndarray] | None = None
         self.check_stability(model.settings.time_step)
@@ -77,7 +77,7 @@ class CreepForces:
         """``W_T^B`` and its x-derivative at every contact, ``(n, 6)`` each (element DOF order)."""
         hit = self._rows_cache
         if hit is None or hit[0] is not contacts:
-            vals = self.rows(contacts.loc.xi)
+            vals = self.rows(contacts.loc.xi, contacts.loc.span)
             hit = (contacts, vals[:, :6], vals[:, 6:])
             self._rows_cache = hit
         return hit[1], hit[2]

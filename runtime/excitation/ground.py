@@ -399,7 +399,7 @@ class RecordGround(Ground):
         return hit[1]
 
     def supports(self, t: float, bridge: Any) -> Triple:
-        if not self.uniform:
+        if not (self.uniform and bridge.uniform):
             return super().supports(t, bridge)
         hit = self._supports
         if hit is None or hit[0] != t or hit[1] is not bridge:
