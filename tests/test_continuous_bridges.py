@@ -1,0 +1,220 @@
+"""Continuous girders, unequal spans and piers (issue 13 items 2 and 6), against independent truth.
+
+* The natural frequencies of a two-span continuous beam against its exact modes: the spans' own
+  simply supported modes ``sin(n pi x / L)`` (no moment over the middle support) and the
+  symmetric family with ``tan(beta L) = tanh(beta L)`` (each span pinned-clamped), and the
+  girder's axial modes (a fixed-free bar of length 2L).
+* A force crossing that beam against a modal solution written here with those exact modes.
+* Two unequal simply supported spans against Frýba's series for each span.
+* A span whose fixed bearing sits on a flexible pier: the longitudinal frequency against the exact
+  cantilever with a tip mass (the deck, axially rigid), from the modes and from a free vibration
+  computed by the time loop.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from scipy.integrate import solve_ivp
+from scipy.optimize import brentq
+from svbi.runtime.assembly import FunctionGround
+from svbi.runtime.bridge import Bridge, Girder, Pier, Section
+from svbi.runtime.scenario import validate_scenario
+from svbi.runtime.simulate import build_model
+
+import svbi
+
+L, MU, E, AREA, Iy = 32.0, 22.4e3, 35.5e9, 8.63, 6.58
+P = 170.0e3
+C_BEND = np.sqrt(E * Iy / MU)
+DECK = Section(MU, E, AREA, Iy, 0.0)
+
+
+def exact_two_span_modes(count: int) -> list[tuple[float, object]]:
+    """Circular frequency and shape of the vertical modes of two equal continuous spans."""
+    modes = []
+    for n in range(1, count + 1):
+        k = n * np.pi / L
+        modes.append((k * k * C_BEND, lambda x, k=k: np.sin(k * x)))
+        z = brentq(lambda z: np.tan(z) - np.tanh(z), n * np.pi + 1e-9, n * np.pi + np.pi / 2 - 1e-9)
+        b = z / L
+
+        def shape(x, b=b, z=z):
+            y = np.where(x <= L, x, 2 * L - x)
+            return np.sin(b * y) - np.sin(z) / np.sinh(z) * np.sinh(b * y)
+
+        modes.append((b * b * C_BEND, shape))
+    return sorted(modes, key=lambda m: m[0])
+
+
+def bridge_dict(**girders) -> dict:
+    return dict(
+        mass_per_length=MU,
+        youngs_modulus=E,
+        area=AREA,
+        second_moment=Iy,
+        damping_ratio=0.0,
+        elements_per_span=16,
+        **girders,
+    )
+
+
+def moving_force(bridge: dict, speed_kmh: float, dt: float = 1e-4):
+    return svbi.simulate(
+        validate_scenario(
+            {
+                "bridge": bridge,
+                "train": dict(
+                    vehicle="moving-load", speed_kmh=speed_kmh, parameters=dict(axle_loads=[P], axle_offsets=[0.0])
+                ),
+                "solver": dict(backend="numpy", time_step=dt, output_every=1),
+            }
+        )
+    )
+
+
+def test_two_span_continuous_beam_has_the_exact_frequencies():
+    b = Bridge(0, 0.0, 1, 1, 1, 1, 0.0, 16, 0.0, [Girder((L, L), DECK)], [])
+    vertical = np.array([w / (2 * np.pi) for w, _ in exact_two_span_modes(4)])
+    c_axial = np.sqrt(E * AREA / MU)
+    axial = np.array([(2 * m - 1) * c_axial / (4 * 2 * L) for m in range(1, 4)])
+    vertical = vertical[vertical < 60.0]  # six modes; Hermite cubics: within 2e-4 up to here
+    got = b.natural_frequencies(12)
+    assert len(got[got < 60.0]) == len(vertical) + len(axial[axial < 60.0])
+    for f in vertical:
+        assert np.abs(got - f).min() < 2e-4 * f, f
+    le = L / 16
+    for f in axial:  # linear axial elements, consistent mass: omega_h / omega = 1 + (k le)^2 / 24
+        k = 2 * np.pi * f / c_axial
+        err = (k * le) ** 2 / 24
+        nearest = got[np.argmin(np.abs(got - f))]
+        assert nearest / f - 1 == pytest.approx(err, rel=0.05), f
+
+
+@pytest.mark.parametrize("speed_kmh", [150.0, 300.0])
+def test_force_crossing_a_two_span_continuous_beam_matches_the_modal_solution(speed_kmh):
+    v = speed_kmh / 3.6
+    ds = moving_force(bridge_dict(girders=[dict(spans=[L, L])]), speed_kmh)
+    t = ds.time.values
+    on = t <= 2 * L / v
+    # modal solution: q'' + w^2 q = -P phi(v t) / M_n, M_n = mu * integral of phi^2
+    modes = exact_two_span_modes(10)
+    x = np.linspace(0.0, 2 * L, 40001)
+    norms = [MU * np.trapezoid(shape(x) ** 2, x) for _, shape in modes]
+
+    def rhs(time, y):
+        q, dq = y[: len(modes)], y[len(modes) :]
+        f = np.array([-P * shape(np.array(v * time)) / m for (_, shape), m in zip(modes, norms, strict=True)])
+        w2 = np.array([w * w for w, _ in modes])
+        return np.concatenate([dq, f - w2 * q])
+
+    sol = solve_ivp(rhs, (0.0, t[on][-1]), np.zeros(2 * len(modes)), t_eval=t[on], rtol=1e-10, atol=1e-14, method="DOP853")
+    for span, xm in ((0, 0.5 * L), (1, 1.5 * L)):
+        ref = sum(sol.y[i] * shape(np.array(xm)) for i, (_, shape) in enumerate(modes))
+        w = ds.midspan_uz.values[on, span]
+        peak = np.abs(ref).max()
+        assert np.abs(w - ref).max() < 5e-3 * peak, span
+    # the middle support carries the force: reactions at the three lines sum to P + dead load
+    total = ds.support_reaction.where(ds.support_component == "vertical").sum("support").values
+    assert np.allclose(total[0], P + MU * 2 * L * 9.81, rtol=1e-9)
+
+
+def fryba_midspan(t: np.ndarray, v: float, span: float, terms: int = 200) -> np.ndarray:
+    n = np.arange(1, terms + 1)[:, None]
+    w1 = (np.pi / span) ** 2 * C_BEND
+    omega = np.pi * v / span
+    alpha = omega / w1
+    series = (np.sin(n * omega * t) - (alpha / n) * np.sin(n**2 * w1 * t)) / (n**2 * (n**2 - alpha**2))
+    return -(2 * P * span**3 / (np.pi**4 * E * Iy)) * np.sum(series * np.sin(n * np.pi / 2), axis=0)
+
+
+def test_unequal_simply_supported_spans_match_frybas_series_span_by_span():
+    speed_kmh = 200.0
+    v = speed_kmh / 3.6
+    spans = (24.0, 40.0)
+    ds = moving_force(bridge_dict(girders=[dict(spans=[spans[0]]), dict(spans=[spans[1]])]), speed_kmh)
+    t = ds.time.values
+    start = 0.0
+    for k, length in enumerate(spans):
+        on = (t >= start) & (t <= start + length / v)
+        ref = fryba_midspan(t[on] - start, v, length)
+        w = ds.midspan_uz.values[on, k]
+        peak = np.abs(ref).max()
+        assert np.abs(w - ref).max() < 5e-3 * peak, k
+        start += length / v
+    # the second span is at rest until the force arrives
+    assert np.all(ds.midspan_uz.values[t < spans[0] / v - 1e-9, 1] == 0.0)
+
+
+# --------------------------------------------------------------------------------------------------
+# a span whose fixed bearing is on a flexible pier
+
+H, MU_P, E_P, A_P, I_P = 12.0, 30.0e3, 32.0e9, 9.0, 6.0
+
+
+def cantilever_with_tip_mass(tip_mass: float) -> float:
+    """Fundamental circular frequency of a cantilever carrying a point mass at its free end."""
+    r = tip_mass / (MU_P * H)
+    f = lambda z: 1 + np.cos(z) * np.cosh(z) + z * r * (np.cos(z) * np.sinh(z) - np.sin(z) * np.cosh(z))  # noqa: E731
+    z = brentq(f, 0.1, 1.875104)
+    return z * z * np.sqrt(E_P * I_P / (MU_P * H**4))
+
+
+STIFF_DECK = 1.0e4  # m^2: an axially rigid deck, as the closed form assumes
+
+
+def pier_bridge_dict() -> dict:
+    return bridge_dict(
+        girders=[dict(spans=[L], fixed_support=1, area=STIFF_DECK)],
+        piers=[dict(support=1, height=H, mass_per_length=MU_P, youngs_modulus=E_P, area=A_P, second_moment=I_P)],
+    )
+
+
+def test_span_on_a_flexible_pier_has_the_cantilever_with_tip_mass_frequency():
+    sc = validate_scenario(
+        {"bridge": pier_bridge_dict(), "train": dict(vehicle="moving-load", speed_kmh=100.0)}
+    )
+    b = build_model(sc).bridge
+    exact = cantilever_with_tip_mass(MU * L) / (2 * np.pi)
+    assert b.natural_frequencies(1)[0] == pytest.approx(exact, rel=1e-4)
+
+
+def test_free_longitudinal_vibration_of_the_pier_in_the_time_loop():
+    """A longitudinal ground pulse, then free vibration: the pier top swings at the exact
+    frequency, and the deck follows it (fixed bearing) while the sliding end does not hold it."""
+    sc = validate_scenario(
+        {
+            "bridge": pier_bridge_dict(),
+            "train": dict(vehicle="moving-load", speed=0.0, start_position=-50.0),
+            "solver": dict(backend="numpy", time_step=1e-3, duration=3.0),
+        }
+    )
+    model = build_model(sc)
+    T0 = 0.2
+
+    def pulse(t, x):  # a smooth displacement pulse of the ground, over by T0
+        s = np.clip(t / T0, 0.0, 1.0)
+        q = 0.01 * np.sin(np.pi * s) ** 4
+        q1 = 0.01 * 4 * np.sin(np.pi * s) ** 3 * np.cos(np.pi * s) * np.pi / T0 * (t < T0)
+        q2 = (
+            0.01
+            * (np.pi / T0) ** 2
+            * (12 * np.sin(np.pi * s) ** 2 * np.cos(np.pi * s) ** 2 - 4 * np.sin(np.pi * s) ** 4)
+            * (t < T0)
+        )
+        return q + 0 * x, q1 + 0 * x, q2 + 0 * x
+
+    model.ground = FunctionGround(longitudinal=pulse)
+    ds = svbi.simulate(sc, model=model)
+    t = ds.time.values
+    top = ds.pier_top_ux.values[:, 0]
+    free = t > 0.5
+    crossings = t[free][np.flatnonzero(np.diff(np.sign(top[free])) != 0)]
+    period = 2 * np.mean(np.diff(crossings))
+    exact = cantilever_with_tip_mass(MU * L)
+    assert 2 * np.pi / period == pytest.approx(exact, rel=3e-3)
+    assert np.abs(top[free]).max() > 1e-3  # it does swing
+    # the deck moves with the pier top (fixed bearing): midspan u equals the top's u, less the
+    # deck's axial strain under its own inertia (about 1e-5 of it with this stiff deck)
+    np.testing.assert_allclose(ds.midspan_ux.values[free, 0], top[free], atol=1e-4 * np.abs(top).max())
+    assert float(np.abs(ds.gap_support).max()) < 1e-12
