@@ -219,9 +219,9 @@ class Bridge:
                 else:  # continuous over the interior support: the start node follows the span behind
                     links += [(s - 1, 3 * ne + d, s, d, f"continuity-{n}") for d, n in enumerate("uwt")]
                 hold(s, 2, 3 * ne + 1, s + 1, "w")
-                if g.fixed_support == j:
+                if g.fixed_support == 0 and j == 0:
                     hold(s, 0, 0, s, "u")
-                elif g.fixed_support == j + 1:
+                elif g.fixed_support == j + 1:  # an interior line: on the span behind (continuity)
                     hold(s, 0, 3 * ne, s + 1, "u")
             s0 += k
         for i, p in enumerate(self.piers):
@@ -322,6 +322,9 @@ class Bridge:
         self.kind = kind
         self.kind_members = [np.flatnonzero(kind == k) for k in range(len(self.kinds))]
         self.span_element_length = self.span_lengths / ne
+        self.span_mass_per_length = np.array(
+            [self.girders[g].section.mass_per_length for g in self.span_girder], dtype=float
+        )
 
     # ----------------------------------------------------------------------------------------------
     def _girder_matrices(self, g: Girder) -> tuple[np.ndarray, np.ndarray, list[int], int]:
@@ -541,6 +544,11 @@ class Bridge:
     @property
     def length(self) -> float:
         return float(self.line_x[-1])
+
+    @property
+    def span_mass(self) -> float | np.ndarray:
+        """Mass per length of the spans: one value for the paper's bridge, else one per span."""
+        return self.mass_per_length if self.uniform else self.span_mass_per_length
 
     @property
     def contact_element_length(self) -> float | np.ndarray:

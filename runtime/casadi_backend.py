@@ -46,7 +46,9 @@ class CasadiContactRows:
             self._maps[n] = (rows.map(n), discrete.map(n * (UNIT_INPUTS + 1)))
         return self._maps[n]
 
-    def __call__(self, xi: np.ndarray) -> ContactRows:
+    def __call__(self, xi: np.ndarray, span: np.ndarray | None = None) -> ContactRows:
+        """Rows at ``xi`` (the CasADi backend runs the paper's bridge: one element length, so
+        ``span`` is not needed)."""
         xi = np.asarray(xi, dtype=float)
         n = xi.size
         rows, discrete = self._mapped(n)

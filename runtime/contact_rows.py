@@ -41,13 +41,15 @@ class SpanPolynomials:
     """:class:`XiPolynomials` per span: the element length differs between spans of unequal
     length, so each distinct value has its own coefficients (one table for the paper's bridge)."""
 
-    def __init__(self, element_length: float | np.ndarray, build: Any) -> None:
-        """``build(le)`` returns the coefficient table for elements of length ``le``;
-        ``element_length`` is one value or one per span."""
-        les = np.atleast_1d(np.asarray(element_length, dtype=float))
-        uniq, self.group = np.unique(les, return_inverse=True)
-        self.element_lengths = uniq
-        self.polys = [XiPolynomials(build(float(x))) for x in uniq]
+    def __init__(self, element_length: float | np.ndarray, build: Any, *more: float | np.ndarray) -> None:
+        """``build(le, *more)`` returns the coefficient table for elements of length ``le``;
+        ``element_length`` (and each of ``more``, e.g. the mass per length) is one value or one
+        per span."""
+        keys = np.column_stack([np.atleast_1d(np.asarray(v, dtype=float)) for v in (element_length, *more)])
+        uniq, group = np.unique(keys, axis=0, return_inverse=True)
+        self.group = group.reshape(-1)
+        self.element_lengths = uniq[:, 0]
+        self.polys = [XiPolynomials(build(*(float(x) for x in row))) for row in uniq]
 
     def __call__(self, xi: np.ndarray, span: np.ndarray | None = None) -> np.ndarray:
         if len(self.polys) == 1:
@@ -238,13 +240,14 @@ def point_row(dt: float, kappa: float, zeta: float) -> PointRow:
 class BridgeConstraintMass:
     """Eq. (31): ``m_N^B(xi)``, with the consistent mass of the element holding the contact."""
 
-    def __init__(self, le: float, mu: float, aux_mass: float) -> None:
-        num, den = frame2d().bridge_constraint_mass_coefficients(le, mu, aux_mass)
-        self._num = XiPolynomials(num)
-        self._den = XiPolynomials(den)
+    def __init__(self, le: float | np.ndarray, mu: float | np.ndarray, aux_mass: float) -> None:
+        """One ``le`` and ``mu``, or one per span."""
+        kernel = frame2d().bridge_constraint_mass_coefficients
+        self._num = SpanPolynomials(le, lambda le, mu: kernel(le, mu, aux_mass)[0], mu)
+        self._den = SpanPolynomials(le, lambda le, mu: kernel(le, mu, aux_mass)[1], mu)
 
-    def __call__(self, xi: np.ndarray) -> np.ndarray:
-        return (self._num(xi) / self._den(xi))[:, 0]
+    def __call__(self, xi: np.ndarray, span: np.ndarray | None = None) -> np.ndarray:
+        return (self._num(xi, span) / self._den(xi, span))[:, 0]
 
 
 def support_constraint_masses(le: float, mu: float, element_dofs: list[int]) -> np.ndarray:

@@ -74,7 +74,7 @@ class CoupledClassic(Monolithic):
         t = (n + 1) * m.dt
         c = m.contacts(t)
         self.contacts = c
-        rows = self.rows(c.loc.xi)
+        rows = self.rows(c.loc.xi, c.loc.span)
         rhs = np.zeros(self.n)
         T = Triplets()
 
@@ -191,7 +191,7 @@ class CoupledClassic(Monolithic):
             P = sC * x[self.oP : self.oP + nc]
             uplift = None
             if free.any():
-                uB = x[self.oB : self.oB + self.NB].reshape(self.model.bridge.spans, -1)
+                uB = x[self.oB : self.oB + self.NB].reshape(self.model.bridge.nsub, -1)
                 duV = x[: self.NV].reshape(tr.cars, self.nV)
                 wheel = ((self.state.uV + duV) @ tr.W).reshape(-1)
                 rail_on = np.einsum("ij,ij->i", rows.N0, uB[span[:, None], idx])

@@ -32,7 +32,7 @@ from svbi.codegen.plain_types import GRAVITY
 from svbi.runtime.assembly import Contacts, Model, State
 from svbi.runtime.contact_rows import BridgeConstraintMass, vehicle_constraint_masses
 from svbi.runtime.monolithic import Monolithic, Triplets, solve_sparse
-from svbi.runtime.reactions import support_reactions
+from svbi.runtime.reactions import constraint_forces
 from svbi.runtime.unilateral import ActiveSet, Impact, is_unilateral
 
 
@@ -58,7 +58,7 @@ class CoupledDynamic(Monolithic):
         self.DG = self.d * self.mG
         # multipliers start consistent with the initial forces (method-notes section 5)
         c0 = model.contacts(0.0)
-        RG0 = support_reactions(model, state, c0, np.where(c0.on, state.P, 0.0)).reshape(-1)
+        RG0 = constraint_forces(model, state, c0, np.where(c0.on, state.P, 0.0))
         self.lamG = self._initial_lambda(RG0, self.mG)
         if not self.moving_load:
             self.m_g = np.tile(tr.aux_masses, tr.cars)
@@ -66,7 +66,7 @@ class CoupledDynamic(Monolithic):
                 vehicle_constraint_masses(tr.topology_name, tr.parameter_values, s.split), tr.cars
             )
             self.DV = self.d * self.mV
-            self.mB_kernel = BridgeConstraintMass(b.element_length, b.mass_per_length, tr.aux_masses[0])
+            self.mB_kernel = BridgeConstraintMass(b.contact_element_length, b.span_mass, tr.aux_masses[0])
             self.lamV = self._initial_lambda(state.PV, self.mV)
             self.lamB = self._initial_lambda(state.P, self._mB(c0))
         self.const = self._constant_part()
@@ -87,7 +87,7 @@ class CoupledDynamic(Monolithic):
         """Eq. (31) on the bridge; off it the constraint touches only the aux point (mbar = m_g)."""
         tr = self.model.train
         m_g = np.tile(tr.aux_masses, tr.cars)
-        return np.where(c.on, self.mB_kernel(c.loc.xi), m_g)
+        return np.where(c.on, self.mB_kernel(c.loc.xi, c.loc.span), m_g)
 
     def _force(self, lam: list[np.ndarray], D: np.ndarray, mbar: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """``H`` of the force ``D dlambda - H`` (module docstring), and ``D``."""
@@ -120,18 +120,18 @@ class CoupledDynamic(Monolithic):
     # ----------------------------------------------------------------------------------------------
     def step(self, n: int) -> State:
         m, nm, st = self.model, self.nm, self.state
-        b, tr = m.bridge, m.train
+        tr = m.train
         t = (n + 1) * m.dt
         c = m.contacts(t)
         self.contacts = c
-        rows = self.rows(c.loc.xi)
+        rows = self.rows(c.loc.xi, c.loc.span)
         rhs = np.zeros(self.n)
         T = Triplets()
 
         bs = self._bridge_step(t)
         PB, QB, fB = bs.PB, bs.QB, bs.fB
         HG, _ = self._force(self.lamG, self.DG, self.mG)
-        fB[:, b.support_dofs] -= HG.reshape(b.spans, b.nsupport)
+        self._constraint_load(fB, HG)
         rhs[self.oLG : self.oLG + self.NS] = self.DG * bs.q_hat
 
         if self.moving_load:
@@ -253,7 +253,7 @@ class CoupledDynamic(Monolithic):
             P = DB * x[self.oLB : self.oLB + nc] - HB
             uplift = None
             if free.any():
-                uB = x[self.oB : self.oB + self.NB].reshape(self.model.bridge.spans, -1)
+                uB = x[self.oB : self.oB + self.NB].reshape(self.model.bridge.nsub, -1)
                 rail_on = np.einsum("ij,ij->i", rows.N0, uB[span[:, None], idx])
                 rail = np.where(on, rail_on, c.q) + c.r
                 uplift = x[self.oG : self.oG + nc] - rail

@@ -108,35 +108,101 @@ class Monolithic:
         b, tr = model.bridge, model.train
         self.nm = Newmark(s.time_step)
         self.point = point_row(s.time_step, kappa, zeta)
-        self.rows = ContactRowKernel(b.element_length, model.speed, s.time_step, kappa, zeta)
+        self.rows = ContactRowKernel(b.contact_element_length, model.speed, s.time_step, kappa, zeta)
         self.moving_load = tr.moving_load
         self.nV = 0 if self.moving_load else tr.ndof
         self.NV = tr.cars * self.nV
-        self.NB = b.spans * b.ndof
+        self.NB = b.nsub * b.ndof
         self.nc = 0 if self.moving_load else tr.contacts
-        self.NS = b.spans * b.nsupport
         self.oB = self.NV
-        sup_elem_dof = [0 if d == 0 else (1 if d == 1 else 4) for d in b.support_dofs]
-        self.support_masses = np.tile(
-            support_constraint_masses(b.element_length, b.mass_per_length, sup_elem_dof), b.spans
-        )
-        """Eq. (34): the constraint mass of every support constraint, span by span."""
+        if b.uniform:
+            self.NS = b.spans * b.nsupport
+            sup_elem_dof = [0 if d == 0 else (1 if d == 1 else 4) for d in b.support_dofs]
+            self.support_masses = np.tile(
+                support_constraint_masses(b.element_length, b.mass_per_length, sup_elem_dof), b.spans
+            )
+            """Eq. (34): the constraint mass of every support constraint, span by span."""
+        else:  # three support slots per substructure (inactive ones hold a zero unknown), then links
+            self.NS = 3 * b.nsub + len(b.links)
+            self.support_masses = self._general_constraint_masses()
         self.contacts: Contacts | None = None
+
+    def _dof_mass(self, sub: np.ndarray, dof: np.ndarray) -> np.ndarray:
+        """Eq. (34) for a constraint on one substructure DOF: the consistent mass of the element
+        at that DOF (a pier column's global u is its element's transverse DOF, w its axial)."""
+        b = self.model.bridge
+        out = np.empty(len(sub))
+        for i, (s, d) in enumerate(zip(sub, dof, strict=True)):
+            k = b.kinds[b.kind[s]]
+            node, comp = divmod(int(d), 3)
+            if k.pier:
+                comp = (1, 0, 2)[comp]
+            local = comp if node == 0 else 3 + comp
+            masses = support_constraint_masses(k.element_length, k.section.mass_per_length, [local])
+            out[i] = masses[0]
+        return out
+
+    def _general_constraint_masses(self) -> np.ndarray:
+        """Constraint masses of the support slots and, for a link, the reduced mass of its two
+        ends (``1 / (1/m_a + 1/m_b)``): the dynamic multipliers' scale."""
+        b = self.model.bridge
+        subs = np.repeat(np.arange(b.nsub), 3)
+        slots = self._dof_mass(subs, b.support_dof.ravel())
+        L = b.links
+        ma, mb = self._dof_mass(L.a_sub, L.a_dof), self._dof_mass(L.b_sub, L.b_dof)
+        return np.concatenate([slots, ma * mb / (ma + mb)])
 
     def _bridge_blocks(self, T: Triplets, support_col: int, coupling: np.ndarray) -> None:
         """The effective bridge matrix of every span, with its support constraints: column
         ``support_col + k`` of constraint k enters the bridge rows with ``-coupling[k]`` and its
         own row with ``+coupling[k]`` on the support DOF."""
         b = self.model.bridge
-        k_hat_B = self.nm.effective(b.K, b.C, b.M)
-        nd, ns = b.ndof, b.nsupport
-        for s in range(b.spans):
-            o = self.oB + s * nd
-            T.dense(o, o, k_hat_B)
-            rows = o + b.support_dofs
-            cols = support_col + s * ns + np.arange(ns)
-            T.add(rows, cols, -coupling[s * ns : (s + 1) * ns])
-            T.add(cols, rows, coupling[s * ns : (s + 1) * ns])
+        nd = b.ndof
+        if b.uniform:
+            k_hat_B = self.nm.effective(b.K, b.C, b.M)
+            ns = b.nsupport
+            for s in range(b.spans):
+                o = self.oB + s * nd
+                T.dense(o, o, k_hat_B)
+                rows = o + b.support_dofs
+                cols = support_col + s * ns + np.arange(ns)
+                T.add(rows, cols, -coupling[s * ns : (s + 1) * ns])
+                T.add(cols, rows, coupling[s * ns : (s + 1) * ns])
+            return
+        for k, members in enumerate(b.kind_members):
+            kind = b.kinds[k]
+            k_hat = self.nm.effective(kind.K, kind.C, kind.M)
+            for s in members:
+                T.dense(self.oB + s * nd, self.oB + s * nd, k_hat)
+        act = b.support_active.ravel()
+        rows = (self.oB + nd * np.arange(b.nsub)[:, None] + b.support_dof).ravel()
+        cols = support_col + np.arange(3 * b.nsub)
+        T.add(rows[act], cols[act], -coupling[: 3 * b.nsub][act])
+        T.add(cols[act], rows[act], coupling[: 3 * b.nsub][act])
+        T.add(cols[~act], cols[~act], coupling[: 3 * b.nsub][~act])  # an unused slot: its unknown is 0
+        L = b.links
+        ua, ub = self.oB + nd * L.a_sub + L.a_dof, self.oB + nd * L.b_sub + L.b_dof
+        cl = support_col + 3 * b.nsub + np.arange(len(L))
+        cpl = coupling[3 * b.nsub :]
+        T.add(ua, cl, -cpl)
+        T.add(ub, cl, cpl)
+        T.add(cl, ua, cpl)
+        T.add(cl, ub, -cpl)
+
+    def _constraint_load(self, fB: np.ndarray, H: np.ndarray) -> None:
+        """Subtract the known part ``H`` of the support (and link) forces from the bridge load,
+        with the pattern of :meth:`_bridge_blocks` (in place)."""
+        b = self.model.bridge
+        if b.uniform:
+            fB[:, b.support_dofs] -= H.reshape(b.spans, b.nsupport)
+            return
+        hs = H[: 3 * b.nsub].reshape(b.nsub, 3)
+        act = b.support_active
+        np.subtract.at(fB, (np.nonzero(act)[0], b.support_dof[act]), hs[act])
+        L = b.links
+        hl = H[3 * b.nsub :]
+        np.subtract.at(fB, (L.a_sub, L.a_dof), hl)
+        np.add.at(fB, (L.b_sub, L.b_dof), hl)
 
     def _bridge_step(self, t: float) -> BridgeStep:
         """Histories of the bridge at t_n, the support targets at t_{n+1} and the bridge load."""
@@ -144,10 +210,14 @@ class Monolithic:
         b = m.bridge
         PB, QB = self.nm.history(st.uB, st.vB, st.aB)
         q, q1, q2 = m.supports(t)
-        sup = b.support_dofs
-        q_hat = self.point.target(PB[:, sup], QB[:, sup], q, q1, q2).reshape(-1)
-        fB = PB @ b.M + QB @ b.C + q1 @ b.CT.T
-        return BridgeStep(PB, QB, q_hat, fB)
+        q_hat = self.point.target(b.at_supports(PB), b.at_supports(QB), q, q1, q2)
+        if not b.uniform:  # unused slots hold 0; the links' gaps follow their own rows (target 0)
+            L = b.links
+            gap = lambda X: X[L.a_sub, L.a_dof] - X[L.b_sub, L.b_dof]  # noqa: E731
+            g_hat = self.point.target(gap(PB), gap(QB), 0.0, 0.0, 0.0)
+            q_hat = np.concatenate([np.where(b.support_active, q_hat, 0.0).reshape(-1), g_hat])
+        fB = b.history_load(PB, QB, q1)
+        return BridgeStep(PB, QB, q_hat.reshape(-1), fB)
 
     def _contact_dofs(self, c: Contacts) -> ContactDofs:
         span = c.loc.span
@@ -166,6 +236,6 @@ class Monolithic:
     def _finish_bridge(self, x: np.ndarray, PB: np.ndarray, QB: np.ndarray) -> None:
         """Newmark update of the bridge from its solved displacements at t_{n+1}."""
         st, b = self.state, self.model.bridge
-        uB = x[self.oB : self.oB + self.NB].reshape(b.spans, b.ndof)
+        uB = x[self.oB : self.oB + self.NB].reshape(b.nsub, b.ndof)
         st.vB, st.aB = self.nm.update(uB, PB, QB)
         st.uB = uB

@@ -199,7 +199,7 @@ class Recorder:
         else:
             wheel = (state.uV @ tr.W).reshape(-1)
             aux = wheel if aux_is_wheel else state.ug
-            (N0,) = self.shape(contacts.loc.xi)
+            (N0,) = self.shape(contacts.loc.xi, contacts.loc.span)
             idx = contacts.element_dofs()
             rail_bridge = np.einsum("ij,ij->i", N0, state.uB[contacts.loc.span[:, None], idx])
             rail = np.where(contacts.on, rail_bridge, contacts.q) + contacts.r

@@ -1,9 +1,10 @@
 """``[bridge]`` long form (issue 13 item 1): ``[[bridge.girders]]`` / ``[[bridge.piers]]``.
 
 The shorthand ``spans`` x ``span_length`` must give the same results as the equivalent long form
-(one single-span girder per span) on both backends; what the mechanics does not model yet
-(continuous girders, unequal spans, section overrides, another fixed bearing, piers) is refused
-with the key, file and line, never approximated.
+(one single-span girder per span) on both backends; what the mechanics cannot build (a per-girder
+element count, a fixed bearing off the girder, two piers on one line, flexible bearings) is refused
+with the key, file and line, never approximated. The mechanics of continuous girders, unequal spans
+and piers is verified in ``test_continuous_bridges.py``.
 """
 
 from __future__ import annotations
@@ -120,25 +121,23 @@ def problems(tmp_path, text: str) -> list[str]:
 @pytest.mark.parametrize(
     ("girders", "key", "needle", "nth", "words"),
     [
-        ("spans = [32.0, 40.0, 32.0]", "bridge.girders[1].spans", "spans = [32.0, 40.0", 0, "continuous"),
-        ("spans = [40.0]", "bridge.girders[1].spans", "spans = [40.0]", 0, "unequal"),
         (
-            "spans = [32.0]\nfixed_support = 1",
+            "spans = [32.0]\nelements_per_span = 8",
+            "bridge.girders[1].elements_per_span",
+            "elements_per_span = 8",
+            0,
+            "no per-girder value",
+        ),
+        (
+            "spans = [32.0, 40.0]\nfixed_support = 3",
             "bridge.girders[1].fixed_support",
             "fixed_support",
             0,
-            "only 0",
-        ),
-        (
-            "spans = [32.0]\nsecond_moment = 9.0",
-            "bridge.girders[1].second_moment",
-            "second_moment = 9",
-            0,
-            "section",
+            "girder's lines 0..2",
         ),
     ],
 )
-def test_unmodelled_long_form_is_refused_with_key_and_line(tmp_path, girders, key, needle, nth, words):
+def test_unbuildable_long_form_is_refused_with_key_and_line(tmp_path, girders, key, needle, nth, words):
     text = (
         "[bridge]\n"
         + SECTION
@@ -151,20 +150,60 @@ def test_unmodelled_long_form_is_refused_with_key_and_line(tmp_path, girders, ke
     assert any(f"s.toml:{line}: {key}:" in p and words in p for p in found), found
 
 
-def test_piers_are_refused(tmp_path):
+PIER = "mass_per_length = 3e4\nyoungs_modulus = 3.2e10\narea = 9.0\nsecond_moment = 6.0\n"
+
+
+def test_flexible_bearings_and_misplaced_piers_are_refused(tmp_path):
     text = (
         "[bridge]\n"
         + SECTION
-        + "\n[[bridge.girders]]\nspans = [32.0]\n\n[[bridge.piers]]\nsupport = 1\nheight = 12.0\n"
-        + "mass_per_length = 3e4\nyoungs_modulus = 3.2e10\narea = 9.0\nsecond_moment = 6.0\n"
+        + "\n[[bridge.girders]]\nspans = [32.0]\n"
+        + "\n[[bridge.piers]]\nsupport = 1\nheight = 12.0\nbearing_stiffness_vertical = 1e9\n"
+        + PIER
+        + "\n[[bridge.piers]]\nsupport = 1\nheight = 10.0\n"
+        + PIER
+        + "\n[[bridge.piers]]\nsupport = 5\nheight = 10.0\n"
+        + PIER
         + TAIL.format(backend="numpy")
     )
     found = problems(tmp_path, text)
-    assert any(f"s.toml:{line_of(text, '[[bridge.piers]]')}: bridge.piers:" in p for p in found), found
+    line = line_of(text, "bearing_stiffness_vertical")
+    assert any(f"s.toml:{line}: bridge.piers[0].bearing_stiffness_vertical: flexible" in p for p in found), (
+        found
+    )
+    assert any("bridge.piers[1].support: support line 1 already has pier 0" in p for p in found), found
+    assert any("bridge.piers[2].support: support line 5 is not one of 0..1" in p for p in found), found
     # validated without the checks, the model is still refused, not built wrong
     sc = loads_scenario(text, check=False)
-    with pytest.raises(ScenarioError, match="piers are not modelled"):
+    with pytest.raises(ScenarioError, match="flexible bearings"):
         build_model(sc)
+
+
+def test_a_continuous_viaduct_on_piers_loads_and_builds(tmp_path):
+    text = (
+        "[bridge]\n"
+        + SECTION
+        + "\n[[bridge.girders]]\nspans = [24.0]\n"
+        + "\n[[bridge.girders]]\nspans = [30.0, 40.0, 30.0]\nfixed_support = 1\nsecond_moment = 9.0\n"
+        + "\n[[bridge.piers]]\nsupport = 1\nheight = 12.0\n"
+        + PIER
+        + "\n[[bridge.piers]]\nsupport = 2\nheight = 14.0\n"
+        + PIER
+        + TAIL.format(backend="numpy")
+    )
+    sc = loads_scenario(text)
+    assert sc.bridge.spans == 4
+    b = build_model(sc).bridge
+    assert not b.uniform
+    assert b.spans == 4 and b.nsub == 6
+    np.testing.assert_allclose(b.line_x, [0.0, 24.0, 54.0, 94.0, 124.0])
+    # continuity over two interior lines (u, w, theta); bearings (w) on the pier tops: the
+    # simple span's right end and the continuous girder's first line on pier 1, its second line
+    # on pier 2, which also carries its fixed bearing (u); the simple span's is on the abutment
+    kinds = sorted(b.links.kind)
+    assert kinds.count("continuity-w") == 2 and kinds.count("bearing-w") == 3
+    assert kinds.count("bearing-u") == 1
+    assert b.kinds[b.kind[1]].section.second_moment == 9.0
 
 
 def test_long_form_key_errors_name_the_girder_line(tmp_path):
@@ -201,14 +240,16 @@ def test_modes_of_a_refused_scenario_is_one_line(tmp_path):
     from typer.testing import CliRunner
 
     _register()
-    text = LONG.format(backend="numpy").replace(
-        "spans = [24.0]\nfixed_support", "spans = [24.0, 30.0]\nfixed_support"
+    text = (
+        LONG.format(backend="numpy")
+        .replace("spans = [24.0]\nfixed_support", "spans = [24.0, 30.0]\nfixed_support = 5\nx_support")
+        .replace("x_support = 0\n", "")
     )
     path = tmp_path / "bridge.toml"
     path.write_text(text, encoding="utf-8")
     result = CliRunner().invoke(app, ["modes", str(path)])
     assert result.exit_code == 2
-    assert "bridge.girders[1].spans: continuous girders" in result.output
+    assert "bridge.girders[1].fixed_support: 5 is not one of" in result.output
 
 
 def test_override_of_the_shorthand_on_a_long_form_names_the_set(tmp_path):
