@@ -259,7 +259,7 @@ class Bridge:
             self.nsupport = 3
             self.E = np.zeros((nd, 3))
             self.E[self.support_dofs, np.arange(3)] = 1.0
-            self.vertical_frequencies = self._girder_frequencies(self.girders[0])
+            self.vertical_frequencies = self.girder_frequencies(self.girders[0])
             self.T = self._quasi_static_field()
             self.CT = self.C @ self.T
             self.support_x = sup_x
@@ -278,7 +278,7 @@ class Bridge:
         self.kinds: list[SubKind] = []
         kind = np.zeros(self.nsub, dtype=np.intp)
         girder_damping = [
-            self._rayleigh(self._girder_frequencies(g), g.section.damping_ratio) for g in self.girders
+            self._rayleigh(self.girder_frequencies(g), g.section.damping_ratio) for g in self.girders
         ]
         for s in range(self.nsub):
             if s < self.spans:
@@ -344,8 +344,9 @@ class Bridge:
         held = [3 * ne * j + 1 for j in range(len(g.spans) + 1)] + [3 * ne * g.fixed_support]
         return M, K, held, nodes
 
-    def _girder_frequencies(self, g: Girder) -> np.ndarray:
-        """Circular frequencies (rad/s) of the vertical modes of a girder on rigid supports."""
+    def girder_frequencies(self, g: Girder) -> np.ndarray:
+        """Circular frequencies (rad/s) of the vertical modes of a girder alone on rigid supports
+        (its Rayleigh damping is fitted to the first two; ``svbi metrics`` filters with them)."""
         M, K, held, _ = self._girder_matrices(g)
         free = np.setdiff1d(np.arange(M.shape[0]), held)
         bending = np.array([i for i in free if i % 3 != 0])
@@ -471,10 +472,18 @@ class Bridge:
 
     def natural_frequencies(self, count: int = 10) -> np.ndarray:
         """The lowest natural frequencies (Hz) of the whole bridge, supports held."""
-        M, K, free = self.assembled()
-        k, m = K[np.ix_(free, free)], M[np.ix_(free, free)]
-        n = len(free)
-        eig = sla.eigh(k, m, eigvals_only=True, subset_by_index=[0, min(count, n) - 1])
+        n = len(self.free_global) if not self.uniform else self.spans * (self.ndof - 3)
+        if self.uniform or n <= 1500:
+            M, K, free = self.assembled()
+            k, m = K[np.ix_(free, free)], M[np.ix_(free, free)]
+            eig = sla.eigh(k, m, eigvals_only=True, subset_by_index=[0, min(count, len(free)) - 1])
+        else:  # a long viaduct: the lowest modes by shift-invert Lanczos on the sparse matrices
+            import scipy.sparse.linalg as spla
+
+            free = self.free_global
+            k = self.K_global[free][:, free].tocsc()
+            m = self.M_global[free][:, free].tocsc()
+            eig = np.sort(spla.eigsh(k, k=min(count, n - 2), M=m, sigma=0.0, return_eigenvectors=False))
         return np.sqrt(np.clip(eig, 0.0, None)) / (2 * np.pi)
 
     def assembled(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:

@@ -228,6 +228,9 @@ def modes(
     else:
         vm = vehicle_modes(numeric)
         out.update(frequencies_hz=[float(f) for f in vm.frequencies_hz], rigid_modes=vm.rigid_modes)
+    whole = bridge.pop("whole", None) if bridge else None
+    if whole is not None:
+        out["bridge_frequencies_hz"] = [float(f) for f in whole.natural_frequencies(count)]
     if bridge:
         b = {**BRIDGE_KEYS, **bridge}
         if b["elements_per_span"] != int(b["elements_per_span"]) or b["elements_per_span"] > 10_000:
@@ -273,6 +276,13 @@ def modes(
                 + "; the others are too slow to resolve against the fastest mode "
                 "(parameter values many orders of magnitude apart?)"
             )
+    if whole is not None:
+        typer.echo(
+            f"bridge ({whole.spans} spans, {len(whole.piers)} piers, continuous girders and piers "
+            "included, supports held): lowest natural frequencies (Hz)"
+        )
+        for i, f in enumerate(out["bridge_frequencies_hz"], 1):
+            typer.echo(f"  mode {i:2d}: {f:10.4f}")
     if bridge:
         typer.echo(f"span{spans}: vertical bending frequencies (Hz)")
         for i, f in enumerate(out["span_frequencies_hz"], 1):
@@ -327,7 +337,12 @@ def _scenario_modes(path: str, sets: list[str]) -> tuple[str, dict[str, Any], di
     if sc.train.hslm is not None:
         loads, offsets, length = hslm_axles(sc.train.hslm)
         parameters.update(axle_loads=list(loads), axle_offsets=list(offsets), car_length=length)
+    from svbi.runtime.simulate import bridge_from_scenario
+
     b = sc.bridge
+    built = bridge_from_scenario(sc)
+    if not built.uniform:  # continuous girders, unequal spans, piers: the whole bridge's modes
+        return vehicle_ref(sc), parameters, {"whole": built}, b.spans
     bridge = {key: float(getattr(b, key)) for key in BRIDGE_KEYS}
     return vehicle_ref(sc), parameters, bridge, b.spans
 

@@ -125,7 +125,7 @@ def size_problems(s: Scenario, values: Mapping[str, Any]) -> Iterable[tuple[str,
     if sol.duration is not None:
         duration, duration_from = sol.duration, "solver.duration"
     elif speed > 0.0:  # assembly.crossing_duration: until the last axle leaves the last span
-        way = b.spans * b.span_length + train_length - t.start_position
+        way = b.line_positions()[-1] + train_length - t.start_position
         duration, duration_from = max(way, 0.0) / speed, "the crossing time; solver.duration is unset"
     else:
         duration, duration_from = None, ""

@@ -98,9 +98,22 @@ def scenario_table(ds: xr.Dataset) -> dict[str, Any]:
 
 
 def span_frequencies(bridge: dict[str, Any]) -> SpanFrequencies:
-    """f1 and f3 of one span of ``[bridge]`` from its generated mass and stiffness matrices."""
+    """f1 and f3 of one span of ``[bridge]`` from its generated mass and stiffness matrices. For the
+    long form, each girder's own vertical modes on rigid supports, the girder with the highest
+    cutoff ``max(1.5 f1, f3)`` taken (the filter keeps what any girder needs)."""
     from svbi.runtime.modes import span_modes
 
+    if bridge.get("girders"):
+        from svbi.runtime.bridge import Bridge
+        from svbi.runtime.scenario import BridgeSpec
+
+        spec = BridgeSpec.model_validate(bridge, strict=False)
+        girders, piers = spec.layout()
+        b = Bridge(0, 0.0, 1.0, 1.0, 1.0, 1.0, 0.0, spec.elements_per_span, spec.rail_height, girders, piers)
+        per_girder = [b.girder_frequencies(g) / (2 * np.pi) for g in girders]
+        return SpanFrequencies(
+            max(float(f[0]) for f in per_girder), max(float(f[min(2, f.size - 1)]) for f in per_girder)
+        )
     bending, _ = span_modes(
         float(bridge["span_length"]),
         int(bridge.get("elements_per_span", 16)),

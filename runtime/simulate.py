@@ -125,11 +125,10 @@ def stepper_class(backend: str, method: str) -> tuple[str, Callable[..., Any]]:
 # model assembly
 
 
-def run_extent(scenario: Scenario, hold_train: bool = False) -> tuple[Bridge, Train, float, int]:
-    """Bridge, train, duration (s) and number of steps of a run: the cheap part of
-    :func:`build_model`, which sizes the run (``svbi.runtime.resources``) before the tables exist."""
-    bs, ts, ss = scenario.bridge, scenario.train, scenario.solver
-    bridge = Bridge(
+def bridge_from_scenario(scenario: Scenario) -> Bridge:
+    """The :class:`Bridge` of ``[bridge]``: the shorthand, or the long form's girders and piers."""
+    bs = scenario.bridge
+    return Bridge(
         bs.spans,
         bs.span_length,
         bs.mass_per_length,
@@ -141,6 +140,13 @@ def run_extent(scenario: Scenario, hold_train: bool = False) -> tuple[Bridge, Tr
         bs.rail_height,
         *(bs.layout() if bs.girders is not None else ()),
     )
+
+
+def run_extent(scenario: Scenario, hold_train: bool = False) -> tuple[Bridge, Train, float, int]:
+    """Bridge, train, duration (s) and number of steps of a run: the cheap part of
+    :func:`build_model`, which sizes the run (``svbi.runtime.resources``) before the tables exist."""
+    ts, ss = scenario.train, scenario.solver
+    bridge = bridge_from_scenario(scenario)
     ref = vehicle_ref(scenario)
     model_sym = vehicle_model(ref)
     values = model_sym.topology.values(ts.parameters, where="train.parameters")

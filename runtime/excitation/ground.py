@@ -303,13 +303,12 @@ def ground_from_scenario(scenario: Any, duration: float | None = None) -> Any:
     """The runtime's ``Ground`` (:class:`RecordGround`) for a scenario's ``[earthquake]``.
 
     Record paths are resolved against the scenario's folder (``scenario.resolve_path``). A component
-    given as a list has one record per support line: the abutments and piers at ``x = j L``,
-    ``j = 0 .. spans``. ``duration`` (default ``solver.duration``) enables the checks of
-    :func:`ground_motion`.
+    given as a list has one record per support line: the abutments and piers at the span ends
+    (``x = j L``, ``j = 0 .. spans`` for the shorthand bridge). ``duration`` (default
+    ``solver.duration``) enables the checks of :func:`ground_motion`.
     """
     eq = scenario.earthquake
-    spans, length = scenario.bridge.spans, scenario.bridge.span_length
-    piers = np.arange(spans + 1) * length
+    piers = np.array(scenario.bridge.line_positions())
 
     def source(value: str) -> Source:
         return value if value in ("none", "synthetic") else scenario.resolve_path(value)
