@@ -134,7 +134,8 @@ def estimate_memory(scenario: Scenario) -> MemoryEstimate:
     every = ss.output_every
     nout = steps // every + 1
     nc, cars, spans = train.contacts, train.cars, bridge.spans
-    nsup = spans * bridge.nsupport
+    nsup = len(bridge.support_table.flat)
+    nsub = bridge.nsub
     uniform = _uniform_ground(scenario)
     from svbi.runtime.results import stored_columns
 
@@ -145,6 +146,7 @@ def estimate_memory(scenario: Scenario) -> MemoryEstimate:
         cars=cars,
         wheels=train.wheels,
         vehicle_dofs=train.vehicle.ndof,
+        piers=nsub - spans,
     )
     per_row = sum(math.prod(shape) * np.dtype(dtype).itemsize for shape, dtype in columns.values())
     est = MemoryEstimate()
@@ -162,7 +164,7 @@ def estimate_memory(scenario: Scenario) -> MemoryEstimate:
     est.parts["irregularity tabulation"] = tabulation
     est.parts["ground motion"] = _ground_bytes(scenario, duration)
     est.parts["bridge and stepper"] = int(
-        F64 * (WORKSPACE_PER_SPAN_DOF * spans * bridge.ndof + (nsup + nc) * bridge.ndof * 4 + 200 * nc)
+        F64 * (WORKSPACE_PER_SPAN_DOF * nsub * bridge.ndof + (nsup + nc) * bridge.ndof * 4 + 200 * nc)
     )
     p = est.parts
     fixed = p["ground motion"] + p["bridge and stepper"]

@@ -294,3 +294,24 @@ def test_localized_equals_coupled_dynamic_through_lift_offs_on_a_viaduct():
     assert a.attrs["liftoffs"] >= 1
     assert a.attrs["liftoffs"] == b.attrs["liftoffs"]
     assert_same(a, b, ("midspan_uz", "contact_force", "pier_top_ux", "wheel_uplift"), 1e-8)
+
+
+def test_two_spans_on_a_very_stiff_pier_behave_as_on_a_rigid_support():
+    """The bearings' links to a pier top: with the pier made 1000 times stiffer than a real one,
+    a force crossing the joint sees the rigid support of the paper's bridge."""
+    span = dict(spans=[L])
+    base = bridge_dict(girders=[span, span]) | {"damping_ratio": 0.02}
+    stiff = dict(
+        support=1, height=H, mass_per_length=MU_P, youngs_modulus=E_P, area=1e3 * A_P, second_moment=1e3 * I_P
+    )
+    rigid = moving_force(base, 300.0)
+    on_pier = moving_force(base | {"piers": [stiff]}, 300.0)
+    peak = float(np.abs(rigid.midspan_uz).max())
+    assert float(np.abs(rigid.midspan_uz - on_pier.midspan_uz).max()) < 1e-4 * peak
+    assert "pier_top_ux" in on_pier and "pier_top_ux" not in rigid
+    # the pier base carries what the rigid support carried (three components at its base)
+    assert sorted(on_pier.support_component.values[on_pier.support_pier.values == 1]) == [
+        "longitudinal",
+        "rotation",
+        "vertical",
+    ]
