@@ -21,6 +21,7 @@ from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 
+import matplotlib
 import numpy as np
 import xarray as xr
 from matplotlib.axes import Axes
@@ -518,6 +519,8 @@ GAPS = "constraint_violation"
 FIGURE_NAMES = (*PANELS, OVERVIEW, GAPS)
 CONTACT = "wheel_lift_off"
 """Drawn in addition to FIGURE_NAMES when a wheel of any run lifts off (unilateral contact)."""
+PIERS = "bridge_piers"
+"""Drawn in addition when the first run's bridge has piers (``pier_top_ux``)."""
 
 
 def lifts_off(ds: xr.Dataset) -> bool:
@@ -632,7 +635,45 @@ def make_figures(results: Results) -> dict[str, Figure]:
             ax.label_outer()
         _suptitle(fig, runs)
         figures[CONTACT] = fig
+    if "pier_top_ux" in runs[0].data:
+        fig = Figure(figsize=(10.0, 7.5), layout="constrained")
+        top, bottom = fig.subplots(2, 1, sharex=True)
+        panel_piers(top, runs[0])
+        panel_spans_relative(bottom, runs[0])
+        bottom.label_outer()
+        _suptitle(fig, runs[:1])
+        figures[PIERS] = fig
     return figures
+
+
+def panel_piers(ax: Axes, run: Run) -> None:
+    """Longitudinal displacement of every pier top, with the ground's (a long-form bridge)."""
+    ds = run.data
+    t = ds["time"]
+    cmap = matplotlib.colormaps["viridis"]
+    n = ds.sizes["pier"]
+    for i in range(n):
+        line = int(ds["pier_line"].values[i])
+        y = np.asarray(ds["pier_top_ux"].isel(pier=i).values, dtype=float) * 1e3
+        ax.plot(_seconds(t), y, color=cmap(i / max(n - 1, 1)), lw=1.0, label=f"pier {i + 1} (line {line})")
+    g = ds["ground_ux"]
+    gx = g.values if g.ndim == 1 else g.isel(support=0).values
+    ax.plot(_seconds(t), np.asarray(gx, dtype=float) * 1e3, color="k", lw=1.0, ls="--", label="ground")
+    ax.legend(fontsize="small", ncols=4)
+    _finish(ax, "Pier tops: longitudinal displacement (absolute)", "u (mm)", [])
+
+
+def panel_spans_relative(ax: Axes, run: Run) -> None:
+    """Vertical midspan deflection of every span relative to the ground under it."""
+    ds = run.data
+    t = ds["time"]
+    cmap = matplotlib.colormaps["plasma"]
+    n = ds.sizes["span"]
+    for i in range(n):
+        y = np.asarray(ds["midspan_uz_rel"].isel(span=i).values, dtype=float) * 1e3
+        ax.plot(_seconds(t), y, color=cmap(i / max(n, 1)), lw=1.0, label=f"span {i + 1}")
+    ax.legend(fontsize="small", ncols=5)
+    _finish(ax, "Midspan deflection relative to the ground under each span", "w (mm)", [])
 
 
 def save_figures(
