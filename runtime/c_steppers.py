@@ -524,10 +524,11 @@ class CStepper:
                 S.c_g = self._arr(ref.c_g[:nw])
             if code == 1:
                 S.mV = self._arr(ref.mV[:nw])
-                S.mb_num = self._arr(ref.mB_kernel._num.coefficients[:, 0])
-                S.mb_den = self._arr(ref.mB_kernel._den.coefficients[:, 0])
-                S.mb_num_n = ref.mB_kernel._num.coefficients.shape[0]
-                S.mb_den_n = ref.mB_kernel._den.coefficients.shape[0]
+                num, den = ref.mB_kernel.tables
+                S.mb_num = self._arr(num)
+                S.mb_den = self._arr(den)
+                S.mb_num_n = num.shape[0]
+                S.mb_den_n = den.shape[0]
             creep = m.creep
             if creep is not None:
                 S.creep = 1

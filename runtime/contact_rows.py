@@ -249,6 +249,14 @@ class BridgeConstraintMass:
     def __call__(self, xi: np.ndarray, span: np.ndarray | None = None) -> np.ndarray:
         return (self._num(xi, span) / self._den(xi, span))[:, 0]
 
+    @property
+    def tables(self) -> tuple[np.ndarray, np.ndarray]:
+        """Numerator and denominator coefficients in ascending powers of ``xi`` (one span kind:
+        the C loop evaluates them itself)."""
+        if len(self._num.polys) != 1:
+            raise ValueError("spans of different element length or mass: one table per span kind")
+        return self._num.polys[0].coefficients[:, 0], self._den.polys[0].coefficients[:, 0]
+
 
 def support_constraint_masses(le: float, mu: float, element_dofs: list[int]) -> np.ndarray:
     """Eq. (34): ``b^T m^B b`` for support constraints on the given element DOFs (0..5)."""
