@@ -25,6 +25,8 @@ from svbi.codegen import beam
 
 # Moving-contact kinematics
 v = sp.Symbol("v", positive=True)
+a_x = sp.Symbol("a_x", real=True)
+"""Acceleration of the train along the track, x'' (m/s^2; negative when braking)."""
 """Train speed (m/s)."""
 r, r1, r2 = sp.symbols("r r_x r_xx", real=True)
 """Rail irregularity under the contact and its first and second x-derivatives."""
@@ -56,11 +58,13 @@ class BridgeGap:
     u_elem: tuple[sp.Matrix, sp.Matrix, sp.Matrix]
 
 
-def gap_bridge() -> BridgeGap:
+def gap_bridge(accelerating: bool = False) -> BridgeGap:
     """Aux-bridge gap ``g = u^g - N(x)^T u_e - r(x)`` and its exact time derivatives.
 
     The contact point moves, ``x' = v``, so d/dt of ``N(x(t))^T u_e(t)`` is ``N^T u_e' + v N'^T u_e``
     and the second derivative adds ``2 v N'^T u_e' + v^2 N''^T u_e`` (the convective terms of Eq. 21).
+    ``accelerating``: the train's speed changes, ``x'' = a_x``, which adds ``a_x (N'^T u_e + r')`` to
+    the second derivative.
     """
     ug, ug1, ug2 = sp.symbols("ug ug_t ug_tt", real=True)
     ue, ue1, ue2 = beam.element_dofs("ue"), beam.element_dofs("ue_t"), beam.element_dofs("ue_tt")
@@ -68,6 +72,8 @@ def gap_bridge() -> BridgeGap:
     g = ug - (n0 * ue)[0, 0] - r
     g_t = ug1 - (n0 * ue1)[0, 0] - v * (n1 * ue)[0, 0] - v * r1
     g_tt = ug2 - (n0 * ue2)[0, 0] - 2 * v * (n1 * ue1)[0, 0] - v**2 * (n2 * ue)[0, 0] - v**2 * r2
+    if accelerating:
+        g_tt = g_tt - a_x * (n1 * ue)[0, 0] - a_x * r1
     return BridgeGap(g, g_t, g_tt, (ug, ug1, ug2), (ue, ue1, ue2))
 
 
@@ -144,15 +150,16 @@ def _newmark(u: sp.Symbol, p: sp.Symbol, qq: sp.Symbol) -> tuple[sp.Expr, sp.Exp
     return a1 * u - qq, a0 * u - p
 
 
-def discrete_bridge_row() -> tuple[DiscreteRow, dict[str, sp.Matrix | sp.Symbol]]:
+def discrete_bridge_row(accelerating: bool = False) -> tuple[DiscreteRow, dict[str, sp.Matrix | sp.Symbol]]:
     """Aux-bridge constraint (Eqs. 20-21) at t_{n+1}: ``u^g - W_hat^T u_e = h_B``.
 
     Returns the row ``W_hat`` (1x6, coefficient of the element DOFs, with the sign flipped so the
     constraint reads ``u^g - W_hat u_e = h_B``) and ``h_B`` in terms of the Newmark history vectors
     ``P_e = a0 u_n + (4/dt) u'_n + u''_n`` and ``Q_e = a1 u_n + u'_n`` of the element DOFs and of the
-    aux point, and of r, r', r''. The history symbols are returned by name.
+    aux point, and of r, r', r''. The history symbols are returned by name. ``accelerating``: with
+    the train's acceleration ``a_x`` (:func:`gap_bridge`).
     """
-    gap = gap_bridge()
+    gap = gap_bridge(accelerating)
     ug, ug1, ug2 = gap.u_aux
     ue, ue1, ue2 = gap.u_elem
     pg, qg = sp.symbols("P_ug Q_ug", real=True)

@@ -687,7 +687,9 @@ def xi_coefficients(exprs: Sequence[sp.Expr], degree: int | None = XI_DEGREE) ->
 
 
 @cache
-def discrete_bridge_row_parts() -> tuple[sp.Expr, list[sp.Expr], dict[str, list[sp.Expr]]]:
+def discrete_bridge_row_parts(
+    accelerating: bool = False,
+) -> tuple[sp.Expr, list[sp.Expr], dict[str, list[sp.Expr]]]:
     """The discrete aux-bridge row (``constraints.discrete_bridge_row``) split into ``d``, ``W_hat``
     and the coefficients of ``h_B`` in each history and the irregularity (``P_ue``, ``Q_ue``: six
     each; ``BRIDGE_HISTORY``: one each).
@@ -697,7 +699,7 @@ def discrete_bridge_row_parts() -> tuple[sp.Expr, list[sp.Expr], dict[str, list[
     """
     from svbi.codegen import beam, constraints
 
-    row, names = constraints.discrete_bridge_row()
+    row, names = constraints.discrete_bridge_row(accelerating)
     rhs = row.rhs
     scalars = dict(zip(BRIDGE_HISTORY, (names["P_ug"], names["Q_ug"], *constraints_track()), strict=True))
     coefs: dict[str, list[sp.Expr]] = {}
@@ -762,6 +764,27 @@ def _k_bridge_row_coefficients() -> KernelSpec:
             ("c_Q_ue", xi_coefficients(coefs["Q_ue"])),
             ("c_scalars", xi_coefficients([coefs[k][0] for k in BRIDGE_HISTORY])),
             ("d", sp.Matrix([[d]])),
+        ],
+    )
+
+
+@beam_kernel
+def _k_bridge_row_acceleration_coefficients() -> KernelSpec:
+    from svbi.codegen import beam, constraints
+
+    _, w_hat, coefs = discrete_bridge_row_parts(accelerating=True)
+    a = constraints.a_x
+    by_a = lambda exprs: [sp.diff(e, a) for e in exprs]  # noqa: E731 - the row is linear in a_x
+    return _beam_spec(
+        "bridge_row_acceleration_coefficients",
+        "What the train's acceleration a_x (x'' along the track) adds to the discrete aux-bridge row "
+        "per unit a_x: W_hat and c_scalars of bridge_row_coefficients gain a_x times these "
+        "(ascending powers of xi, 4 x 6 and 4 x 5); the histories' coefficients do not change. "
+        "newmark = [dt, kappa, zeta].",
+        [("le", column([beam.le])), _newmark_input()],
+        [
+            ("W_hat_a", xi_coefficients(by_a(w_hat))),
+            ("c_scalars_a", xi_coefficients(by_a([coefs[k][0] for k in BRIDGE_HISTORY]))),
         ],
     )
 

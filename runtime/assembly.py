@@ -86,24 +86,28 @@ class Ground:
             np.where(mask, v.reshape(x.shape), h.reshape(x.shape)) for v, h in zip(vert, lon, strict=True)
         )
 
-    def under(self, t: float, x: np.ndarray, speed: float) -> Triple:
+    def under(self, t: float, x: np.ndarray, speed: float, acceleration: float = 0.0) -> Triple:
         """Vertical ground motion under points moving at ``speed`` (total time derivatives).
 
-        For a travelling motion ``q(t - x/c)`` seen from a point with ``x' = v``, d/dt carries the
-        factor ``(1 - v/c)``; a uniform motion has none.
+        For a travelling motion ``q(t - x/c)`` seen from a point with ``x' = v``, ``x'' = a``, d/dt
+        carries the factor ``(1 - v/c)`` and d2/dt2 adds ``-(a/c) q'``; a uniform motion has none.
         """
         (q, q1, q2), _ = self.motion(t, x)
-        if self.apparent_velocity:
-            f = 1.0 - speed / self.apparent_velocity
-            return q, f * q1, f * f * q2
-        return q, q1, q2
+        return self._moving(q, q1, q2, speed, acceleration)
 
-    def under_longitudinal(self, t: float, x: np.ndarray, speed: float) -> Triple:
+    def under_longitudinal(self, t: float, x: np.ndarray, speed: float, acceleration: float = 0.0) -> Triple:
         """Longitudinal ground motion under points moving at ``speed`` (total time derivatives):
         the rigid approach track the off-bridge wheels creep against."""
         _, (q, q1, q2) = self.motion(t, x)
+        return self._moving(q, q1, q2, speed, acceleration)
+
+    def _moving(
+        self, q: np.ndarray, q1: np.ndarray, q2: np.ndarray, speed: float, acceleration: float
+    ) -> Triple:
         if self.apparent_velocity:
             f = 1.0 - speed / self.apparent_velocity
+            if acceleration:
+                return q, f * q1, f * f * q2 - (acceleration / self.apparent_velocity) * q1
             return q, f * q1, f * f * q2
         return q, q1, q2
 
@@ -137,10 +141,10 @@ class GroundAtRest(Ground):
     def supports(self, t: float, bridge: Bridge) -> Triple:
         return self._z(bridge.support_x_all.shape)
 
-    def under(self, t: float, x: np.ndarray, speed: float) -> Triple:
+    def under(self, t: float, x: np.ndarray, speed: float, acceleration: float = 0.0) -> Triple:
         return self._z(np.shape(x))
 
-    def under_longitudinal(self, t: float, x: np.ndarray, speed: float) -> Triple:
+    def under_longitudinal(self, t: float, x: np.ndarray, speed: float, acceleration: float = 0.0) -> Triple:
         return self._z(np.shape(x))
 
 
@@ -182,6 +186,10 @@ class Contacts:
     q: np.ndarray
     q1: np.ndarray
     q2: np.ndarray
+    v: float = 0.0
+    """The train's speed at ``t``."""
+    a: float = 0.0
+    """The train's acceleration at ``t``."""
 
     @property
     def on(self) -> np.ndarray:
@@ -290,12 +298,22 @@ class Model:
     def speed(self) -> float:
         return self.train.speed
 
+    @property
+    def accelerating(self) -> bool:
+        """The train's speed changes during the run (``[train] acceleration``)."""
+        return self.train.acceleration != 0.0
+
     def contacts(self, t: float) -> Contacts:
-        x = self.train.positions(t)
+        tr = self.train
+        x = tr.positions(t)
         loc = self.bridge.locate(x)
         r, r1, r2 = self.irregularity.evaluate(x)
-        q, q1, q2 = self.ground.under(t, x, self.speed)
-        return Contacts(t, loc, r, r1, r2, q, q1, q2)
+        if tr.acceleration == 0.0:
+            q, q1, q2 = self.ground.under(t, x, tr.speed)
+            return Contacts(t, loc, r, r1, r2, q, q1, q2, tr.speed, 0.0)
+        v, a = tr.speed_at(t), tr.acceleration_at(t)
+        q, q1, q2 = self.ground.under(t, x, v, a)
+        return Contacts(t, loc, r, r1, r2, q, q1, q2, v, a)
 
     def supports(self, t: float) -> Triple:
         """Newmark-consistent targets ``Q, Q', Q''`` of every support constraint at ``t``, shape
@@ -347,6 +365,6 @@ def newmark_targets(h0: np.ndarray, h1: np.ndarray, h2: np.ndarray, dt: float) -
 
 def crossing_duration(bridge: Bridge, train: Train) -> float:
     """Time until the last axle leaves the last span (DESIGN.md section 3, solver.duration)."""
-    if train.speed <= 0:
+    if train.speed <= 0 and train.acceleration <= 0:
         return math.inf
-    return max(bridge.length + train.length - train.start_position, 0.0) / train.speed
+    return train.time_to_travel(max(bridge.length + train.length - train.start_position, 0.0))

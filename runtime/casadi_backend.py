@@ -46,9 +46,11 @@ class CasadiContactRows:
             self._maps[n] = (rows.map(n), discrete.map(n * (UNIT_INPUTS + 1)))
         return self._maps[n]
 
-    def __call__(self, xi: np.ndarray, span: np.ndarray | None = None) -> ContactRows:
-        """Rows at ``xi`` (the CasADi backend runs the paper's bridge: one element length, so
-        ``span`` is not needed)."""
+    def __call__(
+        self, xi: np.ndarray, span: np.ndarray | None = None, v: float | None = None, a: float = 0.0
+    ) -> ContactRows:
+        """Rows at ``xi`` (the CasADi backend runs the paper's bridge at constant speed: one element
+        length and the run's speed, so ``span``, ``v`` and ``a`` are not needed)."""
         xi = np.asarray(xi, dtype=float)
         n = xi.size
         rows, discrete = self._mapped(n)

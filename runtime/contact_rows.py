@@ -136,19 +136,52 @@ class ContactRowKernel:
     omega^2 g = 0`` with Newmark's relations at t_{n+1} (method-notes section 2b).
     """
 
-    def __init__(self, le: float | np.ndarray, speed: float, dt: float, kappa: float, zeta: float) -> None:
+    def __init__(
+        self,
+        le: float | np.ndarray,
+        speed: float,
+        dt: float,
+        kappa: float,
+        zeta: float,
+        accelerating: bool = False,
+    ) -> None:
+        """``accelerating``: the speed changes during the run; every call then gives the speed and
+        acceleration at its time (the rows are exact quadratics in v, and linear in a)."""
+
         # v = 0 (a held train) is a valid value: the tables are polynomials in v.
-        def table(le: float) -> np.ndarray:
+        def table(le: float, v: float = speed) -> np.ndarray:
             shapes = shape_tables(le)
-            _, rows = bridge_row_tables(le, speed, dt, kappa, zeta)
+            _, rows = bridge_row_tables(le, v, dt, kappa, zeta)
             blocks = [shapes["N0"], shapes["N1"], shapes["N2"], rows["W_hat"], rows["c_P_ue"], rows["c_Q_ue"]]
             return np.hstack([*blocks, rows["c_scalars"]])
 
         self._poly = SpanPolynomials(le, table)
         self.d = bridge_row_tables(float(self._poly.element_lengths[0]), speed, dt, kappa, zeta)[0]
+        self.accelerating = accelerating
+        if accelerating:
+            # T(v) = T0 + v T1 + v^2 T2 from v = 0, 1, -1; the acceleration's own table
+            def split(le: float, k: int) -> np.ndarray:
+                t0, tp, tm = table(le, 0.0), table(le, 1.0), table(le, -1.0)
+                return (t0, 0.5 * (tp - tm), 0.5 * (tp + tm) - t0)[k]
 
-    def __call__(self, xi: np.ndarray, span: np.ndarray | None = None) -> ContactRows:
-        vals = self._poly(xi, span)
+            def by_a(le: float) -> np.ndarray:
+                w_a, c_a = frame2d().bridge_row_acceleration_coefficients(le, (dt, kappa, zeta))
+                zero = np.zeros((4, 6))
+                return np.hstack([zero, zero, zero, np.asarray(w_a), zero, zero, np.asarray(c_a)])
+
+            self._by_v = [SpanPolynomials(le, lambda le, k=k: split(le, k)) for k in range(3)]
+            self._by_a = SpanPolynomials(le, by_a)
+
+    def __call__(
+        self, xi: np.ndarray, span: np.ndarray | None = None, v: float | None = None, a: float = 0.0
+    ) -> ContactRows:
+        if self.accelerating and v is not None:
+            p0, p1, p2 = (p(xi, span) for p in self._by_v)
+            vals = p0 + v * p1 + (v * v) * p2
+            if a != 0.0:
+                vals = vals + a * self._by_a(xi, span)
+        else:
+            vals = self._poly(xi, span)
         six = [vals[:, 6 * k : 6 * k + 6] for k in range(6)]
         s = vals[:, 36:]
         return ContactRows(*six, s[:, 0], s[:, 1], s[:, 2], s[:, 3], s[:, 4])
@@ -212,11 +245,13 @@ class PointRow:
     ) -> np.ndarray:
         return self.c_P * P + self.c_Q * Q + self.c_q2 * q2 + self.c_q1 * q1 + self.c_q * q
 
-    def off_bridge_target(self, P: np.ndarray, Q: np.ndarray, contacts: Any, speed: float) -> np.ndarray:
+    def off_bridge_target(self, P: np.ndarray, Q: np.ndarray, contacts: Any) -> np.ndarray:
         """Target of a contact off the bridge: the rail on the rigid ground, ``Z = q + r`` with its
-        time derivatives following the contact (``r' = v r_x``, ``r'' = v^2 r_xx``)."""
-        c, v = contacts, speed
-        return self.target(P, Q, c.q + c.r, c.q1 + v * c.r1, c.q2 + v * v * c.r2)
+        time derivatives following the contact (``r' = v r_x``, ``r'' = v^2 r_xx + a r_x``, with the
+        train's speed and acceleration at the contacts' time)."""
+        c, v = contacts, contacts.v
+        r2 = v * v * c.r2 if c.a == 0.0 else v * v * c.r2 + c.a * c.r1
+        return self.target(P, Q, c.q + c.r, c.q1 + v * c.r1, c.q2 + r2)
 
     def wheel_target(
         self, P_wheel: np.ndarray, Q_wheel: np.ndarray, P_aux: np.ndarray, Q_aux: np.ndarray

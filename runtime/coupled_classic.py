@@ -74,7 +74,7 @@ class CoupledClassic(Monolithic):
         t = (n + 1) * m.dt
         c = m.contacts(t)
         self.contacts = c
-        rows = self.rows(c.loc.xi, c.loc.span)
+        rows = self.rows(c.loc.xi, c.loc.span, c.v, c.a)
         rhs = np.zeros(self.n)
         T = Triplets()
 
@@ -111,7 +111,7 @@ class CoupledClassic(Monolithic):
         Pe = PB[span[:, None], idx]
         Qe = QB[span[:, None], idx]
         h_on = rows.h_bridge(Pw, Qw, Pe, Qe, c)
-        h_off = self.point.off_bridge_target(Pw, Qw, c, m.speed)
+        h_off = self.point.off_bridge_target(Pw, Qw, c)
         wheel_n = (st.uV @ tr.W).reshape(-1)
         h = np.where(on, h_on, h_off)
         if self.act is None:

@@ -124,7 +124,7 @@ class CoupledDynamic(Monolithic):
         t = (n + 1) * m.dt
         c = m.contacts(t)
         self.contacts = c
-        rows = self.rows(c.loc.xi, c.loc.span)
+        rows = self.rows(c.loc.xi, c.loc.span, c.v, c.a)
         rhs = np.zeros(self.n)
         T = Triplets()
 
@@ -174,7 +174,7 @@ class CoupledDynamic(Monolithic):
         Pe = PB[span[:, None], idx]
         Qe = QB[span[:, None], idx]
         h_on = rows.h_bridge(Pg, Qg, Pe, Qe, c)
-        h_off = self.point.off_bridge_target(Pg, Qg, c, m.speed)
+        h_off = self.point.off_bridge_target(Pg, Qg, c)
         h_B = np.where(on, h_on, h_off)
         lb = self.oLB + np.arange(self.nc)
         # aux rows

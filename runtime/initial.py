@@ -331,7 +331,11 @@ def acceleration_system(
         conv = 2 * v * np.einsum("ij,ij->i", N1, vB[span[:, None], idx]) + v * v * np.einsum(
             "ij,ij->i", N2, uB[span[:, None], idx]
         )
-        rhs[lay.oP : lay.oS] = v * v * c.r2 + np.where(c.on, conv, c.q2)
+        track = v * v * c.r2
+        if c.a != 0.0:  # x'' = a at t = 0 (a train that brakes or accelerates from the start)
+            conv = conv + c.a * np.einsum("ij,ij->i", N1, uB[span[:, None], idx])
+            track = track + c.a * c.r1
+        rhs[lay.oP : lay.oS] = track + np.where(c.on, conv, c.q2)
         A = _assemble(model, lay, tr.vehicle.M, "M", np.zeros((nV, 0)))
     rhs[lay.oB : lay.oP] = fB.reshape(-1)
     rhs[lay.oS : lay.oS + q2.size] = (

@@ -87,6 +87,8 @@ def _geometry(s: Scenario, values: Mapping[str, Any]) -> tuple[list[float], floa
 def size_problems(s: Scenario, values: Mapping[str, Any]) -> Iterable[tuple[str, str]]:
     """(key, message) for every limit the scenario ``s`` exceeds; ``values`` are its vehicle
     parameters (for the car length of the default duration)."""
+    from svbi.runtime.train import Kinematics
+
     b, sol, trk, t = s.bridge, s.solver, s.track, s.train
     speed = t.speed_ms
     speed_key = "train.speed" if t.speed is not None else "train.speed_kmh"
@@ -122,13 +124,24 @@ def size_problems(s: Scenario, values: Mapping[str, Any]) -> Iterable[tuple[str,
             f"car_length = {car_length:g} m is not longer than the car itself ({car_extent:g} m from its "
             f"leading to its last axle): with {t.cars} cars they would overlap",
         )
+    motion = Kinematics(speed, t.acceleration)
     if sol.duration is not None:
         duration, duration_from = sol.duration, "solver.duration"
-    elif speed > 0.0:  # assembly.crossing_duration: until the last axle leaves the last span
+    elif speed > 0.0 or t.acceleration > 0.0:  # assembly.crossing_duration: the last axle leaves
         way = b.line_positions()[-1] + train_length - t.start_position
-        duration, duration_from = max(way, 0.0) / speed, "the crossing time; solver.duration is unset"
+        duration = motion.time_to_travel(max(way, 0.0))
+        duration_from = "the crossing time; solver.duration is unset"
+        if not math.isfinite(duration):
+            duration, duration_from = None, ""
     else:
         duration, duration_from = None, ""
+    if duration is not None and motion.speed_at(duration) > MAX_SPEED:
+        yield (
+            "train.acceleration",
+            f"the train reaches {motion.speed_at(duration):.3g} m/s by the end of the run, above the limit "
+            f"of {MAX_SPEED:g} m/s",
+        )
+        return
     # a standing train without solver.duration never ends: reported by the scenario's checks
     steps = duration / sol.time_step if duration is not None else math.nan
     if math.isfinite(steps) and steps <= MAX_STEPS:
@@ -162,7 +175,7 @@ def size_problems(s: Scenario, values: Mapping[str, Any]) -> Iterable[tuple[str,
     if trk.is_profile and duration is not None:
         yield from _profile_coverage(s, speed, train_length, duration, speed_key, duration_from)
     elif trk.irregularity != "none" and duration is not None:
-        covered = max(speed * duration, 1.0)
+        covered = max(motion.travel(duration), 1.0)
         points = covered / (trk.wavelength_min / 50.0)
         if points > MAX_IRREGULARITY_POINTS:
             yield (
@@ -276,7 +289,9 @@ def _profile_coverage(
         return  # reported by the scenario's own check of the file
     steps = max(math.ceil(duration / s.solver.time_step - 1e-9), 1)
     lo = s.train.start_position - train_length
-    hi = s.train.start_position + speed * steps * s.solver.time_step
+    from svbi.runtime.train import Kinematics
+
+    hi = s.train.start_position + Kinematics(speed, s.train.acceleration).travel(steps * s.solver.time_step)
     if lo < xs[0] or hi > xs[-1]:
         yield (
             "track.irregularity",

@@ -62,7 +62,9 @@ class LocalizedDynamic:
         self.nm = nm = Newmark(s.time_step)
         self.point = point_row(s.time_step, s.kappa, s.zeta)
         b = model.bridge
-        self.rows = ContactRowKernel(b.contact_element_length, model.speed, s.time_step, s.kappa, s.zeta)
+        self.rows = ContactRowKernel(
+            b.contact_element_length, model.speed, s.time_step, s.kappa, s.zeta, model.accelerating
+        )
         self.bridge = bridge_compliance(model, nm)
         tr = model.train
         self.moving_load = tr.moving_load
@@ -97,7 +99,7 @@ class LocalizedDynamic:
         b, tr = m.bridge, m.train
         t = (n + 1) * m.dt
         c = m.contacts(t)
-        rows = self.rows(c.loc.xi, c.loc.span)
+        rows = self.rows(c.loc.xi, c.loc.span, c.v, c.a)
         self.contacts = c
 
         # bridge predictor (all contact forces zero), supports at their targets, links closed
@@ -150,7 +152,7 @@ class LocalizedDynamic:
         if on.all():
             h_B = h_on
         else:
-            h_off = self.point.off_bridge_target(Pg, Qg, c, m.speed)
+            h_off = self.point.off_bridge_target(Pg, Qg, c)
             h_B = np.where(on, h_on, h_off)
 
         # interface: (F_B + F*) P = rhs

@@ -108,7 +108,9 @@ class Monolithic:
         b, tr = model.bridge, model.train
         self.nm = Newmark(s.time_step)
         self.point = point_row(s.time_step, kappa, zeta)
-        self.rows = ContactRowKernel(b.contact_element_length, model.speed, s.time_step, kappa, zeta)
+        self.rows = ContactRowKernel(
+            b.contact_element_length, model.speed, s.time_step, kappa, zeta, model.accelerating
+        )
         self.moving_load = tr.moving_load
         self.nV = 0 if self.moving_load else tr.ndof
         self.NV = tr.cars * self.nV

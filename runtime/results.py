@@ -371,6 +371,12 @@ class Recorder:
             ),
             "support_component": ("support", self.supports.component),
         }
+        if tr.acceleration != 0.0:
+            data_vars["train_speed"] = (
+                ("time",),
+                np.array([tr.speed_at(float(ti)) for ti in d["time"]]),
+                _a("m/s", "the train's speed (train.acceleration: braking or accelerating)"),
+            )
         if self.piers:
             coords["pier"] = ("pier", np.arange(1, self.piers + 1))
             coords["pier_line"] = ("pier", np.array([p.support for p in b.piers]), _a("1", "support line"))

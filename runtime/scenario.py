@@ -226,6 +226,9 @@ class TrainSpec(_Table):
     speed: NonNegative | None = None
     """0 is a train standing still (on the bridge or the approach) and needs ``solver.duration``."""
     start_position: float = 0.0
+    acceleration: float = 0.0
+    """m/s^2 along the track (negative: braking); the speed is ``v0 + a t``, and a braking train
+    stops and then stands."""
     hslm: Literal[HSLM_TRAINS] | None = None  # type: ignore[valid-type]
     parameters: dict[str, float | list[float]] = Field(default_factory=dict)
 
@@ -500,11 +503,20 @@ def _semantic_problems(s: Scenario) -> Iterable[tuple[str, str]]:
             "track.wavelength_min",
             (f"must be smaller than track.wavelength_max ({trk.wavelength_min:g} >= {trk.wavelength_max:g})"),
         )
-    if t.speed_ms == 0.0 and sol.duration is None:
+    if t.speed_ms == 0.0 and t.acceleration <= 0.0 and sol.duration is None:
         yield (
             "train.speed_kmh" if t.speed is None else "train.speed",
             "0 (a train standing still) needs solver.duration: the run has no crossing to end it",
         )
+    if t.acceleration < 0.0 and sol.duration is None:
+        stop = t.speed_ms**2 / (-2.0 * t.acceleration)
+        way = s.bridge.line_positions()[-1] - t.start_position
+        if stop < way:  # the leading axle stops before the bridge's end (the last axle even sooner)
+            yield (
+                "train.acceleration",
+                f"braking at {-t.acceleration:g} m/s^2 the train stops after {stop:.4g} m, before it has "
+                "crossed the bridge: give solver.duration",
+            )
     if sol.duration is not None and sol.duration < sol.time_step:
         yield "solver.duration", f"shorter than one time step ({sol.duration:g} s < {sol.time_step:g} s)"
     if s.earthquake is not None:

@@ -154,10 +154,16 @@ def run_extent(scenario: Scenario, hold_train: bool = False) -> tuple[Bridge, Tr
         values.update(hslm_parameters(ts.hslm))
     vehicle = model_sym.numeric(values)
     speed = 0.0 if hold_train else ts.speed_ms
-    train = Train(vehicle, ts.cars, speed, ts.start_position, ss.contact_split, ref, values)
+    acceleration = 0.0 if hold_train else ts.acceleration
+    train = Train(vehicle, ts.cars, speed, ts.start_position, ss.contact_split, ref, values, acceleration)
     duration = ss.duration if ss.duration is not None else crossing_duration(bridge, train)
     if not math.isfinite(duration):
-        raise ValueError("a held train needs solver.duration")
+        raise ValueError(
+            "a held train needs solver.duration"
+            if hold_train or (train.speed == 0.0 and train.acceleration == 0.0)
+            else "train.acceleration: the train stops before its last axle leaves the bridge; give "
+            "solver.duration"
+        )
     steps = max(int(math.ceil(duration / ss.time_step - 1e-9)), 1)
     return bridge, train, duration, steps
 
@@ -225,10 +231,10 @@ def _irregularity(scenario: Scenario, train: Train, duration: float, end_time: f
         from svbi.runtime.excitation.irregularity import measured_profile
 
         return measured_profile(scenario.resolve_path(spec.irregularity))
-    length = max(train.speed * duration, 1.0)
+    length = max(train.travel(duration), 1.0)
     dx = spec.wavelength_min / IRREGULARITY_TABLE_DIVISIONS
     x0 = train.start_position
-    x1 = x0 + max(train.speed * end_time, 1.0) + 4 * dx
+    x1 = x0 + max(train.travel(end_time), 1.0) + 4 * dx
     return _irregularity_table(
         spec.irregularity, spec.seed, length, spec.wavelength_min, spec.wavelength_max, x0, x1, dx
     )
@@ -302,6 +308,14 @@ def simulate(
             f"solver.backend = {requested!r} runs the paper's bridge (identical simply supported spans "
             "on rigid supports); this bridge (continuous girders, unequal spans or piers) runs on the "
             "NumPy backend",
+            BackendFallback,
+            stacklevel=2,
+        )
+        requested = "numpy"
+    if requested in ("c", "casadi") and model.accelerating:
+        warnings.warn(
+            f"solver.backend = {requested!r} runs trains at constant speed; this one accelerates or "
+            "brakes (train.acceleration) and runs on the NumPy backend",
             BackendFallback,
             stacklevel=2,
         )

@@ -10,6 +10,7 @@ A rigid-body car brings its matrices, evaluated by the vehicle's generated kerne
 
 from __future__ import annotations
 
+import math
 from functools import cache
 from typing import Any
 
@@ -30,6 +31,46 @@ def topology(name_or_path: str) -> VehicleTopology:
     return vehicle_model(name_or_path).topology
 
 
+class Kinematics:
+    """The train's motion along the track: speed ``v0 + a t`` from ``v0`` at t = 0; a braking
+    train (``a < 0``) stops at ``-v0 / a`` and then stands."""
+
+    def __init__(self, speed: float, acceleration: float = 0.0) -> None:
+        self.speed = float(speed)
+        self.acceleration = float(acceleration)
+        self.stop_time = -self.speed / self.acceleration if self.acceleration < 0.0 else float("inf")
+        """When a braking train comes to rest (inf: never)."""
+
+    def travel(self, t: float) -> float:
+        """Distance moved at time t."""
+        if self.acceleration == 0.0:
+            return self.speed * t
+        tm = min(t, self.stop_time)
+        return self.speed * tm + 0.5 * self.acceleration * tm * tm
+
+    def speed_at(self, t: float) -> float:
+        """Speed at time t, m/s."""
+        if self.acceleration == 0.0:
+            return self.speed
+        return self.speed + self.acceleration * min(t, self.stop_time)
+
+    def acceleration_at(self, t: float) -> float:
+        """Acceleration at time t, m/s^2 (0 once a braking train stands)."""
+        return self.acceleration if t < self.stop_time else 0.0
+
+    def time_to_travel(self, distance: float) -> float:
+        """When the train has moved ``distance`` (inf if it stops first or never moves)."""
+        v, a = self.speed, self.acceleration
+        if distance <= 0.0:
+            return 0.0
+        if a == 0.0:
+            return distance / v if v > 0.0 else float("inf")
+        disc = v * v + 2.0 * a * distance
+        if disc < 0.0:  # a braking train stops first
+            return float("inf")
+        return (math.sqrt(disc) - v) / a
+
+
 class Train:
     """Cars of one vehicle type, their wheel positions, and the per-car matrices for a split ``a``."""
 
@@ -42,10 +83,15 @@ class Train:
         contact_split: float = 0.5,
         topology_name: str = "",
         parameter_values: dict[str, Any] | None = None,
+        acceleration: float = 0.0,
     ) -> None:
         self.vehicle = vehicle
         self.cars = int(cars)
         self.speed = float(speed)
+        """Speed at t = 0 (m/s)."""
+        self.acceleration = float(acceleration)
+        """Acceleration along the track (m/s^2; negative: braking, until the train stands)."""
+        self.motion = Kinematics(self.speed, self.acceleration)
         self.start_position = float(start_position)
         self.split = float(contact_split)
         self.topology_name = topology_name
@@ -102,7 +148,21 @@ class Train:
     # ----------------------------------------------------------------------------------------------
     def positions(self, t: float) -> np.ndarray:
         """x of every contact point at time t."""
-        return self.start_position + self.speed * t - self.offsets
+        if self.acceleration == 0.0:
+            return self.start_position + self.speed * t - self.offsets
+        return self.start_position + self.travel(t) - self.offsets
+
+    def travel(self, t: float) -> float:
+        return self.motion.travel(t)
+
+    def speed_at(self, t: float) -> float:
+        return self.motion.speed_at(t)
+
+    def acceleration_at(self, t: float) -> float:
+        return self.motion.acceleration_at(t)
+
+    def time_to_travel(self, distance: float) -> float:
+        return self.motion.time_to_travel(distance)
 
     @property
     def length(self) -> float:

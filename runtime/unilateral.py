@@ -177,7 +177,7 @@ class Impact:
         self, st: State, c: Contacts, shapes: tuple[np.ndarray, ...], idx: np.ndarray
     ) -> tuple[np.ndarray, np.ndarray]:
         """Velocity and acceleration of the rail point under each wheel (total time derivatives)."""
-        v = self.model.speed
+        v, a = c.v, c.a
         N0, N1, N2 = shapes
         span = c.loc.span
         ue, ve, ae = (x[span[:, None], idx] for x in (st.uB, st.vB, st.aB))
@@ -186,6 +186,8 @@ class Impact:
         on_a = dot(N0, ae) + 2 * v * dot(N1, ve) + v * v * dot(N2, ue)
         rv = np.where(c.on, on_v, c.q1) + v * c.r1
         ra = np.where(c.on, on_a, c.q2) + v * v * c.r2
+        if a != 0.0:  # x'' = a: the convective term of the train's acceleration
+            ra = ra + a * (np.where(c.on, dot(N1, ue), 0.0) + c.r1)
         return rv, ra
 
     def apply(

@@ -62,13 +62,20 @@ class CreepForces:
         self.rows = TangentialKernel(b.contact_element_length, b.rail_height)
         self.longitudinal_ground = not _at_rest(model.ground, "longitudinal")
         self._rows_cache: tuple[Contacts, np.ndarray, np.ndarray] | None = None
-        self.check_stability(model.settings.time_step)
+        self.min_speed = 0.0
+        """Below this speed no creep force acts (a train whose speed changes: the explicit creep
+        force would be unstable there, ``docs/method.md`` section 14)."""
+        if tr.acceleration == 0.0:
+            self.check_stability(model.settings.time_step)
+        else:
+            self.min_speed = self.damping_rate(1.0) * model.settings.time_step / STABILITY_LIMIT
 
     @staticmethod
     def applies(model: Model) -> bool:
-        """Creep needs rolling wheels: a rigid-body vehicle with a spin DOF, moving (v > 0)."""
+        """Creep needs rolling wheels: a rigid-body vehicle with a spin DOF, moving (v > 0 at some
+        time of the run)."""
         tr = model.train
-        if tr.moving_load or model.speed <= 0.0:
+        if tr.moving_load or (model.speed <= 0.0 and tr.acceleration <= 0.0):
             return False
         return bool(np.abs(np.asarray(tr.vehicle.W_T, dtype=float)).sum() > 0.0)
 
@@ -84,8 +91,11 @@ class CreepForces:
 
     def evaluate(self, state: State, contacts: Contacts) -> tuple[np.ndarray, np.ndarray]:
         """Creepage and creep force (N, on the wheel) of every contact at the state's time."""
-        m, v = self.model, self.speed
+        m, v = self.model, contacts.v
         tr = m.train
+        if v < self.min_speed:  # crawling or standing: no creep force (see check_stability)
+            zero = np.zeros(tr.contacts)
+            return zero, zero.copy()
         wheel = (state.vV @ self.W_T).reshape(-1)
         WT, WT1 = self.tangential_rows(contacts)
         span, idx = contacts.loc.span, contacts.element_dofs()
@@ -93,7 +103,7 @@ class CreepForces:
         vB = state.vB[span[:, None], idx]
         rail_on = np.einsum("ij,ij->i", WT, vB) + v * np.einsum("ij,ij->i", WT1, uB)
         if self.longitudinal_ground:
-            _, ground, _ = m.ground.under_longitudinal(contacts.t, contacts.loc.x, v)
+            _, ground, _ = m.ground.under_longitudinal(contacts.t, contacts.loc.x, v, contacts.a)
             rail = np.where(contacts.on, rail_on, ground)
         else:
             rail = np.where(contacts.on, rail_on, 0.0)
@@ -118,8 +128,9 @@ class CreepForces:
         np.add.at(fB, (contacts.loc.span[sel, None], idx[sel]), -WT[sel] * force[sel, None])
 
     # ----------------------------------------------------------------------------------------------
-    def damping_rate(self) -> float:
-        """Largest ``k = f33(N_static) w_T / v`` (1/s) of the wheels: the lagged force's damper."""
+    def damping_rate(self, speed: float | None = None) -> float:
+        """Largest ``k = f33(N_static) w_T / v`` (1/s) of the wheels: the lagged force's damper, at
+        ``speed`` (default: the run's)."""
         tr = self.model.train
         M_inv = np.linalg.inv(tr.vehicle.M)
         w_T = np.einsum("ij,ik,kj->j", self.W_T, M_inv, self.W_T)
@@ -127,7 +138,7 @@ class CreepForces:
         rate = 0.0
         for law, mask in self.laws:
             sel = mask[: tr.wheels]
-            rate = max(rate, float(np.max(law.f33(static[sel]) * w_T[sel])) / self.speed)
+            rate = max(rate, float(np.max(law.f33(static[sel]) * w_T[sel])) / (speed or self.speed))
         return rate
 
     def check_stability(self, time_step: float) -> None:
