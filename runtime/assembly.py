@@ -48,6 +48,20 @@ class FlatTrack:
         return z, z, z
 
 
+def seen_moving(
+    q: np.ndarray, q1: np.ndarray, q2: np.ndarray, c: float | None, speed: float, acceleration: float = 0.0
+) -> Triple:
+    """A ground motion ``q(t - x/c)`` (``c`` None: uniform) and its total time derivatives at points
+    moving with ``x' = speed``, ``x'' = acceleration``: ``(1 - v/c) q'`` and
+    ``(1 - v/c)^2 q'' - (a/c) q'``; ``q1``, ``q2`` are the partial time derivatives at fixed x."""
+    if c:
+        f = 1.0 - speed / c
+        if acceleration:
+            return q, f * q1, f * f * q2 - (acceleration / c) * q1
+        return q, f * q1, f * f * q2
+    return q, q1, q2
+
+
 class Ground:
     """Ground motion as seen by the solver. The base class is the ground at rest.
 
@@ -93,7 +107,7 @@ class Ground:
         carries the factor ``(1 - v/c)`` and d2/dt2 adds ``-(a/c) q'``; a uniform motion has none.
         """
         (q, q1, q2), _ = self.motion(t, x)
-        return self._moving(q, q1, q2, speed, acceleration)
+        return seen_moving(q, q1, q2, self.apparent_velocity, speed, acceleration)
 
     def under_longitudinal(self, t: float, x: np.ndarray, speed: float, acceleration: float = 0.0) -> Triple:
         """Longitudinal ground motion under points moving at ``speed`` (total time derivatives):

@@ -26,7 +26,7 @@ from typing import Any
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
-from svbi.runtime.assembly import Ground
+from svbi.runtime.assembly import Ground, seen_moving
 from svbi.runtime.excitation.processing import MotionHistory, Processing, process_record
 from svbi.runtime.excitation.records import Record, RecordError, read_record
 from svbi.runtime.excitation.synthetic import DEFAULT_SEED, synthetic_motion, synthetic_record
@@ -426,20 +426,17 @@ class RecordGround(Ground):
     def motion(self, t: float, x: NDArray) -> tuple[Triple, Triple]:
         return self.component("vertical", t, x), self.component("longitudinal", t, x)
 
-    def _moving(self, name: str, t: float, x: NDArray, speed: float) -> Triple:
+    def _moving(self, name: str, t: float, x: NDArray, speed: float, acceleration: float) -> Triple:
         q, q1, q2 = self.component(name, t, x)
-        if self.apparent_velocity:
-            f = 1.0 - speed / self.apparent_velocity
-            return q, f * q1, f * f * q2
-        return q, q1, q2
+        return seen_moving(q, q1, q2, self.apparent_velocity, speed, acceleration)
 
-    def under(self, t: float, x: NDArray, speed: float) -> Triple:
+    def under(self, t: float, x: NDArray, speed: float, acceleration: float = 0.0) -> Triple:
         """Vertical ground motion under points moving at ``speed`` (total time derivatives)."""
-        return self._moving("vertical", t, x, speed)
+        return self._moving("vertical", t, x, speed, acceleration)
 
-    def under_longitudinal(self, t: float, x: NDArray, speed: float) -> Triple:
+    def under_longitudinal(self, t: float, x: NDArray, speed: float, acceleration: float = 0.0) -> Triple:
         """Longitudinal ground motion under points moving at ``speed`` (total time derivatives)."""
-        return self._moving("longitudinal", t, x, speed)
+        return self._moving("longitudinal", t, x, speed, acceleration)
 
     def check_start(self, x: NDArray) -> None:
         """A travelling wave must not have reached any of the points ``x`` (m) at t = 0."""
