@@ -76,6 +76,10 @@ class Pier:
     support: int
     height: float
     section: Section
+    bearing_vertical: float | None = None
+    """Stiffness (N/m) of the bearings between the girders and the pier top, vertically; None: rigid."""
+    bearing_longitudinal: float | None = None
+    """... and longitudinally (the fixed bearing); None: rigid."""
 
 
 @dataclass(frozen=True)
@@ -121,6 +125,13 @@ class Links:
     b_sub: np.ndarray
     b_dof: np.ndarray
     kind: tuple[str, ...]
+    compliance: np.ndarray
+    """0 for a rigid link; ``1 / k`` for a bearing spring of stiffness ``k`` (the link force is then
+    ``k (u_b - u_a)`` on end a: the spring, exact and implicit, not a stabilised constraint)."""
+
+    @property
+    def spring(self) -> np.ndarray:
+        return self.compliance > 0.0
 
     def __len__(self) -> int:
         return len(self.a_sub)
@@ -194,7 +205,7 @@ class Bridge:
         sup_comp = np.tile([LONGITUDINAL, VERTICAL, VERTICAL], (self.nsub, 1))
         sup_active = np.zeros((self.nsub, 3), dtype=bool)
         sup_x = np.zeros((self.nsub, 3))
-        links: list[tuple[int, int, int, int, str]] = []
+        links: list[tuple[int, int, int, int, str, float]] = []
         top = 3 * ne  # a pier's top node: u at 3 ne, w at 3 ne + 1
 
         def hold(span: int, slot: int, dof: int, line: int, what: str) -> None:
@@ -202,8 +213,19 @@ class Bridge:
             sup_dof[span, slot] = dof
             sup_x[span, slot] = self.line_x[line]
             if line in pier_at:
+                p = self.piers[pier_at[line]]
+                k = p.bearing_longitudinal if what == "u" else p.bearing_vertical
                 pier = self.spans + pier_at[line]
-                links.append((span, dof, pier, top + (0 if what == "u" else 1), f"bearing-{what}"))
+                links.append(
+                    (
+                        span,
+                        dof,
+                        pier,
+                        top + (0 if what == "u" else 1),
+                        f"bearing-{what}",
+                        1.0 / k if k else 0.0,
+                    )
+                )
             else:
                 sup_active[span, slot] = True
 
@@ -217,7 +239,7 @@ class Bridge:
                 if j == 0:
                     hold(s, 1, 1, s, "w")
                 else:  # continuous over the interior support: the start node follows the span behind
-                    links += [(s - 1, 3 * ne + d, s, d, f"continuity-{n}") for d, n in enumerate("uwt")]
+                    links += [(s - 1, 3 * ne + d, s, d, f"continuity-{n}", 0.0) for d, n in enumerate("uwt")]
                 hold(s, 2, 3 * ne + 1, s + 1, "w")
                 if g.fixed_support == 0 and j == 0:
                     hold(s, 0, 0, s, "u")
@@ -235,13 +257,14 @@ class Bridge:
         self.support_active = sup_active
         self.support_x_all = sup_x
         """Position of every support slot, ``(nsub, 3)`` (see ``support_active``)."""
-        la = np.array(links, dtype=object).reshape(-1, 5)
+        la = np.array(links, dtype=object).reshape(-1, 6)
         self.links = Links(
             la[:, 0].astype(np.intp),
             la[:, 1].astype(np.intp),
             la[:, 2].astype(np.intp),
             la[:, 3].astype(np.intp),
             tuple(la[:, 4]),
+            la[:, 5].astype(float),
         )
         self._kinds()
         if self.uniform:
@@ -421,7 +444,10 @@ class Bridge:
             return i
 
         L = self.links
-        for a_s, a_d, b_s, b_d in zip(L.a_sub, L.a_dof, L.b_sub, L.b_dof, strict=True):
+        rigid = ~L.spring
+        for a_s, a_d, b_s, b_d in zip(
+            L.a_sub[rigid], L.a_dof[rigid], L.b_sub[rigid], L.b_dof[rigid], strict=True
+        ):
             ra, rb = find(a_s * nd + a_d), find(b_s * nd + b_d)
             if ra != rb:
                 parent[max(ra, rb)] = min(ra, rb)
@@ -439,6 +465,15 @@ class Bridge:
             cols.append(cc.ravel())
             mv.append(kd.M.ravel())
             kv.append(kd.K.ravel())
+        spring = L.spring
+        if spring.any():  # bearing springs join their two DOFs elastically
+            ga = self.global_dof[L.a_sub[spring], L.a_dof[spring]]
+            gb = self.global_dof[L.b_sub[spring], L.b_dof[spring]]
+            k = 1.0 / L.compliance[spring]
+            rows += [ga, gb, ga, gb]
+            cols += [ga, gb, gb, ga]
+            kv += [k, k, -k, -k]
+            mv += [0.0 * k] * 4
         shape = (self.nglobal, self.nglobal)
         r, c = np.concatenate(rows), np.concatenate(cols)
         self.M_global = sps.csc_matrix((np.concatenate(mv), (r, c)), shape=shape)

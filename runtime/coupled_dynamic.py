@@ -132,7 +132,13 @@ class CoupledDynamic(Monolithic):
         PB, QB, fB = bs.PB, bs.QB, bs.fB
         HG, _ = self._force(self.lamG, self.DG, self.mG)
         self._constraint_load(fB, HG)
-        rhs[self.oLG : self.oLG + self.NS] = self.DG * bs.q_hat
+        q_hat = bs.q_hat
+        b = m.bridge
+        if not b.uniform and b.links.spring.any():  # a spring's force D dlambda - H = -k (u_a - u_b)
+            q_hat = q_hat.copy()
+            links = slice(3 * b.nsub, None)
+            q_hat[links] = np.where(b.links.spring, b.links.compliance * HG[links], q_hat[links])
+        rhs[self.oLG : self.oLG + self.NS] = self.DG * q_hat
 
         if self.moving_load:
             self._moving_loads(bs, c, rows.N0, rhs)

@@ -255,6 +255,7 @@ def _assemble(
         T.add(ub, rl, np.full(lay.nl, 1.0))
         T.add(rl, ua, np.full(lay.nl, 1.0))
         T.add(rl, ub, np.full(lay.nl, -1.0))
+        T.add(rl, rl, L.compliance)  # a bearing spring: u_a - u_b + F / k = 0
     if vehicle_block is not None:
         nV, nw = lay.nV, tr.wheels
         _repeated(T, 0, nV, 0, nV, vehicle_block, lay.cars)

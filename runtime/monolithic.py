@@ -190,6 +190,8 @@ class Monolithic:
         T.add(ub, cl, cpl)
         T.add(cl, ua, cpl)
         T.add(cl, ub, -cpl)
+        spring = L.spring  # a bearing spring's row: u_a - u_b + F / k = 0 (F on end a)
+        T.add(cl[spring], cl[spring], cpl[spring] ** 2 * L.compliance[spring])
 
     def _constraint_load(self, fB: np.ndarray, H: np.ndarray) -> None:
         """Subtract the known part ``H`` of the support (and link) forces from the bridge load,
@@ -216,7 +218,7 @@ class Monolithic:
         if not b.uniform:  # unused slots hold 0; the links' gaps follow their own rows (target 0)
             L = b.links
             gap = lambda X: X[L.a_sub, L.a_dof] - X[L.b_sub, L.b_dof]  # noqa: E731
-            g_hat = self.point.target(gap(PB), gap(QB), 0.0, 0.0, 0.0)
+            g_hat = np.where(L.spring, 0.0, self.point.target(gap(PB), gap(QB), 0.0, 0.0, 0.0))
             q_hat = np.concatenate([np.where(b.support_active, q_hat, 0.0).reshape(-1), g_hat])
         fB = b.history_load(PB, QB, q1)
         return BridgeStep(PB, QB, q_hat.reshape(-1), fB)

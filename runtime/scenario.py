@@ -101,7 +101,7 @@ class GirderSpec(_Table):
 
 class PierSpec(_Table):
     """``[[bridge.piers]]``: a pier column under one support line, fixed at its base, carrying the
-    girders' bearings on that line at its top (rigid bearings)."""
+    girders' bearings on that line at its top (rigid, or springs of the given stiffness)."""
 
     support: Annotated[int, Field(ge=0)]
     height: Positive
@@ -151,8 +151,7 @@ class BridgeSpec(_Table):
     def long_form_problems(self) -> list[tuple[str, str]]:
         """(key, message) for each long-form input the mechanics cannot build: every span has
         ``elements_per_span`` elements (no per-girder override), one pier per support line inside
-        the bridge, a fixed bearing on one of the girder's lines, rigid bearings. Refused, never
-        approximated."""
+        the bridge, a fixed bearing on one of the girder's lines. Refused, never approximated."""
         out: list[tuple[str, str]] = []
         lines = self.spans + 1
         seen: dict[int, int] = {}
@@ -163,9 +162,6 @@ class BridgeSpec(_Table):
             if p.support in seen:
                 out.append((f"{key}.support", f"support line {p.support} already has pier {seen[p.support]}"))
             seen.setdefault(p.support, i)
-            for name in ("bearing_stiffness_vertical", "bearing_stiffness_longitudinal"):
-                if getattr(p, name) is not None:
-                    out.append((f"{key}.{name}", "flexible bearings are not modelled yet (rigid if omitted)"))
         for i, g in enumerate(self.girders or []):
             key = f"bridge.girders[{i}]"
             if g.fixed_support > len(g.spans):
@@ -203,7 +199,16 @@ class BridgeSpec(_Table):
         girders = [
             Girder(tuple(float(x) for x in g.spans), section(g), g.fixed_support) for g in self.girders or []
         ]
-        piers = [Pier(p.support, float(p.height), section(p)) for p in self.piers or []]
+        piers = [
+            Pier(
+                p.support,
+                float(p.height),
+                section(p),
+                p.bearing_stiffness_vertical,
+                p.bearing_stiffness_longitudinal,
+            )
+            for p in self.piers or []
+        ]
         return girders, piers
 
     def line_positions(self) -> list[float]:

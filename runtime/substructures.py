@@ -22,7 +22,11 @@ import scipy.linalg as sla
 class SubstructureCompliance:
     """``S`` and ``R`` of every substructure kind for the per-kind matrices ``Z``, and the links."""
 
-    def __init__(self, bridge: Any, matrices: list[np.ndarray], cholesky: bool = True) -> None:
+    def __init__(
+        self, bridge: Any, matrices: list[np.ndarray], cholesky: bool = True, springs: bool = True
+    ) -> None:
+        """``springs``: bearing springs act (their compliance joins ``A``); False for an impact,
+        through which a spring passes no impulse (only the rigid links then count)."""
         self.bridge = b = bridge
         self.S: list[np.ndarray] = []
         self.R: list[np.ndarray] = []
@@ -44,7 +48,10 @@ class SubstructureCompliance:
             R = np.zeros((b.ndof, 3))
             R[:, cols] = ke @ se_inv
             self.R.append(R)
-        self.nlinks = 0 if b.uniform else len(b.links)
+        self.use = np.zeros(0, dtype=bool)
+        if not b.uniform:
+            self.use = np.ones(len(b.links), dtype=bool) if springs else ~b.links.spring
+        self.nlinks = int(self.use.sum())
         if self.nlinks:
             self._links()
 
@@ -85,10 +92,11 @@ class SubstructureCompliance:
 
     # ----------------------------------------------------------------------------------------------
     def _links(self) -> None:
+        self.links = self._used_links()
         import scipy.sparse as sps
         import scipy.sparse.linalg as spla
 
-        L = self.bridge.links
+        L = self._used_links()
         ka, kb = self._kind(L.a_sub), self._kind(L.b_sub)
         self.col_a = np.array([self.S[k][:, d] for k, d in zip(ka, L.a_dof, strict=True)])
         self.col_b = np.array([self.S[k][:, d] for k, d in zip(kb, L.b_dof, strict=True)])
@@ -104,8 +112,26 @@ class SubstructureCompliance:
                         cols.append(same)
                         vals.append(sign_l * sign_m * Sk[dl[i], dm[same]])
         n = self.nlinks
+        rows.append(np.arange(n))  # a bearing spring: the link's own compliance 1/k
+        cols.append(np.arange(n))
+        vals.append(L.compliance)
         A = sps.csc_matrix((np.concatenate(vals), (np.concatenate(rows), np.concatenate(cols))), shape=(n, n))
         self._lu = spla.splu(A)
+
+    def _used_links(self) -> Any:
+        """The links this compliance imposes (all, or the rigid ones for an impact)."""
+        from dataclasses import replace
+
+        L, u = self.bridge.links, self.use
+        return replace(
+            L,
+            a_sub=L.a_sub[u],
+            a_dof=L.a_dof[u],
+            b_sub=L.b_sub[u],
+            b_dof=L.b_dof[u],
+            kind=tuple(k for k, keep in zip(L.kind, u, strict=True) if keep),
+            compliance=L.compliance[u],
+        )
 
     def link_solve(self, r: np.ndarray) -> np.ndarray:
         """``A^-1 r`` with ``A = L S L^T``."""
@@ -113,12 +139,12 @@ class SubstructureCompliance:
 
     def link_gap(self, U: np.ndarray) -> np.ndarray:
         """``L u``: the gap of every link for substructure displacements ``U`` (``nsub x ndof``)."""
-        L = self.bridge.links
+        L = self.links
         return U[L.a_sub, L.a_dof] - U[L.b_sub, L.b_dof]
 
     def link_load(self, lam: np.ndarray) -> np.ndarray:
         """``L^T Lambda`` as a load on every substructure (``nsub x ndof``)."""
-        b, L = self.bridge, self.bridge.links
+        b, L = self.bridge, self.links
         load = np.zeros((b.nsub, b.ndof))
         np.add.at(load, (L.a_sub, L.a_dof), lam)
         np.add.at(load, (L.b_sub, L.b_dof), -lam)
@@ -126,7 +152,7 @@ class SubstructureCompliance:
 
     def cross(self, X: np.ndarray, sub: np.ndarray, on: np.ndarray) -> np.ndarray:
         """``X S L^T`` (``n x nlinks``) for rows ``X`` on substructures ``sub`` (zero where not ``on``)."""
-        L = self.bridge.links
+        L = self.links
         ma = on[:, None] & (sub[:, None] == L.a_sub[None, :])
         mb = on[:, None] & (sub[:, None] == L.b_sub[None, :])
         return np.where(ma, X @ self.col_a.T, 0.0) - np.where(mb, X @ self.col_b.T, 0.0)
@@ -145,7 +171,9 @@ class SubstructureCompliance:
         ``U - S L^T Lambda``."""
         if not self.nlinks:
             return U, np.zeros(0)
-        r = self.link_gap(U) - (0.0 if g_hat is None else g_hat)
+        # a spring's gap is elastic, not a constraint with a target: its row reads L u = Lambda / k
+        target = 0.0 if g_hat is None else np.where(self.links.spring, 0.0, g_hat[self.use])
+        r = self.link_gap(U) - target
         lam = self.link_solve(r)
         return U - self.times(self.link_load(lam)), lam
 

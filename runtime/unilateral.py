@@ -148,7 +148,7 @@ class Impact:
         self.MinvC = np.linalg.solve(v.M, v.C)
         self.GV = tr.W.T @ self.MinvW
         kinds = [b] if b.uniform else b.kinds
-        self.S_M = SubstructureCompliance(b, [k.M for k in kinds], cholesky=False)
+        self.S_M = SubstructureCompliance(b, [k.M for k in kinds], cholesky=False, springs=False)
         """Mass compliance of the substructures, supports held, links imposed."""
         self.shapes = ShapeKernel(b.contact_element_length, (0, 1, 2))
         self.m_g = np.tile(tr.aux_masses, tr.cars)

@@ -315,3 +315,55 @@ def test_two_spans_on_a_very_stiff_pier_behave_as_on_a_rigid_support():
         "rotation",
         "vertical",
     ]
+
+
+K_BEARING = 2.0e8  # N/m: an elastomeric bearing, softer than the pier (3 E I / H^3 = 3.3e8 N/m)
+
+
+def cantilever_with_spring_mass(tip_mass: float, k: float) -> float:
+    """Fundamental circular frequency of a cantilever whose tip carries a mass through a spring:
+    the tip sees the mass ``M k / (k - M w^2)`` (exact for a massless spring)."""
+    c = np.sqrt(E_P * I_P / (MU_P * H**4))
+
+    def f(z: float) -> float:
+        w = z * z * c
+        r = tip_mass * k / (k - tip_mass * w * w) / (MU_P * H)
+        return 1 + np.cos(z) * np.cosh(z) + z * r * (np.cos(z) * np.sinh(z) - np.sin(z) * np.cosh(z))
+
+    upper = min(1.875104, np.sqrt(np.sqrt(k / tip_mass) / c) * (1 - 1e-9))  # below the spring-mass pole
+    z = brentq(f, 0.1, upper)
+    return z * z * c
+
+
+def test_flexible_longitudinal_bearing_on_a_pier_has_the_exact_frequency():
+    data = pier_bridge_dict()
+    data["piers"][0]["bearing_stiffness_longitudinal"] = K_BEARING
+    sc = validate_scenario({"bridge": data, "train": dict(vehicle="moving-load", speed_kmh=100.0)})
+    b = build_model(sc).bridge
+    exact = cantilever_with_spring_mass(MU * L, K_BEARING) / (2 * np.pi)
+    rigid = cantilever_with_tip_mass(MU * L) / (2 * np.pi)
+    assert exact < 0.8 * rigid  # the spring matters
+    assert b.natural_frequencies(1)[0] == pytest.approx(exact, rel=1e-4)
+
+
+def test_localized_equals_coupled_dynamic_with_bearing_springs():
+    contact = {"normal": "bilateral"}
+    springs = {"bearing_stiffness_vertical": 5.0e9, "bearing_stiffness_longitudinal": 3.0e8}
+    data = {k: dict(v) for k, v in VIADUCT.items()}
+    data["bridge"] = dict(data["bridge"], piers=[dict(p, **springs) for p in data["bridge"]["piers"]])
+    runs = {}
+    for method in ("localized-dynamic", "coupled-dynamic", "coupled-classic"):
+        data["solver"] = dict(VIADUCT["solver"], method=method)
+        data["contact"] = contact
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore", UserWarning)
+            runs[method] = svbi.simulate(validate_scenario(data))
+    a, b = runs["localized-dynamic"], runs["coupled-dynamic"]
+    assert_same(a, b, ("midspan_uz", "contact_force", "pier_top_ux", "support_reaction"), 1e-8)
+    rigid = viaduct("localized-dynamic", contact=contact)
+    # the springs change the piers' response (softer: more sway relative to the deck)
+    assert float(np.abs(a.pier_top_ux - rigid.pier_top_ux).max()) > 1e-3 * float(
+        np.abs(rigid.pier_top_ux).max()
+    )
+    c = runs["coupled-classic"]
+    assert float(np.abs(c.pier_top_ux - a.pier_top_ux).max()) < 1e-6 * float(np.abs(a.pier_top_ux).max())
