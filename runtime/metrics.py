@@ -52,6 +52,7 @@ METRIC_DIMS: dict[str, tuple[str, ...]] = {
     "peak_uplift": ("car", "wheel"),
     "peak_end_rotation": ("span", "end"),
     "peak_joint_rotation": ("joint",),
+    "peak_pier_drift": ("pier",),
     "complete": (),
 }
 """Every metric and its dimensions (``lift_offs`` and ``peak_uplift`` only with unilateral contact)."""
@@ -66,6 +67,7 @@ METRIC_UNITS = {
     "peak_uplift": "m",
     "peak_end_rotation": "rad",
     "peak_joint_rotation": "rad",
+    "peak_pier_drift": "m",
     "complete": "1",
 }
 
@@ -181,6 +183,7 @@ METRIC_INPUTS = (
     "contact_force_filtered",
     "contact_state",
     "wheel_uplift",
+    "pier_drift",
 )
 """The results variables :func:`compute_metrics` reads (with ``time`` and the attributes): a sweep
 worker builds only these (``Recorder.dataset(variables=...)``) when it keeps no history."""
@@ -273,9 +276,14 @@ def compute_metrics(ds: xr.Dataset) -> xr.Dataset:
         peak, when = _peak_abs(kink, t)
         put("peak_joint_rotation", peak, when, "max angle between consecutive decks (theta1 + theta2)")
 
+    if "pier_drift" in ds.variables:
+        drift = np.asarray(ds["pier_drift"].transpose("time", "pier").values, dtype=float)
+        peak, when = _peak_abs(drift, t)
+        put("peak_pier_drift", peak, when, "max |pier_drift| (pier top relative to the ground at its base)")
+
     complete = _complete(ds)
     put("complete", np.int64(complete), None, "1: the run finished; 0: it stopped early")
-    coords = {d: ds.coords[d].values for d in ("span", "car", "wheel", "end") if d in ds.coords}
+    coords = {d: ds.coords[d].values for d in ("span", "car", "wheel", "end", "pier") if d in ds.coords}
     if "peak_joint_rotation" in out:
         coords["joint"] = np.arange(1, ds.sizes["span"])
     attrs = {"deck_acceleration_cutoff_hz": cutoff}

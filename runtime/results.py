@@ -390,6 +390,11 @@ class Recorder:
                 d["pier_top_ux"],
                 _a("m", "absolute longitudinal displacement of the pier top"),
             )
+            data_vars["pier_drift"] = (
+                ("time", "pier"),
+                d["pier_top_ux"] - self._ground_under_piers(d["ground_ux"]),
+                _a("m", "longitudinal displacement of the pier top relative to the ground at its base"),
+            )
         if variables is not None:
             data_vars = {name: v for name, v in data_vars.items() if name in variables}
         import xarray as xr  # with pandas, 0.4 s of imports: needed only once the run is done
@@ -411,6 +416,18 @@ class Recorder:
             gz.reshape(per_span)[:, :, vertical].mean(axis=2),
             gx.reshape(per_span)[:, :, ~vertical].mean(axis=2),
         )
+
+    def _ground_under_piers(self, gx: np.ndarray) -> np.ndarray:
+        """Longitudinal ground motion at every pier base (time x pier)."""
+        if self.uniform:
+            return np.repeat(gx[:, None], self.piers, axis=1)
+        b = self.model.bridge
+        sup = self.supports
+        cols = [
+            int(np.flatnonzero((sup.sub == b.spans + i) & (sup.component == "longitudinal"))[0])
+            for i in range(self.piers)
+        ]
+        return gx[:, cols]
 
     def _ground_under_general_spans(self) -> tuple[np.ndarray, np.ndarray]:
         """Continuous girders, piers: vertically the mean of the ground at the span's two support

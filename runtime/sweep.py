@@ -525,7 +525,7 @@ def assemble(study: Study, out: Path) -> xr.Dataset:
         first = dims[-1]
         for key, values in study.spec.zip.items():
             coords[key] = (first, _coord(values))
-    for d in ("span", "car", "wheel"):
+    for d in ("span", "car", "wheel", "pier"):
         if d in stacked.coords:
             coords[d] = (d, stacked.coords[d].values)
     attrs = {

@@ -222,6 +222,12 @@ def test_free_longitudinal_vibration_of_the_pier_in_the_time_loop():
     exact = cantilever_with_tip_mass(MU * L)
     assert 2 * np.pi / period == pytest.approx(exact, rel=3e-3)
     assert np.abs(top[free]).max() > 1e-3  # it does swing
+    # drift: the top relative to the ground at its base, and its peak among the metrics
+    np.testing.assert_array_equal(ds.pier_drift.values[:, 0], top - ds.ground_ux.values)
+    from svbi.runtime.metrics import compute_metrics
+
+    m = compute_metrics(ds)
+    assert float(m.peak_pier_drift.sel(pier=1)) == float(np.abs(ds.pier_drift).max())
     # the deck moves with the pier top (fixed bearing): midspan u equals the top's u, less the
     # deck's axial strain under its own inertia (about 1e-5 of it with this stiff deck)
     np.testing.assert_allclose(ds.midspan_ux.values[free, 0], top[free], atol=1e-4 * np.abs(top).max())
