@@ -39,6 +39,17 @@ def vehicle_modes(vehicle: NumericVehicle, rtol: float = 1e-9) -> VehicleModes:
     return VehicleModes(np.sort(elastic), rigid)
 
 
+def _assembled(me: np.ndarray, ke: np.ndarray, elements: int) -> tuple[np.ndarray, np.ndarray]:
+    """``elements`` equal elements in a row, 3 DOFs per node: the assembled mass and stiffness."""
+    n = 3 * (elements + 1)
+    m, k = np.zeros((n, n)), np.zeros((n, n))
+    for e in range(elements):
+        idx = slice(3 * e, 3 * e + 6)
+        m[idx, idx] += me
+        k[idx, idx] += ke
+    return m, k
+
+
 def span_matrices(
     span_length: float,
     elements: int,
@@ -53,13 +64,7 @@ def span_matrices(
     section = (youngs_modulus, area, second_moment, mass_per_length)
     me = np.asarray(kernels.element_mass(section, le), dtype=float)
     ke = np.asarray(kernels.element_stiffness(section, le), dtype=float)
-    n = 3 * (elements + 1)
-    m, k = np.zeros((n, n)), np.zeros((n, n))
-    for e in range(elements):
-        idx = slice(3 * e, 3 * e + 6)
-        m[idx, idx] += me
-        k[idx, idx] += ke
-    return m, k
+    return _assembled(me, ke, elements)
 
 
 def column_matrices(
@@ -77,13 +82,7 @@ def column_matrices(
     section = (youngs_modulus, area, second_moment, mass_per_length)
     me = np.asarray(kernels.column_mass(section, le), dtype=float)
     ke = np.asarray(kernels.column_stiffness(section, le), dtype=float)
-    n = 3 * (elements + 1)
-    m, k = np.zeros((n, n)), np.zeros((n, n))
-    for e in range(elements):
-        idx = slice(3 * e, 3 * e + 6)
-        m[idx, idx] += me
-        k[idx, idx] += ke
-    return m, k
+    return _assembled(me, ke, elements)
 
 
 def span_support_dofs(elements: int) -> list[int]:

@@ -646,19 +646,29 @@ def make_figures(results: Results) -> dict[str, Figure]:
     return figures
 
 
+def _one_line_each(ax: Axes, t: xr.DataArray, rows: Sequence[tuple[np.ndarray, str]], cmap: str) -> None:
+    """One line per row (values, label), coloured along ``cmap``."""
+    colours = matplotlib.colormaps[cmap]
+    for i, (y, label) in enumerate(rows):
+        ax.plot(_seconds(t), y, color=colours(i / max(len(rows), 1)), lw=1.0, label=label)
+
+
 def panel_piers(ax: Axes, run: Run) -> None:
     """Longitudinal displacement of every pier top, with the ground's (a long-form bridge)."""
     ds = run.data
-    t = ds["time"]
-    cmap = matplotlib.colormaps["viridis"]
-    n = ds.sizes["pier"]
-    for i in range(n):
-        line = int(ds["pier_line"].values[i])
-        y = np.asarray(ds["pier_top_ux"].isel(pier=i).values, dtype=float) * 1e3
-        ax.plot(_seconds(t), y, color=cmap(i / max(n - 1, 1)), lw=1.0, label=f"pier {i + 1} (line {line})")
+    rows = [
+        (
+            np.asarray(ds["pier_top_ux"].isel(pier=i).values, dtype=float) * 1e3,
+            f"pier {i + 1} (line {int(ds['pier_line'].values[i])})",
+        )
+        for i in range(ds.sizes["pier"])
+    ]
+    _one_line_each(ax, ds["time"], rows, "viridis")
     g = ds["ground_ux"]
     gx = g.values if g.ndim == 1 else g.isel(support=0).values
-    ax.plot(_seconds(t), np.asarray(gx, dtype=float) * 1e3, color="k", lw=1.0, ls="--", label="ground")
+    ax.plot(
+        _seconds(ds["time"]), np.asarray(gx, dtype=float) * 1e3, color="k", lw=1.0, ls="--", label="ground"
+    )
     ax.legend(fontsize="small", ncols=4)
     _finish(ax, "Pier tops: longitudinal displacement (absolute)", "u (mm)", [])
 
@@ -666,12 +676,11 @@ def panel_piers(ax: Axes, run: Run) -> None:
 def panel_spans_relative(ax: Axes, run: Run) -> None:
     """Vertical midspan deflection of every span relative to the ground under it."""
     ds = run.data
-    t = ds["time"]
-    cmap = matplotlib.colormaps["plasma"]
-    n = ds.sizes["span"]
-    for i in range(n):
-        y = np.asarray(ds["midspan_uz_rel"].isel(span=i).values, dtype=float) * 1e3
-        ax.plot(_seconds(t), y, color=cmap(i / max(n, 1)), lw=1.0, label=f"span {i + 1}")
+    rows = [
+        (np.asarray(ds["midspan_uz_rel"].isel(span=i).values, dtype=float) * 1e3, f"span {i + 1}")
+        for i in range(ds.sizes["span"])
+    ]
+    _one_line_each(ax, ds["time"], rows, "plasma")
     ax.legend(fontsize="small", ncols=5)
     _finish(ax, "Midspan deflection relative to the ground under each span", "w (mm)", [])
 

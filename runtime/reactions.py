@@ -20,15 +20,23 @@ def support_reactions(model: Model, state: State, contacts: Contacts, P: np.ndar
     """Support forces ``R_G`` beyond the dead load at ``state.t``: ``(spans, nsupport)`` for the
     paper's bridge, else one per active support (``Bridge.support_table``)."""
     b = model.bridge
+    f = _residual(model, state, contacts, P)
+    if b.uniform:
+        return f[:, b.support_dofs]
+    return b.reaction_at_supports(f)
+
+
+def _residual(model: Model, state: State, contacts: Contacts, P: np.ndarray) -> np.ndarray:
+    """``M a + C (v - T q') + K u + N P`` of every substructure DOF: the force its constraints
+    (supports and links) put there."""
+    b = model.bridge
     _, q1, _ = model.supports(state.t)
     f = b.per_kind(state.aB, "M") + b.per_kind(state.vB - b.quasi_static(q1), "C") + b.per_kind(state.uB, "K")
     (N0,) = ShapeKernel(b.contact_element_length)(contacts.loc.xi, contacts.loc.span)
     idx = contacts.element_dofs()
     sel = np.flatnonzero(contacts.on)
     np.add.at(f, (contacts.loc.span[sel, None], idx[sel]), N0[sel] * P[sel, None])
-    if b.uniform:
-        return f[:, b.support_dofs]
-    return b.reaction_at_supports(f)
+    return f
 
 
 def constraint_forces(model: Model, state: State, contacts: Contacts, P: np.ndarray) -> np.ndarray:
@@ -39,12 +47,7 @@ def constraint_forces(model: Model, state: State, contacts: Contacts, P: np.ndar
     b = model.bridge
     if b.uniform:
         return support_reactions(model, state, contacts, P).reshape(-1)
-    _, q1, _ = model.supports(state.t)
-    f = b.per_kind(state.aB, "M") + b.per_kind(state.vB - b.quasi_static(q1), "C") + b.per_kind(state.uB, "K")
-    (N0,) = ShapeKernel(b.contact_element_length)(contacts.loc.xi, contacts.loc.span)
-    idx = contacts.element_dofs()
-    sel = np.flatnonzero(contacts.on)
-    np.add.at(f, (contacts.loc.span[sel, None], idx[sel]), N0[sel] * P[sel, None])
+    f = _residual(model, state, contacts, P)
     L = b.links
     nd, ns, nl = b.ndof, 3 * b.nsub, len(L)
     act = b.support_active.ravel()
