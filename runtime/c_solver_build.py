@@ -80,6 +80,7 @@ STATUS_BANDWIDTH = 5
 STATUS_NOT_SPD = 6
 STATUS_INTERRUPTED = 7
 STATUS_RANGE = 8
+STATUS_EVENT = 9
 STATUS_CODES = {
     "OK": STATUS_OK,
     "NOT_FINITE": STATUS_NOT_FINITE,
@@ -90,6 +91,7 @@ STATUS_CODES = {
     "NOT_SPD": STATUS_NOT_SPD,
     "INTERRUPTED": STATUS_INTERRUPTED,
     "RANGE": STATUS_RANGE,
+    "EVENT": STATUS_EVENT,
 }
 """``SVBI_SOLVER_STATUS_<name>`` of the generated ``svbi_solver_types.h``."""
 STATUS_NAMES = {
@@ -102,6 +104,7 @@ STATUS_NAMES = {
     STATUS_NOT_SPD: "matrix not positive definite",
     STATUS_INTERRUPTED: "interrupted",
     STATUS_RANGE: "steps asked beyond the run (setup.steps)",
+    STATUS_EVENT: "a wheel lifts off or lands (the step goes to the NumPy stepper)",
 }
 
 
@@ -122,6 +125,7 @@ C_TYPES = {
     "int*": "const int*",
     "double*": "const double*",
     "mdouble*": "double*",
+    "mchar*": "unsigned char*",
     "ppoly": "svbi_ppoly",
     "ppoly*": "const svbi_ppoly*",
 }
@@ -132,6 +136,7 @@ _CTYPES: dict[str, Any] = {
     "int*": ctypes.c_void_p,
     "double*": ctypes.c_void_p,
     "mdouble*": ctypes.c_void_p,
+    "mchar*": ctypes.c_void_p,
     "ppoly*": ctypes.c_void_p,
 }
 
@@ -182,6 +187,12 @@ SETUP_FIELDS = [
     F("carbody_theta", "int", "vehicle DOF of the car-body pitch (-1: none)"),
     F("creep", "int", "1: explicit creep forces (svbi.runtime.wheel_creep)"),
     F("creep_ground", "int", "1: off the bridge the wheels creep against the moving ground"),
+    F(
+        "unilateral",
+        "int",
+        "1: localized-dynamic with the per-wheel active set: free wheels carry P = 0, a lift-off or "
+        "landing stops the loop with STATUS_EVENT",
+    ),
     F("mb_num_n", "int", "coefficients of the numerator of Eq. (31) in xi"),
     F("mb_den_n", "int", "coefficients of the denominator of Eq. (31) in xi"),
     F("steps", "long", "steps of the whole run"),
@@ -281,6 +292,7 @@ STATE_FIELDS = [
     F("lamG", "mdouble*", "3 x spans * ns: support multipliers"),
     F("creepage", "mdouble*", "nc: creepage at t"),
     F("creep_force", "mdouble*", "nc: creep force on the wheel at t (it loads the next step)"),
+    F("in_contact", "mchar*", "nc: 1 wheel on its rail, 0 airborne (unilateral runs)"),
 ]
 
 EXCITATION_FIELDS = [
@@ -340,6 +352,9 @@ OUTPUT_FIELDS = [
     F("gap_support", "mdouble*", "nout x spans * ns"),
     F("support_reaction", "mdouble*", "nout x spans * ns: support forces beyond the dead load"),
     F("forces", "mdouble*", "(steps + 1) x nc: contact force at every step"),
+    F("contact_state", "mchar*", "nout x nc: 1 on the rail, 0 airborne (unilateral runs)"),
+    F("wheel_uplift", "mdouble*", "nout x nc: height of an airborne wheel above the rail (unilateral)"),
+    F("contact_steps", "mchar*", "(steps + 1) x nc: the contact state at every step (unilateral)"),
 ]
 
 INFO_FIELDS = [

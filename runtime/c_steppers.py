@@ -352,7 +352,12 @@ class CStepper:
         # also ties each wheel to its aux point in the state.
         self.reference = numpy_steppers()[method](model, state)
         self.unilateral = getattr(self.reference, "act", None) is not None
+        self.active_set_in_c = self.unilateral and method == "localized-dynamic"
+        """localized-dynamic keeps airborne wheels in the C loop (P = 0 rows); only the steps where a
+        wheel lifts off or lands go to NumPy (the iteration and the impact)."""
         self.handovers = 0
+        self.numpy_steps = 0
+        """Steps the NumPy stepper took over (results attribute ``numpy_steps``)."""
         """Unilateral runs: how many times NumPy took steps over from the C loop."""
         self.state = state
         self.contacts = None
@@ -423,6 +428,10 @@ class CStepper:
             },
             **{k: v.ctypes.data for k, v in self.lam.items()},
         )
+        if self.active_set_in_c:  # C reads the NumPy active set's own array (one byte per wheel)
+            act = self.reference.act
+            assert act.in_contact.dtype == np.bool_ and act.in_contact.flags.c_contiguous
+            self.cstate.in_contact = act.in_contact.ctypes.data
 
     def _setup(self) -> Any:
         m, ref = self.model, self.reference
@@ -435,6 +444,7 @@ class CStepper:
         nc, nw = tr.contacts, tr.wheels
         S = c_solver_build.Setup()
         S.method, S.moving_load = code, int(tr.moving_load)
+        S.unilateral = int(self.active_set_in_c)
         S.cars, S.nw, S.nc = tr.cars, nw, nc
         S.spans, S.elements, S.nd, S.ns = b.spans, b.elements, b.ndof, b.nsupport
         S.output_every, S.steps = s.output_every, s.steps
@@ -572,6 +582,12 @@ class CStepper:
         for name in c_solver_build.OUTPUT_NAMES:
             setattr(out, name, c_solver_build.pointer(d[name]))
         out.forces = c_solver_build.pointer(recorder.forces)
+        if self.active_set_in_c:
+            if recorder.in_contact is None:
+                recorder.in_contact = np.ones(recorder.forces.shape, dtype=bool)
+            out.contact_state = c_solver_build.pointer(d["contact_state"])
+            out.wheel_uplift = c_solver_build.pointer(d["wheel_uplift"])
+            out.contact_steps = c_solver_build.pointer(recorder.in_contact)
         return out
 
     def _call(self, out: Any, n0: int, count: int) -> int:
@@ -591,11 +607,14 @@ class CStepper:
     def run_loop(self, recorder: Any, guard: Any, bar: Any = None, chunk: int | None = None) -> None:
         """Run every step, writing into ``recorder``; raises ``simulate.Diverged`` like the NumPy loop.
 
-        Unilateral contact (docs/method.md section 12): the C loop runs the bilateral step, so a
-        chunk in which a contact force went tensile is not valid. The chunk is rolled back and the
-        NumPy stepper of the same method (same state, multipliers and recorder) takes the steps from
-        the tensile one until every wheel has been on its rail, with no change of the active set,
-        for ``HANDBACK_STEPS`` steps; the C loop goes on from there.
+        Unilateral contact (docs/method.md section 12): localized-dynamic keeps the per-wheel active
+        set in C (airborne wheels carry P = 0) and stops at a step where a wheel lifts off or lands
+        (``STATUS_EVENT``); the coupled methods run the bilateral step, so a chunk in which a
+        contact force went tensile is not valid. Either way the chunk is rolled back, C redoes (bit
+        for bit) the steps before the event, and the NumPy stepper of the same method (same state,
+        multipliers and recorder) takes the event step (localized) or the steps from the tensile
+        one until every wheel has been on its rail, with no change of the active set, for
+        ``HANDBACK_STEPS`` steps (coupled); the C loop goes on from there.
         """
         steps = self.model.settings.steps
         self.setup.force_limit = float(guard.force_limit)
@@ -615,7 +634,10 @@ class CStepper:
             recorder.count = int(out.row)
             recorder.steps_done = int(self.info.steps_done)
             self.state.t = self.cstate.t
-            hit = self._tensile(recorder, done_before) if snap is not None else None
+            if self.active_set_in_c:
+                hit = (int(self.info.step) + 1, -1) if status == c_solver_build.STATUS_EVENT else None
+            else:
+                hit = self._tensile(recorder, done_before) if snap is not None else None
             if hit is not None:
                 # back to the chunk's start; C redoes (bit for bit) the steps before the tensile
                 # one, NumPy takes the steps from there
@@ -702,6 +724,9 @@ class CStepper:
             if bar is not None:
                 bar.update(1)
             n += 1
+            self.numpy_steps += 1
+            if self.active_set_in_c:  # C takes every step that changes no wheel's state
+                break
             quiet = quiet + 1 if (act.all_in and act.in_contact.all()) else 0
             if quiet >= HANDBACK_STEPS:
                 break

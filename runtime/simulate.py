@@ -381,6 +381,9 @@ def simulate(
         "scenario": _echo(scenario, model),
         "complete": 0 if message else 1,
     }
+    numpy_steps = getattr(stepper, "numpy_steps", None)
+    if numpy_steps is not None:  # a compiled loop that handed steps to NumPy (contact events)
+        attrs["numpy_steps"] = int(numpy_steps)
     if message:
         attrs["incomplete"] = message
     if ahead is not None:

@@ -23,6 +23,7 @@ extern "C" {
 #define SVBI_SOLVER_STATUS_NOT_SPD 6
 #define SVBI_SOLVER_STATUS_INTERRUPTED 7
 #define SVBI_SOLVER_STATUS_RANGE 8
+#define SVBI_SOLVER_STATUS_EVENT 9
 
 /* A piecewise polynomial (scipy.interpolate.PPoly layout) with constant ends. */
 typedef struct {
@@ -61,6 +62,7 @@ typedef struct {
   int carbody_theta; /* vehicle DOF of the car-body pitch (-1: none) */
   int creep; /* 1: explicit creep forces (svbi.runtime.wheel_creep) */
   int creep_ground; /* 1: off the bridge the wheels creep against the moving ground */
+  int unilateral; /* 1: localized-dynamic with the per-wheel active set: free wheels carry P = 0, a lift-off or landing stops the loop with STATUS_EVENT */
   int mb_num_n; /* coefficients of the numerator of Eq. (31) in xi */
   int mb_den_n; /* coefficients of the denominator of Eq. (31) in xi */
   long steps; /* steps of the whole run */
@@ -156,6 +158,7 @@ typedef struct {
   double* lamG; /* 3 x spans * ns: support multipliers */
   double* creepage; /* nc: creepage at t */
   double* creep_force; /* nc: creep force on the wheel at t (it loads the next step) */
+  unsigned char* in_contact; /* nc: 1 wheel on its rail, 0 airborne (unilateral runs) */
 } svbi_solver_state;
 
 typedef struct {
@@ -206,6 +209,9 @@ typedef struct {
   double* gap_support; /* nout x spans * ns */
   double* support_reaction; /* nout x spans * ns: support forces beyond the dead load */
   double* forces; /* (steps + 1) x nc: contact force at every step */
+  unsigned char* contact_state; /* nout x nc: 1 on the rail, 0 airborne (unilateral runs) */
+  double* wheel_uplift; /* nout x nc: height of an airborne wheel above the rail (unilateral) */
+  unsigned char* contact_steps; /* (steps + 1) x nc: the contact state at every step (unilateral) */
 } svbi_solver_outputs;
 
 typedef struct {

@@ -46,7 +46,8 @@ enum {
   ST_SINGULAR = SVBI_SOLVER_STATUS_SINGULAR,
   ST_BANDWIDTH = SVBI_SOLVER_STATUS_BANDWIDTH,
   ST_NOT_SPD = SVBI_SOLVER_STATUS_NOT_SPD,
-  ST_RANGE = SVBI_SOLVER_STATUS_RANGE
+  ST_RANGE = SVBI_SOLVER_STATUS_RANGE,
+  ST_EVENT = SVBI_SOLVER_STATUS_EVENT
 };
 
 /* ============================================================================================== */
@@ -234,6 +235,7 @@ void svbi_creep_vehicle_load(const setup_t* S, const double* force, int k, doubl
 void svbi_creep_update(const setup_t* S, state_t* X, const work_t* w);
 void svbi_creep_bridge_load(const setup_t* S, const double* force, work_t* w);
 double svbi_row_target(const setup_t* S, const work_t* w, int i, double Pg, double Qg);
+double svbi_rail_height(const setup_t* S, const work_t* w, int c);
 #endif
 
 #endif /* SVBI_SOLVER_INTERNAL_H */

@@ -252,11 +252,25 @@ int svbi_step_localized(const setup_t* S, state_t* X, work_t* w) {
         }
       }
     }
+    if (S->unilateral) {
+      /* a free (airborne) wheel's row is P_i = 0 (svbi.runtime.localized._active_set_solve) */
+      for (i = 0; i < nc; ++i) {
+        if (!X->in_contact[i]) {
+          int r = w->cpos[i], c0 = r - bw > 0 ? r - bw : 0, c1 = r + bw < nc - 1 ? r + bw : nc - 1, cc;
+          for (cc = c0; cc <= c1; ++cc) w->band[(2 * bw + r - cc) + (long)cc * (3 * bw + 1)] = 0.0;
+          svbi_gb_add(w->band, bw, r, r, 1.0);
+          w->rhs[i] = 0.0;
+        }
+      }
+    }
     status = svbi_gb_factor_r(w->band, nc, bw, w->piv, w->rpiv);
     if (status) return status;
     for (i = 0; i < nc; ++i) w->bsol[w->cpos[i]] = w->rhs[i];
     svbi_gb_solve_r(w->band, nc, bw, w->piv, w->rpiv, w->bsol);
     for (i = 0; i < nc; ++i) X->P[i] = w->bsol[w->cpos[i]];
+    if (S->unilateral) /* a wheel in contact whose force goes tensile lifts off: an event */
+      for (i = 0; i < nc; ++i)
+        if (X->in_contact[i] && X->P[i] < 0.0) return ST_EVENT;
 
     /* back-substitution: wheel-aux forces, aux points, vehicles, bridge */
     for (k = 0; k < S->cars; ++k) {
@@ -292,6 +306,11 @@ int svbi_step_localized(const setup_t* S, state_t* X, work_t* w) {
       }
     }
     localized_correct(S, w, X->P);
+    if (S->unilateral) { /* an airborne wheel that reaches its rail lands: an event */
+      for (i = 0; i < nc; ++i) {
+        if (!X->in_contact[i] && X->ug[i] - svbi_rail_height(S, w, i) <= 0.0) return ST_EVENT;
+      }
+    }
     svbi_bridge_update_histories(S, w);
     if (S->creep) svbi_creep_update(S, X, w);
   }

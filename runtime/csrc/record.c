@@ -40,6 +40,23 @@ static void support_reactions(const setup_t* S, const state_t* X, outputs_t* O, 
   }
 }
 
+#if !SVBI_MOVING_LOAD
+/* Height of the rail under contact c at the step's time: N0 u_B + r on the bridge, q + r off it. */
+double svbi_rail_height(const setup_t* S, const work_t* w, int c) {
+  double rail;
+  int j;
+  (void)S;
+  if (w->con[c]) {
+    const double* N0 = w->crow + (long)c * ROW_COLS + COL_N0;
+    rail = 0.0;
+    for (j = 0; j < NNZ_N0; ++j) rail += N0[nz_N0[j]] * BR(w->bu, w->cspan[c], w->cfirst[c] + nz_N0[j]);
+  } else {
+    rail = w->under[c];
+  }
+  return rail + w->rail[c];
+}
+#endif
+
 int svbi_record(const setup_t* S, const state_t* X, const excitation_t* E, outputs_t* O, const work_t* w,
                   info_t* I) {
   long row = O->row;
@@ -96,20 +113,17 @@ int svbi_record(const setup_t* S, const state_t* X, const excitation_t* E, outpu
       for (i = 0; i < NW; ++i) {
         int c = k * NW + i;
         double whl, aux, rail, gv, gb;
-        const double* N0 = w->crow + (long)c * ROW_COLS + COL_N0;
         whl = wheel(S, X->uV + (long)k * NV, i);
         aux = S->method == 2 ? whl : X->ug[c];
-        if (w->con[c]) {
-          rail = 0.0;
-          for (j = 0; j < NNZ_N0; ++j) rail += N0[nz_N0[j]] * BR(w->bu, w->cspan[c], w->cfirst[c] + nz_N0[j]);
-        } else {
-          rail = w->under[c];
-        }
-        rail += w->rail[c];
+        rail = svbi_rail_height(S, w, c);
         gv = whl - aux;
         gb = aux - rail;
         O->gap_vehicle[row * nc + c] = gv;
         O->gap_bridge[row * nc + c] = gb;
+        if (S->unilateral) { /* uplift: the wheel-rail gap of an airborne wheel */
+          O->contact_state[row * nc + c] = X->in_contact[c];
+          O->wheel_uplift[row * nc + c] = X->in_contact[c] ? 0.0 : gb;
+        }
         worst_of(&worst_v, gv);
         worst_of(&worst_b, gb);
       }

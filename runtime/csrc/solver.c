@@ -345,6 +345,7 @@ int svbi_solver_run(const setup_t* S, state_t* X, const excitation_t* E, outputs
     if (!status) status = svbi_guard(S, X, &w, I);
     if (status) break;
     for (i = 0; i < S->nc; ++i) O->forces[(n + 1) * S->nc + i] = X->P[i];
+    if (S->unilateral) memcpy(O->contact_steps + (n + 1) * S->nc, X->in_contact, (size_t)S->nc);
     I->steps_done = n + 1;
     if ((n + 1) % S->output_every == 0) {
       status = svbi_record(S, X, E, O, &w, I);
