@@ -705,8 +705,9 @@ class CStepper:
                     arr[k] = np.asarray(triple[k], dtype=float).reshape(-1)
 
     def _numpy_steps(self, n: int, recorder: Any, guard: Any, bar: Any) -> int:
-        """NumPy steps of the run's method from step n until the wheels have been quietly on their
-        rails for HANDBACK_STEPS steps; returns the next step. The state and the multipliers go
+        """NumPy steps of the run's method from step n: the event step alone (localized-dynamic,
+        whose C loop keeps the active set), or until the wheels have been quietly on their rails for
+        HANDBACK_STEPS steps (the coupled methods); returns the next step. The state and the multipliers go
         back to C's arrays."""
         ref, st = self.reference, self.state
         act = ref.act
