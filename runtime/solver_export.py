@@ -135,6 +135,10 @@ def scenario_files(
             f"cannot export this scenario: its excitations ({stepper.excitation.describe}) are "
             "evaluated by Python while the loop runs"
         )
+    # the standalone loop has no NumPy stepper to take contact events: it runs the bilateral step
+    # (docs/c-backend.md, "Export"); an airborne wheel's state is not part of it
+    stepper.setup.unilateral = 0
+    stepper.cstate.in_contact = None
     spec = stepper.library.spec
     recorder = Recorder(model)
     recorder.force(0, state.P)

@@ -373,3 +373,29 @@ def test_localized_equals_coupled_dynamic_with_bearing_springs():
     )
     c = runs["coupled-classic"]
     assert float(np.abs(c.pier_top_ux - a.pier_top_ux).max()) < 1e-6 * float(np.abs(a.pier_top_ux).max())
+
+
+def test_the_viaduct_example_loads_prints_its_modes_and_runs(tmp_path):
+    """examples/viaduct.toml (shipped with the package): valid, `svbi modes` prints the whole
+    bridge's frequencies, and a short run writes piers' results."""
+    from svbi.runtime.cli import _register, app
+    from svbi.runtime.cli_demo import example_path
+    from svbi.runtime.scenario import load_scenario
+    from typer.testing import CliRunner
+
+    path = example_path("viaduct.toml")
+    sc = load_scenario(path)
+    b = build_model(sc).bridge
+    assert (b.spans, len(b.piers)) == (8, 7) and not b.uniform
+    _register()
+    result = CliRunner().invoke(app, ["modes", str(path)])
+    assert result.exit_code == 0, result.output
+    assert "bridge (8 spans, 7 piers" in result.output
+    first = float(result.output.split("bridge (8 spans")[1].splitlines()[1].split()[-1])
+    assert first == pytest.approx(b.natural_frequencies(1)[0], abs=1e-4)  # printed to 4 decimals
+    sc = load_scenario(path, overrides=["solver.duration=0.5", "train.cars=2"])
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", UserWarning)
+        ds = svbi.simulate(sc)
+    assert ds.attrs["backend"] == "numpy" and ds.sizes["pier"] == 7
+    assert np.isfinite(ds.pier_drift.values).all()
