@@ -30,7 +30,9 @@ if TYPE_CHECKING:
 
 FILTER_ORDER = 4
 FILTER_BLOCK = 1 << 22  # samples (32 MiB) of forces filtered at once
-FILTER_THREADS = min(2, os.cpu_count() or 1)  # blocks of the force filter filtered at once
+FILTER_THREADS = max(1, int(os.environ.get("SVBI_FILTER_THREADS", min(2, os.cpu_count() or 1))))
+"""Blocks of the force filter filtered at once: 2 (a second core while the run has it), or
+``SVBI_FILTER_THREADS`` (a sweep's workers share the cores: ``sweep.worker_environment``)."""
 
 
 class ImportAhead:

@@ -306,17 +306,39 @@ def run_one(scenario_path: str, overrides: dict[str, Any], part: str, history: s
     return {"status": status, "message": message}
 
 
-def worker_environment() -> dict[str, Any]:
+def run_batch(scenario_path: str, jobs: list[tuple[dict[str, Any], str, str | None]]) -> list[dict[str, Any]]:
+    """:func:`run_one` for each ``(overrides, part, history)`` of a batch, in order; a run whose part
+    already exists (a batch retried after its worker died part-way) is not run again."""
+    out = []
+    for overrides, part, history in jobs:
+        if _finished(Path(part)):
+            out.append({"status": "reused", "message": ""})
+            continue
+        out.append(run_one(scenario_path, overrides, part, history))
+    return out
+
+
+def batch_size(runs: int, workers: int) -> int:
+    """Runs per Dask task: short runs (an HSLM crossing takes 0.1 s) cost the scheduler and the
+    client, which share the cores with the workers, as much as a run; a batch spreads that over a
+    few runs, while at least 16 tasks per worker keep the workers' ends of the sweep even."""
+    return max(1, min(8, runs // (16 * max(workers, 1))))
+
+
+def worker_environment(workers: int = 1) -> dict[str, Any]:
     """The environment of the sweep's LocalCluster workers: Dask's (one BLAS / OpenMP thread), less
     ``MALLOC_TRIM_THRESHOLD_``. Setting it fixes glibc's mmap threshold, so every large array of a
     run (the force buffer, the filter's copies: tens of MB) is mapped and page-faulted afresh, run
     after run; unset, glibc keeps the run's blocks in its heap and the next run reuses them. Measured
     on the paper scenario: per-run overhead 10-16 % of the loop with it, 6-8 % without; the price is
-    that a worker keeps its peak memory between runs (reported by ``bench_sweep``)."""
+    that a worker keeps its peak memory between runs (reported by ``bench_sweep``). The force
+    filter's threads (``results.FILTER_THREADS``) get the cores per worker: two filter threads in
+    each of two workers on two cores made every run 30 % slower."""
     import dask
 
     env = dict(dask.config.get("distributed.nanny.pre-spawn-environ", default={}) or {})
     env.pop("MALLOC_TRIM_THRESHOLD_", None)
+    env["SVBI_FILTER_THREADS"] = str(max(1, (os.cpu_count() or 1) // max(workers, 1)))
     return env
 
 
@@ -418,7 +440,7 @@ def _compute(
         client = Client(scheduler, timeout="30s")
     else:
         n = workers or os.cpu_count() or 1
-        with dask.config.set({"distributed.nanny.pre-spawn-environ": worker_environment()}):
+        with dask.config.set({"distributed.nanny.pre-spawn-environ": worker_environment(n)}):
             cluster = LocalCluster(
                 n_workers=n, threads_per_worker=1, processes=True, dashboard_address=None, silence_logs=40
             )
@@ -429,33 +451,36 @@ def _compute(
 
         bar = tqdm(total=len(study.runs), initial=reused, unit="run", dynamic_ncols=True)
     try:
-        futures = []
-        for r in todo:
-            hist = str(histories_dir(out) / f"{r.run_id}.nc") if study.spec.output.histories else None
-            futures.append(
-                client.submit(
-                    run_one,
-                    str(study.scenario_path),
-                    r.overrides,
-                    str(part_path(out, r)),
-                    hist,
-                    key=f"svbi-run-{r.run_id}",
-                    pure=False,
-                )
+        jobs = [
+            (
+                r.overrides,
+                str(part_path(out, r)),
+                str(histories_dir(out) / f"{r.run_id}.nc") if study.spec.output.histories else None,
+            )
+            for r in todo
+        ]
+        size = batch_size(len(jobs), sum(client.nthreads().values()) or 1)
+        futures = {}
+        for i in range(0, len(jobs), size):
+            batch = jobs[i : i + size]
+            key = f"svbi-runs-{todo[i].run_id}-{len(batch)}"
+            futures[client.submit(run_batch, str(study.scenario_path), batch, key=key, pure=False)] = len(
+                batch
             )
         done = 0
-        for fut in as_completed(futures):
+        for fut in as_completed(list(futures)):
             if fut.status == "error":
-                # the task itself died (e.g. its worker was killed too often): no part is
-                # written, so the next sweep runs it again
+                # the task itself died (e.g. its worker was killed too often): the runs of the
+                # batch that finished wrote their parts; the next sweep runs the others again
                 exc = fut.exception()
                 if bar is not None:
-                    bar.write(f"run lost ({type(exc).__name__}: {exc}); re-run the sweep to resume")
-            done += 1
-            if bar is not None:
-                bar.update(1)
-            if on_done is not None:
-                on_done(done)
+                    bar.write(f"runs lost ({type(exc).__name__}: {exc}); re-run the sweep to resume")
+            for _ in range(futures[fut]):
+                done += 1
+                if bar is not None:
+                    bar.update(1)
+                if on_done is not None:
+                    on_done(done)
     finally:
         if bar is not None:
             bar.close()
