@@ -353,8 +353,8 @@ class CStepper:
         self.reference = numpy_steppers()[method](model, state)
         self.unilateral = getattr(self.reference, "act", None) is not None
         self.active_set_in_c = self.unilateral and method == "localized-dynamic"
-        """localized-dynamic keeps airborne wheels in the C loop (P = 0 rows); only the steps where a
-        wheel lifts off or lands go to NumPy (the iteration and the impact)."""
+        """localized-dynamic keeps the active set in the C loop (lift-offs and airborne wheels' P = 0
+        rows); only a landing step goes to NumPy (the landing row and the impact)."""
         self.handovers = 0
         self.numpy_steps = 0
         """Steps the NumPy stepper took over (results attribute ``numpy_steps``)."""
@@ -608,11 +608,11 @@ class CStepper:
         """Run every step, writing into ``recorder``; raises ``simulate.Diverged`` like the NumPy loop.
 
         Unilateral contact (docs/method.md section 12): localized-dynamic keeps the per-wheel active
-        set in C (airborne wheels carry P = 0) and stops at a step where a wheel lifts off or lands
-        (``STATUS_EVENT``); the coupled methods run the bilateral step, so a chunk in which a
+        set in C (lift-offs, airborne wheels' P = 0 rows) and stops at a step where a wheel would
+        land (``STATUS_EVENT``); the coupled methods run the bilateral step, so a chunk in which a
         contact force went tensile is not valid. Either way the chunk is rolled back, C redoes (bit
         for bit) the steps before the event, and the NumPy stepper of the same method (same state,
-        multipliers and recorder) takes the event step (localized) or the steps from the tensile
+        multipliers and recorder) takes the landing step (localized) or the steps from the tensile
         one until every wheel has been on its rail, with no change of the active set, for
         ``HANDBACK_STEPS`` steps (coupled); the C loop goes on from there.
         """
@@ -675,6 +675,8 @@ class CStepper:
         snap: dict[str, Any] = {k: np.array(getattr(st, k)) for k in self.STATE_NAMES}
         snap["_rec"] = (recorder.count, recorder.steps_done, st.t)
         snap["_lam"] = {k: v.copy() for k, v in self.lam.items()}
+        if self.active_set_in_c:  # the C loop releases wheels itself
+            snap["_in_contact"] = self.reference.act.in_contact.copy()
         return snap
 
     def _restore(self, snap: dict[str, Any], recorder: Any) -> None:
@@ -686,6 +688,8 @@ class CStepper:
         self.cstate.t = st.t
         for k, v in snap["_lam"].items():
             np.copyto(self.lam[k], v)
+        if "_in_contact" in snap:
+            np.copyto(self.reference.act.in_contact, snap["_in_contact"])
 
     def _multipliers_to_reference(self) -> None:
         """coupled-dynamic: the C loop's dynamic multipliers (lambda, lambda', lambda'') to the NumPy

@@ -65,6 +65,7 @@ typedef struct {
   int* cspan;    /* nc: span */
   int* cfirst;   /* nc: first span DOF of the element */
   int* cpos;     /* nc: position in track order */
+  int* active;   /* nc: the active set of a unilateral step's passes */
   /* supports and recorded ground */
   double* qs;    /* 3 x spans * ns: support targets q, q', q'' */
   double* grec;  /* 2 x nrec: ground_uz, ground_ux */

@@ -151,6 +151,91 @@ static void localized_correct(const setup_t* S, work_t* w, const double* force) 
   }
 }
 
+#if !SVBI_MOVING_LOAD
+/* (F* + F_B) P = rhs, banded in track order (w->cpos), for the interface of this step; an inactive
+ * (airborne) wheel's row is P_i = 0 (svbi.runtime.localized._active_set_solve). */
+static int interface_solve(const setup_t* S, work_t* w, int bw, const int* active, double* P) {
+  int k, i, j, s, nc = S->nc, nd = S->nd, status;
+  svbi_gb_zero(w->band, nc, bw);
+  for (k = 0; k < S->cars; ++k)
+    for (i = 0; i < NW; ++i)
+      for (j = 0; j < NW; ++j)
+        svbi_gb_add(w->band, bw, w->cpos[k * NW + i], w->cpos[k * NW + j], S->V_Fstar[i * NW + j]);
+  for (s = 0; s < S->spans; ++s) {
+    int m1, m2;
+    for (m1 = w->sstart[s]; m1 < w->sstart[s + 1]; ++m1) {
+      int ci = w->slist[m1];
+      const double* Wh = w->crow + (long)ci * ROW_COLS + COL_W_HAT;
+      const double* Srows = S->S + (long)w->cfirst[ci] * nd;
+      for (m2 = w->sstart[s]; m2 < w->sstart[s + 1]; ++m2) {
+        int cj = w->slist[m2], a, b;
+        const double* N0 = w->crow + (long)cj * ROW_COLS + COL_N0;
+        double fij = 0.0;
+        for (a = 0; a < NNZ_W_HAT; ++a) {
+          const double* Sr = Srows + (long)nz_W_hat[a] * nd + w->cfirst[cj];
+          double t = 0.0;
+          for (b = 0; b < NNZ_N0; ++b) t += Sr[nz_N0[b]] * N0[nz_N0[b]];
+          fij += Wh[nz_W_hat[a]] * t;
+        }
+        svbi_gb_add(w->band, bw, w->cpos[ci], w->cpos[cj], fij);
+      }
+    }
+  }
+  for (i = 0; i < nc; ++i) w->bsol[w->cpos[i]] = w->rhs[i];
+  if (active) {
+    for (i = 0; i < nc; ++i) {
+      if (!active[i]) {
+        int r = w->cpos[i], c0 = r - bw > 0 ? r - bw : 0, c1 = r + bw < nc - 1 ? r + bw : nc - 1, cc;
+        for (cc = c0; cc <= c1; ++cc) w->band[(2 * bw + r - cc) + (long)cc * (3 * bw + 1)] = 0.0;
+        svbi_gb_add(w->band, bw, r, r, 1.0);
+        w->bsol[r] = 0.0;
+      }
+    }
+  }
+  status = svbi_gb_factor_r(w->band, nc, bw, w->piv, w->rpiv);
+  if (status) return status;
+  svbi_gb_solve_r(w->band, nc, bw, w->piv, w->rpiv, w->bsol);
+  for (i = 0; i < nc; ++i) P[i] = w->bsol[w->cpos[i]];
+  return ST_OK;
+}
+
+/* The uplift of contact c at t_{n+1} predicted from the interface solution P, before anything is
+ * committed (svbi.runtime.unilateral.predicted_uplift): its aux point u_g = p~ + c_g (P - P_V), and
+ * the rail N0 u~_B - sum_j N0_c S N0_j^T P_j over the contacts on its span (u~_B the predictor), or
+ * the ground off the bridge, plus the irregularity. */
+static double predicted_uplift(const setup_t* S, const work_t* w, const double* P, int c) {
+  int k = c / NW, i = c % NW, j, m, a, b, nd = S->nd;
+  double pv = 0.0, ug, rail;
+  for (j = 0; j < NW; ++j) {
+    int cj = k * NW + j;
+    pv += (S->c_g[j] * P[cj] - w->dV[cj]) * S->V_B[i * NW + j];
+  }
+  ug = w->pt[c] + S->c_g[i] * (P[c] - pv);
+  if (w->con[c]) {
+    const double* Nc = w->crow + (long)c * ROW_COLS + COL_N0;
+    int s = w->cspan[c];
+    const double* Srows = S->S + (long)w->cfirst[c] * nd;
+    rail = 0.0;
+    for (a = 0; a < NNZ_N0; ++a) rail += Nc[nz_N0[a]] * BR(w->bu, s, w->cfirst[c] + nz_N0[a]);
+    for (m = w->sstart[s]; m < w->sstart[s + 1]; ++m) {
+      int cj = w->slist[m];
+      const double* Nj = w->crow + (long)cj * ROW_COLS + COL_N0;
+      double f = 0.0;
+      for (a = 0; a < NNZ_N0; ++a) {
+        const double* Sr = Srows + (long)nz_N0[a] * nd + w->cfirst[cj];
+        double t = 0.0;
+        for (b = 0; b < NNZ_N0; ++b) t += Sr[nz_N0[b]] * Nj[nz_N0[b]];
+        f += Nc[nz_N0[a]] * t;
+      }
+      rail -= f * P[cj];
+    }
+  } else {
+    rail = w->under[c];
+  }
+  return ug - (rail + w->rail[c]);
+}
+#endif
+
 int svbi_step_localized(const setup_t* S, state_t* X, work_t* w) {
   int nc = S->nc;
   /* the histories of this step come from the last step's update (merged pass), or afresh */
@@ -179,7 +264,7 @@ int svbi_step_localized(const setup_t* S, state_t* X, work_t* w) {
   return ST_OK;
 #else
   {
-    int k, i, j, d, m, s, bw, status, nd = S->nd;
+    int k, i, j, d, m, s, bw, status;
     /* vehicle predictors (all contact forces zero) and the wheel-aux targets. The vehicles solve
      * for the increment over the step (Newmark.update_increment): PVh, QVh hold its histories. */
     for (k = 0; k < S->cars; ++k) {
@@ -227,50 +312,33 @@ int svbi_step_localized(const setup_t* S, state_t* X, work_t* w) {
     if (bw > S->bw_max) return ST_BANDWIDTH;
     if (bw > nc - 1) bw = nc - 1;
     for (k = 0; k < nc; ++k) w->cpos[S->order[k]] = k;
-    svbi_gb_zero(w->band, nc, bw);
-    for (k = 0; k < S->cars; ++k)
-      for (i = 0; i < NW; ++i)
-        for (j = 0; j < NW; ++j)
-          svbi_gb_add(w->band, bw, w->cpos[k * NW + i], w->cpos[k * NW + j], S->V_Fstar[i * NW + j]);
-    for (s = 0; s < S->spans; ++s) {
-      int m1, m2;
-      for (m1 = w->sstart[s]; m1 < w->sstart[s + 1]; ++m1) {
-        int ci = w->slist[m1];
-        const double* Wh = w->crow + (long)ci * ROW_COLS + COL_W_HAT;
-        const double* Srows = S->S + (long)w->cfirst[ci] * nd;
-        for (m2 = w->sstart[s]; m2 < w->sstart[s + 1]; ++m2) {
-          int cj = w->slist[m2], a, b;
-          const double* N0 = w->crow + (long)cj * ROW_COLS + COL_N0;
-          double fij = 0.0;
-          for (a = 0; a < NNZ_W_HAT; ++a) {
-            const double* Sr = Srows + (long)nz_W_hat[a] * nd + w->cfirst[cj];
-            double t = 0.0;
-            for (b = 0; b < NNZ_N0; ++b) t += Sr[nz_N0[b]] * N0[nz_N0[b]];
-            fij += Wh[nz_W_hat[a]] * t;
+    if (!S->unilateral) {
+      status = interface_solve(S, w, bw, 0, X->P);
+      if (status) return status;
+    } else {
+      /* the per-wheel active set (svbi.runtime.unilateral.ActiveSet), pass by pass: a wheel in
+       * contact whose force goes tensile lifts off and the step is solved again without it; an
+       * airborne wheel that would reach its rail lands, and that step goes to NumPy (ST_EVENT:
+       * the landing row and the plastic impact) */
+      int pass, changed;
+      for (i = 0; i < nc; ++i) w->active[i] = X->in_contact[i];
+      for (pass = 0;; ++pass) {
+        status = interface_solve(S, w, bw, w->active, X->P);
+        if (status) return status;
+        for (i = 0; i < nc; ++i)
+          if (!w->active[i] && predicted_uplift(S, w, X->P, i) <= 0.0) return ST_EVENT;
+        changed = 0;
+        for (i = 0; i < nc; ++i) {
+          if (w->active[i] && X->P[i] < 0.0) {
+            w->active[i] = 0;
+            changed = 1;
           }
-          svbi_gb_add(w->band, bw, w->cpos[ci], w->cpos[cj], fij);
         }
+        if (!changed) break;
+        if (pass > 2 * nc + 2) return ST_EVENT; /* NumPy reports a set that does not settle */
       }
+      for (i = 0; i < nc; ++i) X->in_contact[i] = (unsigned char)w->active[i];
     }
-    if (S->unilateral) {
-      /* a free (airborne) wheel's row is P_i = 0 (svbi.runtime.localized._active_set_solve) */
-      for (i = 0; i < nc; ++i) {
-        if (!X->in_contact[i]) {
-          int r = w->cpos[i], c0 = r - bw > 0 ? r - bw : 0, c1 = r + bw < nc - 1 ? r + bw : nc - 1, cc;
-          for (cc = c0; cc <= c1; ++cc) w->band[(2 * bw + r - cc) + (long)cc * (3 * bw + 1)] = 0.0;
-          svbi_gb_add(w->band, bw, r, r, 1.0);
-          w->rhs[i] = 0.0;
-        }
-      }
-    }
-    status = svbi_gb_factor_r(w->band, nc, bw, w->piv, w->rpiv);
-    if (status) return status;
-    for (i = 0; i < nc; ++i) w->bsol[w->cpos[i]] = w->rhs[i];
-    svbi_gb_solve_r(w->band, nc, bw, w->piv, w->rpiv, w->bsol);
-    for (i = 0; i < nc; ++i) X->P[i] = w->bsol[w->cpos[i]];
-    if (S->unilateral) /* a wheel in contact whose force goes tensile lifts off: an event */
-      for (i = 0; i < nc; ++i)
-        if (X->in_contact[i] && X->P[i] < 0.0) return ST_EVENT;
 
     /* back-substitution: wheel-aux forces, aux points, vehicles, bridge */
     for (k = 0; k < S->cars; ++k) {
@@ -306,11 +374,6 @@ int svbi_step_localized(const setup_t* S, state_t* X, work_t* w) {
       }
     }
     localized_correct(S, w, X->P);
-    if (S->unilateral) { /* an airborne wheel that reaches its rail lands: an event */
-      for (i = 0; i < nc; ++i) {
-        if (!X->in_contact[i] && X->ug[i] - svbi_rail_height(S, w, i) <= 0.0) return ST_EVENT;
-      }
-    }
     svbi_bridge_update_histories(S, w);
     if (S->creep) svbi_creep_update(S, X, w);
   }
