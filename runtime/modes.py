@@ -59,12 +59,8 @@ def span_matrices(
     mass_per_length: float,
 ) -> tuple[np.ndarray, np.ndarray]:
     """Assembled mass and stiffness of one span, 3 DOFs per node ``(u, w, theta)``, no supports."""
-    kernels = frame2d()
-    le = span_length / elements
     section = (youngs_modulus, area, second_moment, mass_per_length)
-    me = np.asarray(kernels.element_mass(section, le), dtype=float)
-    ke = np.asarray(kernels.element_stiffness(section, le), dtype=float)
-    return _assembled(me, ke, elements)
+    return _member(("element_mass", "element_stiffness"), span_length, elements, section)
 
 
 def column_matrices(
@@ -77,11 +73,18 @@ def column_matrices(
 ) -> tuple[np.ndarray, np.ndarray]:
     """Assembled mass and stiffness of a pier column in global DOFs ``(u, w, theta)`` per node,
     node 0 at the base, node ``elements`` at the top (generated ``column_mass/column_stiffness``)."""
-    kernels = frame2d()
-    le = height / elements
     section = (youngs_modulus, area, second_moment, mass_per_length)
-    me = np.asarray(kernels.column_mass(section, le), dtype=float)
-    ke = np.asarray(kernels.column_stiffness(section, le), dtype=float)
+    return _member(("column_mass", "column_stiffness"), height, elements, section)
+
+
+def _member(
+    kernels: tuple[str, str], length: float, elements: int, section: tuple[float, float, float, float]
+) -> tuple[np.ndarray, np.ndarray]:
+    """``elements`` equal elements of the generated mass and stiffness ``kernels`` over ``length``."""
+    k = frame2d()
+    le = length / elements
+    me = np.asarray(getattr(k, kernels[0])(section, le), dtype=float)
+    ke = np.asarray(getattr(k, kernels[1])(section, le), dtype=float)
     return _assembled(me, ke, elements)
 
 

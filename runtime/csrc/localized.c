@@ -152,6 +152,21 @@ static void localized_correct(const setup_t* S, work_t* w, const double* force) 
 }
 
 #if !SVBI_MOVING_LOAD
+/* X S N0_j^T for a row X of contact i (non-zeros nzX) and contact j's N0 on the same span: Srows is
+ * S from contact i's first DOF, firstj contact j's first DOF. */
+static double row_S_N0(const double* X, const int* nzX, int nX, const double* Srows, int nd, int firstj,
+                       const double* N0) {
+  int a, b;
+  double f = 0.0;
+  for (a = 0; a < nX; ++a) {
+    const double* Sr = Srows + (long)nzX[a] * nd + firstj;
+    double t = 0.0;
+    for (b = 0; b < NNZ_N0; ++b) t += Sr[nz_N0[b]] * N0[nz_N0[b]];
+    f += X[nzX[a]] * t;
+  }
+  return f;
+}
+
 /* (F* + F_B) P = rhs, banded in track order (w->cpos), for the interface of this step; an inactive
  * (airborne) wheel's row is P_i = 0 (svbi.runtime.localized._active_set_solve). */
 static int interface_solve(const setup_t* S, work_t* w, int bw, const int* active, double* P) {
@@ -168,15 +183,9 @@ static int interface_solve(const setup_t* S, work_t* w, int bw, const int* activ
       const double* Wh = w->crow + (long)ci * ROW_COLS + COL_W_HAT;
       const double* Srows = S->S + (long)w->cfirst[ci] * nd;
       for (m2 = w->sstart[s]; m2 < w->sstart[s + 1]; ++m2) {
-        int cj = w->slist[m2], a, b;
+        int cj = w->slist[m2];
         const double* N0 = w->crow + (long)cj * ROW_COLS + COL_N0;
-        double fij = 0.0;
-        for (a = 0; a < NNZ_W_HAT; ++a) {
-          const double* Sr = Srows + (long)nz_W_hat[a] * nd + w->cfirst[cj];
-          double t = 0.0;
-          for (b = 0; b < NNZ_N0; ++b) t += Sr[nz_N0[b]] * N0[nz_N0[b]];
-          fij += Wh[nz_W_hat[a]] * t;
-        }
+        double fij = row_S_N0(Wh, nz_W_hat, NNZ_W_HAT, Srows, nd, w->cfirst[cj], N0);
         svbi_gb_add(w->band, bw, w->cpos[ci], w->cpos[cj], fij);
       }
     }
@@ -204,7 +213,7 @@ static int interface_solve(const setup_t* S, work_t* w, int bw, const int* activ
  * the rail N0 u~_B - sum_j N0_c S N0_j^T P_j over the contacts on its span (u~_B the predictor), or
  * the ground off the bridge, plus the irregularity. */
 static double predicted_uplift(const setup_t* S, const work_t* w, const double* P, int c) {
-  int k = c / NW, i = c % NW, j, m, a, b, nd = S->nd;
+  int k = c / NW, i = c % NW, j, m, a, nd = S->nd;
   double pv = 0.0, ug, rail;
   for (j = 0; j < NW; ++j) {
     int cj = k * NW + j;
@@ -220,14 +229,7 @@ static double predicted_uplift(const setup_t* S, const work_t* w, const double* 
     for (m = w->sstart[s]; m < w->sstart[s + 1]; ++m) {
       int cj = w->slist[m];
       const double* Nj = w->crow + (long)cj * ROW_COLS + COL_N0;
-      double f = 0.0;
-      for (a = 0; a < NNZ_N0; ++a) {
-        const double* Sr = Srows + (long)nz_N0[a] * nd + w->cfirst[cj];
-        double t = 0.0;
-        for (b = 0; b < NNZ_N0; ++b) t += Sr[nz_N0[b]] * Nj[nz_N0[b]];
-        f += Nc[nz_N0[a]] * t;
-      }
-      rail -= f * P[cj];
+      rail -= row_S_N0(Nc, nz_N0, NNZ_N0, Srows, nd, w->cfirst[cj], Nj) * P[cj];
     }
   } else {
     rail = w->under[c];
