@@ -207,6 +207,9 @@ SETUP_FIELDS = [
     F("span_length", "double", "L (m)"),
     F("inv_span_length", "double", "1 / L"),
     F("inv_element_length", "double", "1 / le"),
+    F("acceleration", "double", "train acceleration (m/s^2; 0: constant speed, rows from S->rows)"),
+    F("stop_time", "double", "when a braking train stands (s; 1e300: never)"),
+    F("creep_min_speed", "double", "no creep force below this speed (m/s; a train whose speed changes)"),
     F("p_P", "double", "point row: coefficient of P[y]"),
     F("p_Q", "double", "point row: coefficient of Q[y]"),
     F("p_q2", "double", "point row: coefficient of q''"),
@@ -223,6 +226,11 @@ SETUP_FIELDS = [
     F("offsets", "double*", "nc: distance of every contact behind the leading axle (m)"),
     F("axle_loads", "double*", "nc: moving-load axle forces (N)"),
     F("rows", "double*", "(ROW_DEG + 1) x ROW_COLS: contact-row polynomial coefficients in xi"),
+    F(
+        "rows_va",
+        "double*",
+        "4 x (ROW_DEG + 1) x ROW_COLS: the rows of a changing speed, T0 + v T1 + v^2 T2 + a Ta",
+    ),
     F("mb_num", "double*", "mb_num_n coefficients (ascending powers of xi) of Eq. (31)'s numerator"),
     F("mb_den", "double*", "mb_den_n coefficients of Eq. (31)'s denominator"),
     # one span
@@ -433,6 +441,24 @@ def row_coefficients(
     out = np.hstack([tables[name] for name in _ROW_TABLES])
     assert out.shape == (row_structure()[0] + 1, ROW_COLUMNS)
     return out
+
+
+def row_coefficients_changing_speed(
+    le: float, dt: float, kappa: float, zeta: float, rail_height: float = 0.0
+) -> np.ndarray:
+    """``(4, degree + 1, ROW_COLUMNS)``: the tables ``T0, T1, T2, Ta`` with which the contact rows of
+    a train at speed v and acceleration a are ``T0 + v T1 + v^2 T2 + a Ta`` (the rows are exact
+    quadratics in v; ``Ta`` is the generated ``bridge_row_acceleration_coefficients``), as
+    ``contact_rows.ContactRowKernel(accelerating=True)`` combines them."""
+    from svbi.runtime.kernel_modules import frame2d
+
+    t0, tp, tm = (row_coefficients(le, v, dt, kappa, zeta, rail_height) for v in (0.0, 1.0, -1.0))
+    w_a, c_a = frame2d().bridge_row_acceleration_coefficients(le, (dt, kappa, zeta))
+    ta = np.zeros_like(t0)
+    col = 6 * ROW_BLOCKS.index("W_hat")
+    ta[:, col : col + 6] = np.asarray(w_a)
+    ta[:, 6 * len(ROW_BLOCKS) :] = np.asarray(c_a)
+    return np.stack([t0, 0.5 * (tp - tm), 0.5 * (tp + tm) - t0, ta])
 
 
 # --------------------------------------------------------------------------------------------------

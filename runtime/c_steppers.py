@@ -280,7 +280,11 @@ class ExcitationInput:
         t = (np.arange(n0, n0 + count) + 1) * m.dt
         e.s_n0, e.s_count = n0, count
         if self.irr_stream:
-            x = tr.start_position + tr.speed * t[:, None] - tr.offsets[None, :]
+            x = (
+                np.stack([tr.positions(float(tj)) for tj in t])
+                if tr.acceleration
+                else (tr.start_position + tr.speed * t[:, None] - tr.offsets[None, :])
+            )
             r = np.stack(m.irregularity.evaluate(x), axis=1)  # count x 3 x nc
             self._rail = np.ascontiguousarray(r, dtype=float)
             e.s_rail = self._rail.ctypes.data
@@ -292,9 +296,10 @@ class ExcitationInput:
             creep = m.creep is not None and m.creep.longitudinal_ground
             for j, tj in enumerate(t):
                 x = tr.positions(float(tj))
-                under[j, :3] = np.stack(m.ground.under(float(tj), x, tr.speed))
+                v, a = tr.speed_at(float(tj)), tr.acceleration_at(float(tj))
+                under[j, :3] = np.stack(m.ground.under(float(tj), x, v, a))
                 if creep:
-                    under[j, 3] = m.ground.under_longitudinal(float(tj), x, tr.speed)[1]
+                    under[j, 3] = m.ground.under_longitudinal(float(tj), x, v, a)[1]
                 sup[j] = np.stack([a.reshape(-1) for a in m.supports(float(tj))])  # Newmark targets
                 qz, qx = m.ground.recorded(float(tj), b)
                 if per_support:
@@ -474,6 +479,14 @@ class CStepper:
                 b.element_length, tr.speed, s.time_step, kappa, zeta, b.rail_height
             )
         )
+        S.acceleration = tr.acceleration
+        S.stop_time = min(tr.motion.stop_time, 1e300)
+        if tr.acceleration != 0.0:  # the rows of each step's speed and acceleration
+            S.rows_va = self._arr(
+                c_solver_build.row_coefficients_changing_speed(
+                    b.element_length, s.time_step, kappa, zeta, b.rail_height
+                )
+            )
 
         # one span
         k_hat = b.K + nm.a1 * b.C + nm.a0 * b.M
@@ -543,6 +556,7 @@ class CStepper:
             if creep is not None:
                 S.creep = 1
                 S.creep_ground = int(creep.longitudinal_ground)
+                S.creep_min_speed = creep.min_speed
                 ptr, idx, val = _csr(np.asarray(creep.W_T, dtype=float).T)
                 S.VT_ptr, S.VT_idx, S.VT_val = (
                     self._arr(ptr, np.int32),

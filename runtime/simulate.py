@@ -312,7 +312,7 @@ def simulate(
             stacklevel=2,
         )
         requested = "numpy"
-    if requested in ("c", "casadi") and model.accelerating:
+    if requested == "casadi" and model.accelerating:
         warnings.warn(
             f"solver.backend = {requested!r} runs trains at constant speed; this one accelerates or "
             "brakes (train.acceleration) and runs on the NumPy backend",

@@ -213,3 +213,62 @@ def test_a_braking_train_that_stops_on_the_bridge_needs_a_duration():
                 "train": dict(vehicle="sprung-mass", speed=20.0, acceleration=-5.0),
             }
         )
+
+
+def _compiler_works() -> bool:
+    from svbi.runtime import c_solver_build, kernel_cache
+
+    try:
+        c_solver_build.load_loop(c_solver_build.LoopSpec("moving-load", 0, 0))
+    except kernel_cache.CompilerError:
+        return False
+    return True
+
+
+@pytest.mark.skipif(not _compiler_works(), reason="no working C compiler")
+def test_c_loop_brakes_to_a_stop_as_numpy_does():
+    """The C loop with a changing speed (positions, the rows of each step's v and a, the off-bridge
+    targets, a travelling earthquake seen from the braking wheels, creep at the actual speed and
+    none below its stable speed): a Pioneer car braking to a stop on the bridge under a quake."""
+    import warnings
+
+    from svbi.runtime.simulate import BackendFallback
+
+    def run(backend: str):
+        sc = validate_scenario(
+            {
+                "bridge": dict(
+                    spans=3,
+                    span_length=32.0,
+                    mass_per_length=22.4e3,
+                    youngs_modulus=35.5e9,
+                    area=8.63,
+                    second_moment=6.58,
+                    rail_height=2.0,
+                ),
+                "train": dict(
+                    vehicle="pioneer-2d", cars=1, speed_kmh=60.0, acceleration=-4.0, start_position=-5.0
+                ),
+                "track": dict(irregularity="german-low"),
+                "earthquake": dict(
+                    vertical="synthetic", longitudinal="synthetic", arrival=0.2, apparent_velocity=500.0
+                ),
+                "contact": dict(normal="bilateral"),
+                "solver": dict(backend=backend, time_step=5e-4, duration=5.0),
+            }
+        )
+        with warnings.catch_warnings():
+            warnings.simplefilter("error", BackendFallback)
+            warnings.simplefilter("ignore", UserWarning)
+            return svbi.simulate(sc)
+
+    c, d = run("c"), run("numpy")
+    assert c.attrs["backend"] == "c"
+    speed = c.train_speed.values
+    assert speed[0] > 16.0 and speed[-1] == 0.0  # stopped at 4.17 s, then standing
+    np.testing.assert_array_equal(speed, d.train_speed.values)
+    for name in ("midspan_uz", "contact_force", "carbody_az", "creep_force", "creepage"):
+        peak = float(np.abs(d[name]).max())
+        assert peak > 0.0, name
+        assert float(np.abs(c[name] - d[name]).max()) <= 1e-9 * peak, name
+    assert np.all(c.creep_force.values[c.time.values > 4.2] == 0.0)  # no creep force standing

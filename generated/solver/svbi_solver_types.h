@@ -76,6 +76,9 @@ typedef struct {
   double span_length; /* L (m) */
   double inv_span_length; /* 1 / L */
   double inv_element_length; /* 1 / le */
+  double acceleration; /* train acceleration (m/s^2; 0: constant speed, rows from S->rows) */
+  double stop_time; /* when a braking train stands (s; 1e300: never) */
+  double creep_min_speed; /* no creep force below this speed (m/s; a train whose speed changes) */
   double p_P; /* point row: coefficient of P[y] */
   double p_Q; /* point row: coefficient of Q[y] */
   double p_q2; /* point row: coefficient of q'' */
@@ -91,6 +94,7 @@ typedef struct {
   const double* offsets; /* nc: distance of every contact behind the leading axle (m) */
   const double* axle_loads; /* nc: moving-load axle forces (N) */
   const double* rows; /* (ROW_DEG + 1) x ROW_COLS: contact-row polynomial coefficients in xi */
+  const double* rows_va; /* 4 x (ROW_DEG + 1) x ROW_COLS: the rows of a changing speed, T0 + v T1 + v^2 T2 + a Ta */
   const double* mb_num; /* mb_num_n coefficients (ascending powers of xi) of Eq. (31)'s numerator */
   const double* mb_den; /* mb_den_n coefficients of Eq. (31)'s denominator */
   const int* sup; /* ns: span DOF of every support constraint */

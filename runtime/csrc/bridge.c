@@ -13,7 +13,7 @@ void svbi_locate(const setup_t* S, work_t* w) {
     double span_f = floor(x * S->inv_span_length);
     double span, local, element, xi, pw[ROW_DEG + 1];
     double* row = w->crow + (long)i * ROW_COLS;
-    const double* cf = S->rows;
+    const double* cf = S->acceleration == 0.0 ? S->rows : w->rows_now;
     w->con[i] = span_f >= 0.0 && span_f < (double)S->spans;
     span = span_f < 0.0 ? 0.0 : (span_f > S->spans - 1 ? (double)(S->spans - 1) : span_f);
     local = (x - span * S->span_length) * S->inv_element_length;

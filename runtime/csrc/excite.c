@@ -58,7 +58,20 @@ void svbi_excite(const setup_t* S, const excitation_t* E, work_t* w, long n, dou
   int i, j, s;
   int nc = S->nc, ns = S->ns, NS = S->spans * S->ns;
   long e = n - E->s_n0;
-  for (i = 0; i < nc; ++i) w->cx[i] = S->start + S->speed * t - S->offsets[i];
+  if (S->acceleration == 0.0) {
+    for (i = 0; i < nc; ++i) w->cx[i] = S->start + S->speed * t - S->offsets[i];
+    w->v = S->speed;
+    w->a = 0.0;
+  } else { /* svbi.runtime.train.Kinematics: a braking train stands from stop_time on */
+    double tm = t < S->stop_time ? t : S->stop_time, travel;
+    long k, nrow = (long)(ROW_DEG + 1) * ROW_COLS;
+    const double *T0 = S->rows_va, *T1 = T0 + nrow, *T2 = T1 + nrow, *Ta = T2 + nrow;
+    travel = S->speed * tm + 0.5 * S->acceleration * tm * tm;
+    for (i = 0; i < nc; ++i) w->cx[i] = S->start + travel - S->offsets[i];
+    w->v = S->speed + S->acceleration * tm;
+    w->a = t < S->stop_time ? S->acceleration : 0.0;
+    for (k = 0; k < nrow; ++k) w->rows_now[k] = T0[k] + w->v * T1[k] + (w->v * w->v) * T2[k] + w->a * Ta[k];
+  }
 
   /* rail irregularity under every contact */
   if (E->irr_mode == 1) {
@@ -132,7 +145,8 @@ void svbi_excite(const setup_t* S, const excitation_t* E, work_t* w, long n, dou
   {
     /* travelling wave q(t - (x - x_ref) / c), seen by a point moving at v with the factor
      * (1 - v / c); or one record per support line, a point taking the nearest line */
-    double f = E->apparent_velocity > 0.0 ? 1.0 - S->speed / E->apparent_velocity : 1.0;
+    double f = E->apparent_velocity > 0.0 ? 1.0 - w->v / E->apparent_velocity : 1.0;
+    double fa = E->apparent_velocity > 0.0 ? w->a / E->apparent_velocity : 0.0; /* -(a/c) q' */
     long nrec = n_recorded(S);
     for (i = 0; i < nc; ++i) {
       double q[3];
@@ -140,6 +154,7 @@ void svbi_excite(const setup_t* S, const excitation_t* E, work_t* w, long n, dou
       w->under[i] = q[0];
       w->under[nc + i] = E->apparent_velocity > 0.0 ? f * q[1] : q[1];
       w->under[2 * nc + i] = E->apparent_velocity > 0.0 ? f * f * q[2] : q[2];
+      if (fa != 0.0) w->under[2 * nc + i] -= fa * q[1];
       ground_at(S, E, 1, t, w->cx[i], q);
       w->ulon[i] = E->apparent_velocity > 0.0 ? f * q[1] : q[1];
     }

@@ -66,6 +66,8 @@ typedef struct {
   int* cfirst;   /* nc: first span DOF of the element */
   int* cpos;     /* nc: position in track order */
   int* active;   /* nc: the active set of a unilateral step's passes */
+  double* rows_now; /* (ROW_DEG + 1) x ROW_COLS: this step's contact rows (a changing speed) */
+  double v, a;      /* the train's speed and acceleration at this step */
   /* supports and recorded ground */
   double* qs;    /* 3 x spans * ns: support targets q, q', q'' */
   double* grec;  /* 2 x nrec: ground_uz, ground_ux */

@@ -57,7 +57,11 @@ void svbi_creep_vehicle_load(const setup_t* S, const double* force, int k, doubl
  * creep law (Kalker, Shen-Hedrick-Elkins) under the normal load P. It loads the next step. */
 void svbi_creep_update(const setup_t* S, state_t* X, const work_t* w) {
   int k, i, q;
-  double v = S->speed;
+  double v = w->v;
+  if (v < S->creep_min_speed) { /* crawling or standing: no creep force (wheel_creep.min_speed) */
+    for (i = 0; i < S->nc; ++i) X->creepage[i] = X->creep_force[i] = 0.0;
+    return;
+  }
   for (k = 0; k < S->cars; ++k) {
     for (i = 0; i < NW; ++i) {
       int c = k * NW + i;
@@ -121,10 +125,10 @@ double svbi_row_target(const setup_t* S, const work_t* w, int i, double Pg, doub
     return row[COL_C_P_UG] * Pg + row[COL_C_Q_UG] * Qg + sp + sq + row[COL_C_R] * r +
            row[COL_C_R_X] * r1 + row[COL_C_R_XX] * r2;
   } else {
-    double v = S->speed;
+    double v = w->v;
     double q = w->under[i], q1 = w->under[nc + i], q2 = w->under[2 * nc + i];
-    return S->p_P * Pg + S->p_Q * Qg + S->p_q2 * (q2 + v * v * r2) + S->p_q1 * (q1 + v * r1) +
-           S->p_q * (q + r);
+    double track2 = w->a == 0.0 ? v * v * r2 : v * v * r2 + w->a * r1; /* Z'' = q'' + v^2 r'' + a r' */
+    return S->p_P * Pg + S->p_Q * Qg + S->p_q2 * (q2 + track2) + S->p_q1 * (q1 + v * r1) + S->p_q * (q + r);
   }
 }
 #else
