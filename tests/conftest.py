@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import functools
 from pathlib import Path
 
 import pytest
@@ -16,3 +17,16 @@ def shared_dir() -> Path:
     if not SHARED.is_dir():
         pytest.skip(f"../shared not found at {SHARED}: reference data (papers, records) unavailable")
     return SHARED
+
+
+@functools.cache
+def c_compiler_works() -> bool:
+    """Whether the C loop compiles here (the C backend falls back to NumPy without a compiler;
+    tests of the C loop skip)."""
+    from svbi.runtime import c_solver_build, kernel_cache
+
+    try:
+        c_solver_build.load_loop(c_solver_build.LoopSpec("moving-load", 0, 0))
+    except kernel_cache.CompilerError:
+        return False
+    return True

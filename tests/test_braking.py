@@ -14,6 +14,7 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
+from conftest import c_compiler_works
 from scipy.integrate import solve_ivp
 from svbi.runtime.scenario import validate_scenario
 from svbi.runtime.simulate import build_model
@@ -215,17 +216,7 @@ def test_a_braking_train_that_stops_on_the_bridge_needs_a_duration():
         )
 
 
-def _compiler_works() -> bool:
-    from svbi.runtime import c_solver_build, kernel_cache
-
-    try:
-        c_solver_build.load_loop(c_solver_build.LoopSpec("moving-load", 0, 0))
-    except kernel_cache.CompilerError:
-        return False
-    return True
-
-
-@pytest.mark.skipif(not _compiler_works(), reason="no working C compiler")
+@pytest.mark.skipif(not c_compiler_works(), reason="no working C compiler")
 def test_c_loop_brakes_to_a_stop_as_numpy_does():
     """The C loop with a changing speed (positions, the rows of each step's v and a, the off-bridge
     targets, a travelling earthquake seen from the braking wheels, creep at the actual speed and

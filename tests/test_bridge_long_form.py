@@ -13,7 +13,7 @@ import warnings
 
 import numpy as np
 import pytest
-from svbi.runtime import c_solver_build, kernel_cache
+from conftest import c_compiler_works
 from svbi.runtime.scenario import ScenarioError, load_scenario, loads_scenario
 from svbi.runtime.simulate import build_model
 
@@ -58,14 +58,6 @@ LONG = (
 )
 
 
-def _compiler_works() -> bool:
-    try:
-        c_solver_build.load_loop(c_solver_build.LoopSpec("moving-load", 0, 0))
-    except kernel_cache.CompilerError:
-        return False
-    return True
-
-
 def run(text: str):
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", UserWarning)  # synthetic record shorter than the run
@@ -76,7 +68,7 @@ def run(text: str):
     "backend",
     [
         "numpy",
-        pytest.param("c", marks=pytest.mark.skipif(not _compiler_works(), reason="no working C compiler")),
+        pytest.param("c", marks=pytest.mark.skipif(not c_compiler_works(), reason="no working C compiler")),
     ],
 )
 def test_shorthand_equals_long_form(backend):

@@ -33,6 +33,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from conftest import c_compiler_works
 from svbi.runtime import c_solver_build, c_steppers, kernel_cache
 from svbi.runtime.excitation.ground import RecordGround, ground_motion
 from svbi.runtime.excitation.synthetic import synthetic_record
@@ -62,16 +63,8 @@ POSITION_LIKE = (
 GAPS = ("gap_vehicle", "gap_bridge", "gap_support")
 
 
-def _compiler_works() -> bool:
-    try:
-        c_solver_build.load_loop(c_solver_build.LoopSpec("moving-load", 0, 0))
-    except kernel_cache.CompilerError:
-        return False
-    return True
-
-
 pytestmark = pytest.mark.skipif(
-    not _compiler_works(),
+    not c_compiler_works(),
     reason="no working C compiler: the C backend falls "
     "back to NumPy (tested in test_no_compiler_falls_back_to_numpy)",
 )
