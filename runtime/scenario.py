@@ -513,7 +513,7 @@ def _semantic_problems(s: Scenario) -> Iterable[tuple[str, str]]:
             "train.speed_kmh" if t.speed is None else "train.speed",
             "0 (a train standing still) needs solver.duration: the run has no crossing to end it",
         )
-    if t.acceleration < 0.0 and sol.duration is None:
+    if t.acceleration < 0.0 and t.speed_ms > 0.0 and sol.duration is None:
         stop = t.speed_ms**2 / (-2.0 * t.acceleration)
         way = s.bridge.line_positions()[-1] - t.start_position
         if stop < way:  # the leading axle stops before the bridge's end (the last axle even sooner)
