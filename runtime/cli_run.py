@@ -132,6 +132,15 @@ def _run(
                 f"(t = {attrs['peak_uplift_time']:.4g} s, car {attrs['peak_uplift_car']}, wheel "
                 f"{attrs['peak_uplift_wheel']})"
             )
+        if "pier_drift" in ds:  # a bridge with piers: the largest drift of a pier top over its base
+            import numpy as np
+
+            drift = np.abs(ds["pier_drift"].transpose("time", "pier").values)
+            k, i = np.unravel_index(int(np.argmax(drift)), drift.shape)
+            typer.echo(
+                f"pier drift: peak {1e3 * float(drift[k, i]):.3g} mm (pier {i + 1} on support line "
+                f"{int(ds['pier_line'].values[i])}, t = {float(ds['time'].values[k]):.4g} s)"
+            )
 
 
 def _simulate(sc, quiet: bool, started: float):  # noqa: ANN001, ANN202 - Scenario -> Dataset, lazily imported

@@ -399,3 +399,28 @@ def test_the_viaduct_example_loads_prints_its_modes_and_runs(tmp_path):
         ds = svbi.simulate(sc)
     assert ds.attrs["backend"] == "numpy" and ds.sizes["pier"] == 7
     assert np.isfinite(ds.pier_drift.values).all()
+
+
+def test_svbi_run_reports_the_peak_pier_drift(tmp_path):
+    import tomli_w
+    from svbi.runtime.cli import _register, app
+    from typer.testing import CliRunner
+
+    data = {
+        "bridge": pier_bridge_dict(),
+        "train": dict(vehicle="moving-load", speed_kmh=200.0),
+        "earthquake": dict(longitudinal="synthetic", arrival=0.0),
+        "solver": dict(backend="numpy", time_step=1e-3),
+    }
+    path = tmp_path / "pier.toml"
+    path.write_text(tomli_w.dumps(data), encoding="utf-8")
+    _register()
+    result = CliRunner().invoke(app, ["run", str(path), "-o", str(tmp_path / "r.nc"), "-q"])
+    assert result.exit_code == 0, result.output
+    result = CliRunner().invoke(app, ["run", str(path), "-o", str(tmp_path / "r.nc")])
+    line = next(x for x in result.output.splitlines() if x.startswith("pier drift: peak"))
+    import xarray as xr
+
+    with xr.open_dataset(tmp_path / "r.nc") as ds:
+        peak = float(np.abs(ds.pier_drift).max())
+    assert f"{1e3 * peak:.3g} mm (pier 1 on support line 1" in line
