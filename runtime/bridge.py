@@ -17,6 +17,7 @@ earthquake itself (method-notes pitfall 9).
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 import scipy.linalg as sla
@@ -135,6 +136,55 @@ class Links:
 
     def __len__(self) -> int:
         return len(self.a_sub)
+
+    def subset(self, keep: np.ndarray) -> Links:
+        return Links(
+            self.a_sub[keep],
+            self.a_dof[keep],
+            self.b_sub[keep],
+            self.b_dof[keep],
+            tuple(k for k, used in zip(self.kind, keep, strict=True) if used),
+            self.compliance[keep],
+        )
+
+    def flat_dofs(self, ndof: int) -> tuple[np.ndarray, np.ndarray]:
+        """Both ends as indices into the substructures' DOFs laid out one after the other."""
+        return ndof * self.a_sub + self.a_dof, ndof * self.b_sub + self.b_dof
+
+    def gap(self, X: np.ndarray) -> np.ndarray:
+        """``L x``: end a less end b of every link, for ``X`` of shape ``(nsub, ndof)``."""
+        return X[self.a_sub, self.a_dof] - X[self.b_sub, self.b_dof]
+
+    def load(self, force: np.ndarray, shape: tuple[int, int]) -> np.ndarray:
+        """``L^T force`` (``+force`` on end a, ``-force`` on end b) as ``(nsub, ndof)`` loads."""
+        out = np.zeros(shape)
+        np.add.at(out, (self.a_sub, self.a_dof), force)
+        np.add.at(out, (self.b_sub, self.b_dof), -force)
+        return out
+
+    def targets(self, point: Any, P: np.ndarray, Q: np.ndarray) -> np.ndarray:
+        """The gap every link must have at t_{n+1}: a rigid link's stabilised row (the point row of
+        Eq. 22 with no ground: target 0, histories ``L P``, ``L Q``); 0 for a bearing spring,
+        whose force is elastic, not a constraint's."""
+        return np.where(self.spring, 0.0, point.target(self.gap(P), self.gap(Q), 0.0, 0.0, 0.0))
+
+
+def _circular_frequencies(M: np.ndarray, K: np.ndarray, dofs: np.ndarray) -> np.ndarray:
+    """Circular frequencies (rad/s, ascending) of ``K x = w^2 M x`` on the DOFs ``dofs``."""
+    sub = np.ix_(dofs, dofs)
+    return np.sqrt(np.clip(sla.eigh(K[sub], M[sub], eigvals_only=True), 0.0, None))
+
+
+def _gravity_reactions(
+    M: Any, K: Any, vertical: np.ndarray, held: np.ndarray, free: np.ndarray, solve_free: Any
+) -> np.ndarray:
+    """The consistent gravity load ``f = -g M e_z`` (``vertical``: unit vertical translation of
+    every node) with the ``held`` DOFs fixed: ``R = (K u - f)`` there, ``u_f = solve_free(f_f)``
+    (``K_ff`` factored by the caller)."""
+    f = -GRAVITY * (M @ vertical)
+    u = np.zeros(len(vertical))
+    u[free] = solve_free(f[free])
+    return (K @ u - f)[held]
 
 
 class Bridge:
@@ -267,9 +317,10 @@ class Bridge:
             la[:, 5].astype(float),
         )
         self._kinds()
+        self.span_length = float(self.span_lengths[0])
+        """The spans' length (the paper's bridge); the first span's otherwise."""
         if self.uniform:
             k0 = self.kinds[0]
-            self.span_length = float(self.span_lengths[0])
             self.element_length = k0.element_length
             self.mass_per_length = k0.section.mass_per_length
             self.youngs_modulus = k0.section.youngs_modulus
@@ -291,7 +342,6 @@ class Bridge:
             """Support forces carrying the span's own weight, shape ``(nsupport,)`` (results
             ``support_reaction``: the bridge DOFs are measured from this dead-load state)."""
         else:
-            self.span_length = float(self.span_lengths[0])
             self._global()
 
     def _kinds(self) -> None:
@@ -350,9 +400,9 @@ class Bridge:
         )
 
     # ----------------------------------------------------------------------------------------------
-    def _girder_matrices(self, g: Girder) -> tuple[np.ndarray, np.ndarray, list[int], int]:
-        """A girder alone as one continuous beam (shared nodes): M, K, the DOFs its bearings hold
-        on rigid supports (w at every line, u at the fixed line) and its number of nodes."""
+    def _girder_matrices(self, g: Girder) -> tuple[np.ndarray, np.ndarray, list[int]]:
+        """A girder alone as one continuous beam (shared nodes): M, K and the DOFs its bearings
+        hold on rigid supports (w at every line, u at the fixed line)."""
         ne = self.elements
         sec = g.section
         nodes = ne * len(g.spans) + 1
@@ -365,17 +415,14 @@ class Bridge:
             M[o, o] += m
             K[o, o] += k
         held = [3 * ne * j + 1 for j in range(len(g.spans) + 1)] + [3 * ne * g.fixed_support]
-        return M, K, held, nodes
+        return M, K, held
 
     def girder_frequencies(self, g: Girder) -> np.ndarray:
         """Circular frequencies (rad/s) of the vertical modes of a girder alone on rigid supports
         (its Rayleigh damping is fitted to the first two; ``svbi metrics`` filters with them)."""
-        M, K, held, _ = self._girder_matrices(g)
+        M, K, held = self._girder_matrices(g)
         free = np.setdiff1d(np.arange(M.shape[0]), held)
-        bending = np.array([i for i in free if i % 3 != 0])
-        sub = np.ix_(bending, bending)
-        eig = sla.eigh(K[sub], M[sub], eigvals_only=True)
-        return np.sqrt(np.clip(eig, 0.0, None))
+        return _circular_frequencies(M, K, np.array([i for i in free if i % 3 != 0]))
 
     def _pier_frequencies(self, p: Pier) -> np.ndarray:
         """Circular frequencies (rad/s) of the sway modes of a pier alone, a fixed-base cantilever."""
@@ -383,9 +430,7 @@ class Bridge:
         M, K = column_matrices(
             p.height, self.elements, sec.youngs_modulus, sec.area, sec.second_moment, sec.mass_per_length
         )
-        sway = np.array([i for i in range(3, M.shape[0]) if i % 3 != 1])
-        eig = sla.eigh(K[np.ix_(sway, sway)], M[np.ix_(sway, sway)], eigvals_only=True)
-        return np.sqrt(np.clip(eig, 0.0, None))
+        return _circular_frequencies(M, K, np.array([i for i in range(3, M.shape[0]) if i % 3 != 1]))
 
     @staticmethod
     def _rayleigh(frequencies: np.ndarray, ratio: float) -> tuple[float, float]:
@@ -399,15 +444,14 @@ class Bridge:
         return 2 * ratio * w1 * w2 / (w1 + w2), 2 * ratio / (w1 + w2)
 
     def _dead_load_reactions(self) -> np.ndarray:
-        """The consistent gravity load ``-g M e_z`` (``e_z``: unit vertical translation of every
-        node) on the span with its supports held: ``R = (K u - f)`` at the support DOFs."""
+        """Support forces carrying one span's own weight (:func:`_gravity_reactions`)."""
         ez = np.zeros(self.ndof)
         ez[1::3] = 1.0
-        f = -GRAVITY * (self.M @ ez)
         free = np.setdiff1d(np.arange(self.ndof), self.support_dofs)
-        u = np.zeros(self.ndof)
-        u[free] = sla.solve(self.K[np.ix_(free, free)], f[free], assume_a="sym")
-        return (self.K @ u - f)[self.support_dofs]
+        k_ff = self.K[np.ix_(free, free)]
+        return _gravity_reactions(
+            self.M, self.K, ez, self.support_dofs, free, lambda f: sla.solve(k_ff, f, assume_a="sym")
+        )
 
     def _quasi_static_field(self) -> np.ndarray:
         """``T`` (ndof x nsupport): the rigid-body field of a span for unit support motions."""
@@ -499,10 +543,7 @@ class Bridge:
         ez = np.zeros(self.nglobal)
         for s in range(nsub):
             ez[self.global_dof[s][1::3]] = 1.0
-        f = -GRAVITY * (self.M_global @ ez)
-        u = np.zeros(self.nglobal)
-        u[free] = lu.solve(f[free])
-        self.dead_load_global = (K @ u - f)[self.support_global]
+        self.dead_load_global = _gravity_reactions(self.M_global, K, ez, self.support_global, free, lu.solve)
         """Dead-load reaction of every active support constraint, N."""
 
     def natural_frequencies(self, count: int = 10) -> np.ndarray:
@@ -548,8 +589,6 @@ class Bridge:
     def history_load(self, P: np.ndarray, Q: np.ndarray, q1: np.ndarray) -> np.ndarray:
         """The bridge rows' known load ``M P + C Q + C T q'`` (damping on the motion relative to
         the ground), ``nsub x ndof``; ``q1``: the support targets' velocities ``(nsub, 3)``."""
-        if self.uniform:
-            return P @ self.M + Q @ self.C + q1 @ self.CT.T
         return self.per_kind(P, "M") + self.per_kind(Q, "C") + self.support_damping_load(q1)
 
     def support_damping_load(self, q1: np.ndarray) -> np.ndarray:
@@ -557,11 +596,15 @@ class Bridge:
             return q1 @ self.CT.T
         return (self.CT_map @ q1[self.support_active]).reshape(self.nsub, self.ndof)
 
-    def quasi_static(self, q1: np.ndarray) -> np.ndarray:
+    def quasi_static(self, q: np.ndarray) -> np.ndarray:
         """``T q``: the quasi-static field of the support motion ``q`` (or its rates), ``nsub x ndof``."""
         if self.uniform:
-            return q1 @ self.T.T
-        return (self.T_map @ q1[self.support_active]).reshape(self.nsub, self.ndof)
+            return q @ self.T.T
+        return (self.T_map @ q[self.support_active]).reshape(self.nsub, self.ndof)
+
+    def held_values(self, q: np.ndarray) -> np.ndarray:
+        """Support targets ``(nsub, 3)`` as the constraint rows take them, flat: 0 in an unused slot."""
+        return q.reshape(-1) if self.uniform else np.where(self.support_active, q, 0.0).reshape(-1)
 
     @property
     def support_table(self) -> SupportTable:

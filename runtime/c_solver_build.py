@@ -436,8 +436,12 @@ def row_coefficients(
     the generated tables of the bridge element (``svbi.runtime.contact_rows``)."""
     from svbi.runtime.contact_rows import bridge_row_tables, shape_tables
 
-    _, rows = bridge_row_tables(le, speed, dt, kappa, zeta)
-    tables = {**shape_tables(le, rail_height), **rows}
+    return _row_table(bridge_row_tables(le, speed, dt, kappa, zeta)[1], shape_tables(le, rail_height))
+
+
+def _row_table(rows: dict[str, np.ndarray], shapes: dict[str, np.ndarray] | None) -> np.ndarray:
+    """The C loop's row table from the discrete row's tables and the shape tables (zeros without)."""
+    tables = {**(shapes or {k: np.zeros((4, 6)) for k in ("N0", "T0", "T1")}), **rows}
     out = np.hstack([tables[name] for name in _ROW_TABLES])
     assert out.shape == (row_structure()[0] + 1, ROW_COLUMNS)
     return out
@@ -447,18 +451,14 @@ def row_coefficients_changing_speed(
     le: float, dt: float, kappa: float, zeta: float, rail_height: float = 0.0
 ) -> np.ndarray:
     """``(4, degree + 1, ROW_COLUMNS)``: the tables ``T0, T1, T2, Ta`` with which the contact rows of
-    a train at speed v and acceleration a are ``T0 + v T1 + v^2 T2 + a Ta`` (the rows are exact
-    quadratics in v; ``Ta`` is the generated ``bridge_row_acceleration_coefficients``), as
-    ``contact_rows.ContactRowKernel(accelerating=True)`` combines them."""
-    from svbi.runtime.kernel_modules import frame2d
+    a train at speed v and acceleration a are ``T0 + v T1 + v^2 T2 + a Ta``
+    (``contact_rows.bridge_row_tables_changing_speed``; the shape rows are in ``T0`` alone)."""
+    from svbi.runtime.contact_rows import bridge_row_tables_changing_speed, shape_tables
 
-    t0, tp, tm = (row_coefficients(le, v, dt, kappa, zeta, rail_height) for v in (0.0, 1.0, -1.0))
-    w_a, c_a = frame2d().bridge_row_acceleration_coefficients(le, (dt, kappa, zeta))
-    ta = np.zeros_like(t0)
-    col = 6 * ROW_BLOCKS.index("W_hat")
-    ta[:, col : col + 6] = np.asarray(w_a)
-    ta[:, 6 * len(ROW_BLOCKS) :] = np.asarray(c_a)
-    return np.stack([t0, 0.5 * (tp - tm), 0.5 * (tp + tm) - t0, ta])
+    parts = bridge_row_tables_changing_speed(le, dt, kappa, zeta)
+    return np.stack(
+        [_row_table(p, shape_tables(le, rail_height) if k == 0 else None) for k, p in enumerate(parts)]
+    )
 
 
 # --------------------------------------------------------------------------------------------------

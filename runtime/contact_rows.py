@@ -89,6 +89,22 @@ def bridge_row_tables(
     return float(d), {"W_hat": w_hat, "c_P_ue": c_p, "c_Q_ue": c_q, "c_scalars": c_s}
 
 
+def bridge_row_tables_changing_speed(
+    le: float, dt: float, kappa: float, zeta: float
+) -> list[dict[str, np.ndarray]]:
+    """``[T0, T1, T2, Ta]``, each the tables of :func:`bridge_row_tables`, with which the discrete
+    row of a train at speed v and acceleration a is ``T0 + v T1 + v^2 T2 + a Ta``: the row is an
+    exact quadratic in v (taken at v = 0, 1, -1) and linear in a (``Ta`` is the generated
+    ``bridge_row_acceleration_coefficients``; it changes ``W_hat`` and ``c_scalars`` only)."""
+    t0, tp, tm = (bridge_row_tables(le, v, dt, kappa, zeta)[1] for v in (0.0, 1.0, -1.0))
+    w_a, c_a = frame2d().bridge_row_acceleration_coefficients(le, (dt, kappa, zeta))
+    t1 = {k: 0.5 * (tp[k] - tm[k]) for k in t0}
+    t2 = {k: 0.5 * (tp[k] + tm[k]) - t0[k] for k in t0}
+    ta = {k: np.zeros_like(v) for k, v in t0.items()}
+    ta["W_hat"], ta["c_scalars"] = np.asarray(w_a, dtype=float), np.asarray(c_a, dtype=float)
+    return [t0, t1, t2, ta]
+
+
 @dataclass(frozen=True)
 class ContactRows:
     """Shape rows and the discrete aux-bridge row of the contacts at one instant.
@@ -149,37 +165,35 @@ class ContactRowKernel:
         acceleration at its time (the rows are exact quadratics in v, and linear in a)."""
 
         # v = 0 (a held train) is a valid value: the tables are polynomials in v.
-        def table(le: float, v: float = speed) -> np.ndarray:
-            shapes = shape_tables(le)
-            _, rows = bridge_row_tables(le, v, dt, kappa, zeta)
-            blocks = [shapes["N0"], shapes["N1"], shapes["N2"], rows["W_hat"], rows["c_P_ue"], rows["c_Q_ue"]]
-            return np.hstack([*blocks, rows["c_scalars"]])
+        def table(rows: dict[str, np.ndarray], shapes: dict[str, np.ndarray] | None) -> np.ndarray:
+            n = [shapes[k] if shapes else np.zeros((4, 6)) for k in ("N0", "N1", "N2")]
+            return np.hstack([*n, rows["W_hat"], rows["c_P_ue"], rows["c_Q_ue"], rows["c_scalars"]])
 
-        self._poly = SpanPolynomials(le, table)
+        self._poly = SpanPolynomials(
+            le, lambda le: table(bridge_row_tables(le, speed, dt, kappa, zeta)[1], shape_tables(le))
+        )
         self.d = bridge_row_tables(float(self._poly.element_lengths[0]), speed, dt, kappa, zeta)[0]
         self.accelerating = accelerating
-        if accelerating:
-            # T(v) = T0 + v T1 + v^2 T2 from v = 0, 1, -1; the acceleration's own table
-            def split(le: float, k: int) -> np.ndarray:
-                t0, tp, tm = table(le, 0.0), table(le, 1.0), table(le, -1.0)
-                return (t0, 0.5 * (tp - tm), 0.5 * (tp + tm) - t0)[k]
-
-            def by_a(le: float) -> np.ndarray:
-                w_a, c_a = frame2d().bridge_row_acceleration_coefficients(le, (dt, kappa, zeta))
-                zero = np.zeros((4, 6))
-                return np.hstack([zero, zero, zero, np.asarray(w_a), zero, zero, np.asarray(c_a)])
-
-            self._by_v = [SpanPolynomials(le, lambda le, k=k: split(le, k)) for k in range(3)]
-            self._by_a = SpanPolynomials(le, by_a)
+        if accelerating:  # T0 + v T1 + v^2 T2 + a Ta; the shape rows are in T0 alone
+            self._by_va = [
+                SpanPolynomials(
+                    le,
+                    lambda le, k=k: table(
+                        bridge_row_tables_changing_speed(le, dt, kappa, zeta)[k],
+                        shape_tables(le) if k == 0 else None,
+                    ),
+                )
+                for k in range(4)
+            ]
 
     def __call__(
         self, xi: np.ndarray, span: np.ndarray | None = None, v: float | None = None, a: float = 0.0
     ) -> ContactRows:
         if self.accelerating and v is not None:
-            p0, p1, p2 = (p(xi, span) for p in self._by_v)
-            vals = p0 + v * p1 + (v * v) * p2
+            p0, p1, p2, pa = self._by_va
+            vals = p0(xi, span) + v * p1(xi, span) + (v * v) * p2(xi, span)
             if a != 0.0:
-                vals = vals + a * self._by_a(xi, span)
+                vals = vals + a * pa(xi, span)
         else:
             vals = self._poly(xi, span)
         six = [vals[:, 6 * k : 6 * k + 6] for k in range(6)]

@@ -250,7 +250,7 @@ def _assemble(
         T.add(rct[~act], rct[~act], np.ones(int((~act).sum())))
         L = b.links
         rl = lay.oS + lay.spans * lay.ns + np.arange(lay.nl)
-        ua, ub = lay.oB + lay.nd * L.a_sub + L.a_dof, lay.oB + lay.nd * L.b_sub + L.b_dof
+        ua, ub = (lay.oB + d for d in L.flat_dofs(lay.nd))
         T.add(ua, rl, np.full(lay.nl, -1.0))  # the link force pulls a and b together
         T.add(ub, rl, np.full(lay.nl, 1.0))
         T.add(rl, ua, np.full(lay.nl, 1.0))
@@ -288,9 +288,7 @@ def static_system(model: Model) -> LinearSystem:
     rhs = np.zeros(lay.n)
     rhs[: lay.oB] = np.tile(tr.F_full, tr.cars)
     rhs[lay.oP : lay.oS] = c.r + np.where(c.on, 0.0, c.q)
-    rhs[lay.oS : lay.oS + q.size] = (
-        q.reshape(-1) if b.uniform else np.where(b.support_active, q, 0.0).reshape(-1)
-    )
+    rhs[lay.oS : lay.oS + q.size] = b.held_values(q)
     return LinearSystem(_assemble(model, lay, tr.vehicle.K, "K", Z), rhs, lay)
 
 
@@ -339,9 +337,7 @@ def acceleration_system(
         rhs[lay.oP : lay.oS] = track + np.where(c.on, conv, c.q2)
         A = _assemble(model, lay, tr.vehicle.M, "M", np.zeros((nV, 0)))
     rhs[lay.oB : lay.oP] = fB.reshape(-1)
-    rhs[lay.oS : lay.oS + q2.size] = (
-        q2.reshape(-1) if b.uniform else np.where(b.support_active, q2, 0.0).reshape(-1)
-    )
+    rhs[lay.oS : lay.oS + q2.size] = b.held_values(q2)
     return LinearSystem(A, rhs, lay)
 
 

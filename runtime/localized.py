@@ -114,8 +114,7 @@ class LocalizedDynamic:
         uB_t = self.bridge.held(fB, q_hat)
         bc = self.bridge
         if bc.nlinks:  # the link gaps follow their own stabilised rows (no ground: target 0)
-            g_hat = self.point.target(bc.link_gap(PB), bc.link_gap(QB), 0.0, 0.0, 0.0)
-            uB_t, _ = bc.linked(uB_t, g_hat)
+            uB_t, _ = bc.linked(uB_t, b.links.targets(self.point, PB, QB))
 
         on = c.on
         span = c.loc.span
@@ -157,20 +156,14 @@ class LocalizedDynamic:
 
         # interface: (F_B + F*) P = rhs
         W_full, N_full = self._placed_rows(c, rows, idx)
-        same = on[:, None] & on[None, :] & (span[:, None] == span[None, :])
-        if bc.nlinks:
-            F_B = bc.pair(W_full, N_full, span, on)
-        else:
-            F_B = np.where(
-                same, (W_full @ bc.S[0] if b.uniform else bc.rows_times(W_full, span)) @ N_full.T, 0.0
-            )
+        F_B = bc.pair(W_full, N_full, span, on)
         Wu = np.einsum("ij,ij->i", W_full, uB_t[span])
         Bd = (d_V.reshape(tr.cars, tr.wheels) @ self.B.T).reshape(-1)
         rhs = h_B - p_t + Wu - self.c_g * Bd
         if self.act is None:
             P = _solve(self.F_star + F_B, rhs)
         else:
-            P = self._active_set_solve(t, c, N_full, same, uB_t, p_t, d_V, Bd, F_B, rhs)
+            P = self._active_set_solve(t, c, N_full, uB_t, p_t, d_V, Bd, F_B, rhs)
 
         # back-substitution
         PV = ((self.c_g * P - d_V).reshape(tr.cars, tr.wheels) @ self.B.T).reshape(-1)
@@ -199,7 +192,6 @@ class LocalizedDynamic:
         t: float,
         c: Contacts,
         N_full: np.ndarray,
-        same: np.ndarray,
         uB_t: np.ndarray,
         p_t: np.ndarray,
         d_V: np.ndarray,

@@ -117,42 +117,35 @@ class Monolithic:
         self.NB = b.nsub * b.ndof
         self.nc = 0 if self.moving_load else tr.contacts
         self.oB = self.NV
+        subs = np.repeat(np.arange(b.nsub), 3)
         if b.uniform:
             self.NS = b.spans * b.nsupport
-            sup_elem_dof = [0 if d == 0 else (1 if d == 1 else 4) for d in b.support_dofs]
-            self.support_masses = np.tile(
-                support_constraint_masses(b.element_length, b.mass_per_length, sup_elem_dof), b.spans
-            )
+            self.support_masses = self._dof_mass(subs, np.tile(b.support_dofs, b.spans))
             """Eq. (34): the constraint mass of every support constraint, span by span."""
         else:  # three support slots per substructure (inactive ones hold a zero unknown), then links
             self.NS = 3 * b.nsub + len(b.links)
-            self.support_masses = self._general_constraint_masses()
+            L = b.links
+            ma, mb = self._dof_mass(L.a_sub, L.a_dof), self._dof_mass(L.b_sub, L.b_dof)
+            # a link: the reduced mass of its two ends, the dynamic multiplier's scale
+            self.support_masses = np.concatenate(
+                [self._dof_mass(subs, b.support_dof.ravel()), ma * mb / (ma + mb)]
+            )
         self.contacts: Contacts | None = None
 
     def _dof_mass(self, sub: np.ndarray, dof: np.ndarray) -> np.ndarray:
-        """Eq. (34) for a constraint on one substructure DOF: the consistent mass of the element
-        at that DOF (a pier column's global u is its element's transverse DOF, w its axial)."""
+        """Eq. (34) for a constraint on one substructure DOF (an end node's): the consistent mass
+        of the element at that DOF (a pier column's global u is its element's transverse DOF, w
+        its axial)."""
         b = self.model.bridge
-        out = np.empty(len(sub))
-        for i, (s, d) in enumerate(zip(sub, dof, strict=True)):
-            k = b.kinds[b.kind[s]]
-            node, comp = divmod(int(d), 3)
-            if k.pier:
-                comp = (1, 0, 2)[comp]
-            local = comp if node == 0 else 3 + comp
-            masses = support_constraint_masses(k.element_length, k.section.mass_per_length, [local])
-            out[i] = masses[0]
-        return out
-
-    def _general_constraint_masses(self) -> np.ndarray:
-        """Constraint masses of the support slots and, for a link, the reduced mass of its two
-        ends (``1 / (1/m_a + 1/m_b)``): the dynamic multipliers' scale."""
-        b = self.model.bridge
-        subs = np.repeat(np.arange(b.nsub), 3)
-        slots = self._dof_mass(subs, b.support_dof.ravel())
-        L = b.links
-        ma, mb = self._dof_mass(L.a_sub, L.a_dof), self._dof_mass(L.b_sub, L.b_dof)
-        return np.concatenate([slots, ma * mb / (ma + mb)])
+        per_kind = [
+            support_constraint_masses(k.element_length, k.section.mass_per_length, list(range(6)))
+            for k in b.kinds
+        ]
+        node, comp = np.divmod(np.asarray(dof, dtype=np.intp), 3)
+        pier = np.array([b.kinds[k].pier for k in b.kind[sub]], dtype=bool)
+        comp = np.where(pier, np.array([1, 0, 2])[comp], comp)
+        local = np.where(node == 0, comp, 3 + comp)
+        return np.array([per_kind[k][j] for k, j in zip(b.kind[sub], local, strict=True)], dtype=float)
 
     def _bridge_blocks(self, T: Triplets, support_col: int, coupling: np.ndarray) -> None:
         """The effective bridge matrix of every span, with its support constraints: column
@@ -183,7 +176,7 @@ class Monolithic:
         T.add(cols[act], rows[act], coupling[: 3 * b.nsub][act])
         T.add(cols[~act], cols[~act], coupling[: 3 * b.nsub][~act])  # an unused slot: its unknown is 0
         L = b.links
-        ua, ub = self.oB + nd * L.a_sub + L.a_dof, self.oB + nd * L.b_sub + L.b_dof
+        ua, ub = (self.oB + d for d in L.flat_dofs(nd))
         cl = support_col + 3 * b.nsub + np.arange(len(L))
         cpl = coupling[3 * b.nsub :]
         T.add(ua, cl, -cpl)
@@ -203,10 +196,7 @@ class Monolithic:
         hs = H[: 3 * b.nsub].reshape(b.nsub, 3)
         act = b.support_active
         np.subtract.at(fB, (np.nonzero(act)[0], b.support_dof[act]), hs[act])
-        L = b.links
-        hl = H[3 * b.nsub :]
-        np.subtract.at(fB, (L.a_sub, L.a_dof), hl)
-        np.add.at(fB, (L.b_sub, L.b_dof), hl)
+        fB -= b.links.load(H[3 * b.nsub :], fB.shape)
 
     def _bridge_step(self, t: float) -> BridgeStep:
         """Histories of the bridge at t_n, the support targets at t_{n+1} and the bridge load."""
@@ -215,13 +205,11 @@ class Monolithic:
         PB, QB = self.nm.history(st.uB, st.vB, st.aB)
         q, q1, q2 = m.supports(t)
         q_hat = self.point.target(b.at_supports(PB), b.at_supports(QB), q, q1, q2)
-        if not b.uniform:  # unused slots hold 0; the links' gaps follow their own rows (target 0)
-            L = b.links
-            gap = lambda X: X[L.a_sub, L.a_dof] - X[L.b_sub, L.b_dof]  # noqa: E731
-            g_hat = np.where(L.spring, 0.0, self.point.target(gap(PB), gap(QB), 0.0, 0.0, 0.0))
-            q_hat = np.concatenate([np.where(b.support_active, q_hat, 0.0).reshape(-1), g_hat])
+        q_hat = b.held_values(q_hat)
+        if not b.uniform:  # the links' gaps follow their own rows
+            q_hat = np.concatenate([q_hat, b.links.targets(self.point, PB, QB)])
         fB = b.history_load(PB, QB, q1)
-        return BridgeStep(PB, QB, q_hat.reshape(-1), fB)
+        return BridgeStep(PB, QB, q_hat, fB)
 
     def _contact_dofs(self, c: Contacts) -> ContactDofs:
         span = c.loc.span

@@ -52,7 +52,7 @@ def constraint_forces(model: Model, state: State, contacts: Contacts, P: np.ndar
     nd, ns, nl = b.ndof, 3 * b.nsub, len(L)
     act = b.support_active.ravel()
     dof_of_slot = (nd * np.arange(b.nsub)[:, None] + b.support_dof).ravel()
-    rows = np.concatenate([dof_of_slot[act], nd * L.a_sub + L.a_dof, nd * L.b_sub + L.b_dof])
+    rows = np.concatenate([dof_of_slot[act], *L.flat_dofs(nd)])
     cols = np.concatenate([np.flatnonzero(act), ns + np.arange(nl), ns + np.arange(nl)])
     vals = np.concatenate([np.ones(int(act.sum())), np.ones(nl), -np.ones(nl)])
     eq, where = np.unique(rows, return_inverse=True)

@@ -92,11 +92,10 @@ class SubstructureCompliance:
 
     # ----------------------------------------------------------------------------------------------
     def _links(self) -> None:
-        self.links = self._used_links()
         import scipy.sparse as sps
         import scipy.sparse.linalg as spla
 
-        L = self._used_links()
+        self.links = L = self.bridge.links.subset(self.use)
         ka, kb = self._kind(L.a_sub), self._kind(L.b_sub)
         self.col_a = np.array([self.S[k][:, d] for k, d in zip(ka, L.a_dof, strict=True)])
         self.col_b = np.array([self.S[k][:, d] for k, d in zip(kb, L.b_dof, strict=True)])
@@ -118,37 +117,9 @@ class SubstructureCompliance:
         A = sps.csc_matrix((np.concatenate(vals), (np.concatenate(rows), np.concatenate(cols))), shape=(n, n))
         self._lu = spla.splu(A)
 
-    def _used_links(self) -> Any:
-        """The links this compliance imposes (all, or the rigid ones for an impact)."""
-        from dataclasses import replace
-
-        L, u = self.bridge.links, self.use
-        return replace(
-            L,
-            a_sub=L.a_sub[u],
-            a_dof=L.a_dof[u],
-            b_sub=L.b_sub[u],
-            b_dof=L.b_dof[u],
-            kind=tuple(k for k, keep in zip(L.kind, u, strict=True) if keep),
-            compliance=L.compliance[u],
-        )
-
     def link_solve(self, r: np.ndarray) -> np.ndarray:
         """``A^-1 r`` with ``A = L S L^T``."""
         return self._lu.solve(np.asarray(r, dtype=float))
-
-    def link_gap(self, U: np.ndarray) -> np.ndarray:
-        """``L u``: the gap of every link for substructure displacements ``U`` (``nsub x ndof``)."""
-        L = self.links
-        return U[L.a_sub, L.a_dof] - U[L.b_sub, L.b_dof]
-
-    def link_load(self, lam: np.ndarray) -> np.ndarray:
-        """``L^T Lambda`` as a load on every substructure (``nsub x ndof``)."""
-        b, L = self.bridge, self.links
-        load = np.zeros((b.nsub, b.ndof))
-        np.add.at(load, (L.a_sub, L.a_dof), lam)
-        np.add.at(load, (L.b_sub, L.b_dof), -lam)
-        return load
 
     def cross(self, X: np.ndarray, sub: np.ndarray, on: np.ndarray) -> np.ndarray:
         """``X S L^T`` (``n x nlinks``) for rows ``X`` on substructures ``sub`` (zero where not ``on``)."""
@@ -168,14 +139,13 @@ class SubstructureCompliance:
 
     def linked(self, U: np.ndarray, g_hat: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
         """Impose the links on the unlinked motion ``U``: ``Lambda = A^-1 (L U - g_hat)`` and
-        ``U - S L^T Lambda``."""
+        ``U - S L^T Lambda``; ``g_hat`` (``Links.targets``, every link of the bridge) or 0."""
         if not self.nlinks:
             return U, np.zeros(0)
-        # a spring's gap is elastic, not a constraint with a target: its row reads L u = Lambda / k
-        target = 0.0 if g_hat is None else np.where(self.links.spring, 0.0, g_hat[self.use])
-        r = self.link_gap(U) - target
-        lam = self.link_solve(r)
-        return U - self.times(self.link_load(lam)), lam
+        target = 0.0 if g_hat is None else g_hat[self.use]
+        lam = self.link_solve(self.links.gap(U) - target)
+        b = self.bridge
+        return U - self.times(self.links.load(lam, (b.nsub, b.ndof))), lam
 
     def field(self, F: np.ndarray) -> np.ndarray:
         """``S_eff f``: the response of the linked structure (supports held at zero) to loads ``F``."""
