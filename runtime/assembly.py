@@ -113,17 +113,7 @@ class Ground:
         """Longitudinal ground motion under points moving at ``speed`` (total time derivatives):
         the rigid approach track the off-bridge wheels creep against."""
         _, (q, q1, q2) = self.motion(t, x)
-        return self._moving(q, q1, q2, speed, acceleration)
-
-    def _moving(
-        self, q: np.ndarray, q1: np.ndarray, q2: np.ndarray, speed: float, acceleration: float
-    ) -> Triple:
-        if self.apparent_velocity:
-            f = 1.0 - speed / self.apparent_velocity
-            if acceleration:
-                return q, f * q1, f * f * q2 - (acceleration / self.apparent_velocity) * q1
-            return q, f * q1, f * f * q2
-        return q, q1, q2
+        return seen_moving(q, q1, q2, self.apparent_velocity, speed, acceleration)
 
     def recorded(self, t: float, bridge: Bridge) -> tuple[np.ndarray, np.ndarray]:
         """``ground_uz`` and ``ground_ux`` of the results: at x = 0 when uniform, else at every

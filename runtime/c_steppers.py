@@ -280,11 +280,7 @@ class ExcitationInput:
         t = (np.arange(n0, n0 + count) + 1) * m.dt
         e.s_n0, e.s_count = n0, count
         if self.irr_stream:
-            x = (
-                np.stack([tr.positions(float(tj)) for tj in t])
-                if tr.acceleration
-                else (tr.start_position + tr.speed * t[:, None] - tr.offsets[None, :])
-            )
+            x = tr.start_position + tr.motion.travel(t)[:, None] - tr.offsets[None, :]
             r = np.stack(m.irregularity.evaluate(x), axis=1)  # count x 3 x nc
             self._rail = np.ascontiguousarray(r, dtype=float)
             e.s_rail = self._rail.ctypes.data
@@ -361,9 +357,9 @@ class CStepper:
         """localized-dynamic keeps the active set in the C loop (lift-offs and airborne wheels' P = 0
         rows); only a landing step goes to NumPy (the landing row and the impact)."""
         self.handovers = 0
+        """Unilateral runs: how many times NumPy took steps over from the C loop."""
         self.numpy_steps = 0
         """Steps the NumPy stepper took over (results attribute ``numpy_steps``)."""
-        """Unilateral runs: how many times NumPy took steps over from the C loop."""
         self.state = state
         self.contacts = None
         self.keep: list[Any] = []

@@ -73,14 +73,8 @@ class _Table(BaseModel):
     model_config = ConfigDict(extra="forbid", strict=True, allow_inf_nan=False, validate_default=True)
 
 
-_SECTION_KEYS = (
-    "mass_per_length",
-    "youngs_modulus",
-    "area",
-    "second_moment",
-    "damping_ratio",
-    "elements_per_span",
-)
+_SECTION_FIELDS = ("mass_per_length", "youngs_modulus", "area", "second_moment", "damping_ratio")
+"""The section keys a girder or pier may give for itself (``[bridge]``'s otherwise)."""
 
 
 class GirderSpec(_Table):
@@ -189,12 +183,7 @@ class BridgeSpec(_Table):
                 value = getattr(g, name, None)
                 return float(getattr(self, name) if value is None else value)
 
-            return Section(
-                *(
-                    pick(n)
-                    for n in ("mass_per_length", "youngs_modulus", "area", "second_moment", "damping_ratio")
-                )
-            )
+            return Section(*(pick(n) for n in _SECTION_FIELDS))
 
         girders = [
             Girder(tuple(float(x) for x in g.spans), section(g), g.fixed_support) for g in self.girders or []

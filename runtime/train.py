@@ -1,7 +1,8 @@
 """The train: identical cars coupled only through the track (DESIGN.md section 2).
 
 Car k (0-based here, 1-based in the results) has its leading axle ``k * car_length`` behind the
-train's leading axle, which is at ``start_position`` at t = 0 and moves at constant ``speed``.
+train's leading axle, which is at ``start_position`` at t = 0 and moves at ``speed``, changing by
+``acceleration`` (:class:`Kinematics`).
 Contact points are numbered car by car, wheels from the front of each car (``c = k * nw + i``).
 
 A rigid-body car brings its matrices, evaluated by the vehicle's generated kernels
@@ -41,11 +42,11 @@ class Kinematics:
         self.stop_time = -self.speed / self.acceleration if self.acceleration < 0.0 else float("inf")
         """When a braking train comes to rest (inf: never)."""
 
-    def travel(self, t: float) -> float:
-        """Distance moved at time t."""
+    def travel(self, t: Any) -> Any:
+        """Distance moved at time(s) t."""
         if self.acceleration == 0.0:
             return self.speed * t
-        tm = min(t, self.stop_time)
+        tm = np.minimum(t, self.stop_time)
         return self.speed * tm + 0.5 * self.acceleration * tm * tm
 
     def speed_at(self, t: float) -> float:

@@ -213,28 +213,24 @@ static int interface_solve(const setup_t* S, work_t* w, int bw, const int* activ
  * the rail N0 u~_B - sum_j N0_c S N0_j^T P_j over the contacts on its span (u~_B the predictor), or
  * the ground off the bridge, plus the irregularity. */
 static double predicted_uplift(const setup_t* S, const work_t* w, const double* P, int c) {
-  int k = c / NW, i = c % NW, j, m, a, nd = S->nd;
-  double pv = 0.0, ug, rail;
+  int k = c / NW, i = c % NW, j, m, nd = S->nd;
+  double pv = 0.0, ug, rail = svbi_rail_height(S, w, c); /* w->bu still holds the predictor */
   for (j = 0; j < NW; ++j) {
     int cj = k * NW + j;
     pv += (S->c_g[j] * P[cj] - w->dV[cj]) * S->V_B[i * NW + j];
   }
   ug = w->pt[c] + S->c_g[i] * (P[c] - pv);
-  if (w->con[c]) {
+  if (w->con[c]) { /* less the rail's deflection under this step's contact forces */
     const double* Nc = w->crow + (long)c * ROW_COLS + COL_N0;
     int s = w->cspan[c];
     const double* Srows = S->S + (long)w->cfirst[c] * nd;
-    rail = 0.0;
-    for (a = 0; a < NNZ_N0; ++a) rail += Nc[nz_N0[a]] * BR(w->bu, s, w->cfirst[c] + nz_N0[a]);
     for (m = w->sstart[s]; m < w->sstart[s + 1]; ++m) {
       int cj = w->slist[m];
       const double* Nj = w->crow + (long)cj * ROW_COLS + COL_N0;
       rail -= row_S_N0(Nc, nz_N0, NNZ_N0, Srows, nd, w->cfirst[cj], Nj) * P[cj];
     }
-  } else {
-    rail = w->under[c];
   }
-  return ug - (rail + w->rail[c]);
+  return ug - rail;
 }
 #endif
 
