@@ -86,6 +86,12 @@ def _band_order(matrix: np.ndarray, dofs: np.ndarray) -> np.ndarray:
     return dofs
 
 
+def _support_slots(bridge: Any) -> int:
+    """Support slots of the C loop: ``nsupport`` per span (the paper's bridge), else three per
+    substructure (``Bridge.support_dof``)."""
+    return bridge.spans * bridge.nsupport if bridge.uniform else 3 * bridge.nsub
+
+
 def _window_count(offsets: np.ndarray, width: float) -> int:
     """Largest number of contacts within any closed window of length ``width``."""
     o = np.sort(offsets)
@@ -175,7 +181,7 @@ class ExcitationInput:
         self._ground()
         b = model.bridge
         self.struct.ground_per_support = int(not model.ground.uniform)
-        self.nrec = b.spans * b.nsupport
+        self.nrec = len(b.support_table.flat)
         self.describe = (
             f"irregularity: {'stream' if self.irr_stream else 'table'}, "
             f"ground: {'stream' if self.ground_stream else 'table'}"
@@ -224,8 +230,7 @@ class ExcitationInput:
             return
         motion = _ground_motion(g)
         if motion is not None:
-            spans = self.model.bridge.spans
-            lines = np.arange(spans + 1) * self.model.bridge.span_length
+            lines = self.model.bridge.line_x
             modes: list[tuple[int, Any, Any]] = []
             for name in ("vertical", "longitudinal"):
                 comp = motion.component(name)
@@ -276,7 +281,7 @@ class ExcitationInput:
             return
         m = self.model
         b, tr, e = m.bridge, m.train, self.struct
-        nc, nsup = tr.contacts, b.spans * b.nsupport
+        nc, nsup = tr.contacts, _support_slots(b)
         t = (np.arange(n0, n0 + count) + 1) * m.dt
         e.s_n0, e.s_count = n0, count
         if self.irr_stream:
@@ -397,7 +402,7 @@ class CStepper:
         self.lam = {
             "lamV": np.zeros((3, nc)),
             "lamB": np.zeros((3, nc)),
-            "lamG": np.zeros((3, b.spans * b.nsupport)),
+            "lamG": np.zeros((3, _support_slots(b))),
         }
         ref = self.reference
         for key in ("lamV", "lamB", "lamG"):
@@ -447,12 +452,12 @@ class CStepper:
         S.method, S.moving_load = code, int(tr.moving_load)
         S.unilateral = int(self.active_set_in_c)
         S.cars, S.nw, S.nc = tr.cars, nw, nc
-        S.spans, S.elements, S.nd, S.ns = b.spans, b.elements, b.ndof, b.nsupport
+        S.spans, S.elements, S.nd, S.ns = b.spans, b.elements, b.ndof, b.nsupport if b.uniform else 3
         S.output_every, S.steps = s.output_every, s.steps
         S.dt, S.a0, S.a1, S.a2 = s.time_step, nm.a0, nm.a1, nm.a2
         S.gravity, S.speed, S.start = GRAVITY, tr.speed, tr.start_position
         S.span_length, S.inv_span_length = b.span_length, 1.0 / b.span_length
-        S.inv_element_length = 1.0 / b.element_length
+        S.inv_element_length = 1.0 / b.span_element_length[0]
         S.p_P, S.p_Q, S.p_q2, S.p_q1, S.p_q = point.c_P, point.c_Q, point.c_q2, point.c_q1, point.c_q
         S.d = point.d
         omega = kappa / s.time_step
@@ -470,57 +475,10 @@ class CStepper:
         S.bw_car = int((per_car.max(axis=1) - per_car.min(axis=1)).max(initial=0))
         S.order, S.offsets = self._arr(order, np.int32), self._arr(tr.offsets)
         S.axle_loads = self._arr(tr.axle_loads if tr.moving_load else np.zeros(nc))
-        S.rows = self._arr(
-            c_solver_build.row_coefficients(
-                b.element_length, tr.speed, s.time_step, kappa, zeta, b.rail_height
-            )
-        )
         S.acceleration = tr.acceleration
         S.stop_time = min(tr.motion.stop_time, 1e300)
-        if tr.acceleration != 0.0:  # the rows of each step's speed and acceleration
-            S.rows_va = self._arr(
-                c_solver_build.row_coefficients_changing_speed(
-                    b.element_length, s.time_step, kappa, zeta, b.rail_height
-                )
-            )
-
-        # one span
-        k_hat = b.K + nm.a1 * b.C + nm.a0 * b.M
-        sup = np.asarray(b.support_dofs)
-        free = _band_order(k_hat, np.setdiff1d(np.arange(b.ndof), sup))
-        S.nfree = free.size
-        S.sup, S.free = self._arr(sup, np.int32), self._arr(free, np.int32)
-        S.sup_vertical = self._arr(b.support_vertical.astype(np.int32), np.int32)
-        S.sup_x = self._arr(b.support_x[0] - 0.0)
-        for name, mat in (("M", b.M), ("C", b.C)):
-            ptr, idx, val = _csr(mat)
-            setattr(S, f"{name}_ptr", self._arr(ptr, np.int32))
-            setattr(S, f"{name}_idx", self._arr(idx, np.int32))
-            setattr(S, f"{name}_val", self._arr(val))
-        union = (b.M != 0) | (b.C != 0)
-        ptr, idx, _ = _csr(union.astype(float))
-        rows = np.repeat(np.arange(b.ndof), np.diff(ptr))
-        S.MC_ptr, S.MC_idx = self._arr(ptr, np.int32), self._arr(idx, np.int32)
-        S.MC_m, S.MC_c = self._arr(b.M[rows, idx]), self._arr(b.C[rows, idx])
-        S.CT = self._arr(b.CT)
-        sup_rows = np.asarray(b.support_dofs)
-        S.react_rows = self._arr(np.stack([b.M[sup_rows], b.C[sup_rows], b.K[sup_rows]]))
-        band, p = _lower_band(k_hat)
-        S.Khat_band, S.band_p = self._arr(band), p
-        band_f, pf = _lower_band(k_hat[np.ix_(free, free)])
-        S.Khat_ff_band, S.band_pf = self._arr(band_f), pf
-        S.Khat_fs = self._arr(k_hat[np.ix_(free, sup)])
-        if code == 0:
-            S.S = self._arr(ref.bridge.S[0])
-        em, xim = b.midspan_location()
-        S.mid_first = 3 * em
-        S.mid_w = self._arr(ShapeKernel(b.element_length)(np.array([xim]))[0][0])
-        S.mid_u = self._arr(AxialShapeKernel()(np.array([xim]))[0])
-        if code == 1:
-            S.mG = self._arr(ref.mG[: b.nsupport])
-        if classic:
-            S.sG = self._arr(ref.sG[: b.nsupport])
-            S.sC = float(ref.sC)
+        if b.uniform:
+            self._one_span(S, nm, kappa, zeta, code, classic)
 
         # one car
         S.carbody_z = S.carbody_theta = -1
@@ -568,14 +526,169 @@ class CStepper:
                 S.carbody_z = int(tr.carbody_z)
             if tr.carbody_theta is not None:
                 S.carbody_theta = int(tr.carbody_theta)
+        if not b.uniform:
+            self._general(S, kappa, zeta)
         S.bw_max = self._bandwidth_bound(code)
         return S
+
+    def _one_span(self, S: Any, nm: Newmark, kappa: float, zeta: float, code: int, classic: bool) -> None:
+        """The setup of the paper's bridge: one span's matrices serve every span."""
+        m, ref = self.model, self.reference
+        b, tr, s = m.bridge, m.train, m.settings
+        S.rows = self._arr(
+            c_solver_build.row_coefficients(
+                b.element_length, tr.speed, s.time_step, kappa, zeta, b.rail_height
+            )
+        )
+        if tr.acceleration != 0.0:  # the rows of each step's speed and acceleration
+            S.rows_va = self._arr(
+                c_solver_build.row_coefficients_changing_speed(
+                    b.element_length, s.time_step, kappa, zeta, b.rail_height
+                )
+            )
+
+        # one span
+        k_hat = b.K + nm.a1 * b.C + nm.a0 * b.M
+        sup = np.asarray(b.support_dofs)
+        free = _band_order(k_hat, np.setdiff1d(np.arange(b.ndof), sup))
+        S.nfree = free.size
+        S.sup, S.free = self._arr(sup, np.int32), self._arr(free, np.int32)
+        S.sup_vertical = self._arr(b.support_vertical.astype(np.int32), np.int32)
+        S.sup_x = self._arr(b.support_x[0] - 0.0)
+        for name, mat in (("M", b.M), ("C", b.C)):
+            ptr, idx, val = _csr(mat)
+            setattr(S, f"{name}_ptr", self._arr(ptr, np.int32))
+            setattr(S, f"{name}_idx", self._arr(idx, np.int32))
+            setattr(S, f"{name}_val", self._arr(val))
+        union = (b.M != 0) | (b.C != 0)
+        ptr, idx, _ = _csr(union.astype(float))
+        rows = np.repeat(np.arange(b.ndof), np.diff(ptr))
+        S.MC_ptr, S.MC_idx = self._arr(ptr, np.int32), self._arr(idx, np.int32)
+        S.MC_m, S.MC_c = self._arr(b.M[rows, idx]), self._arr(b.C[rows, idx])
+        S.CT = self._arr(b.CT)
+        sup_rows = np.asarray(b.support_dofs)
+        S.react_rows = self._arr(np.stack([b.M[sup_rows], b.C[sup_rows], b.K[sup_rows]]))
+        band, p = _lower_band(k_hat)
+        S.Khat_band, S.band_p = self._arr(band), p
+        band_f, pf = _lower_band(k_hat[np.ix_(free, free)])
+        S.Khat_ff_band, S.band_pf = self._arr(band_f), pf
+        S.Khat_fs = self._arr(k_hat[np.ix_(free, sup)])
+        if code == 0:
+            S.S = self._arr(ref.bridge.S[0])
+        em, xim = b.midspan_location()
+        S.mid_first = 3 * em
+        S.mid_w = self._arr(ShapeKernel(b.element_length)(np.array([xim]))[0][0])
+        S.mid_u = self._arr(AxialShapeKernel()(np.array([xim]))[0])
+        if code == 1:
+            S.mG = self._arr(ref.mG[: b.nsupport])
+        if classic:
+            S.sG = self._arr(ref.sG[: b.nsupport])
+            S.sC = float(ref.sC)
+
+    def _general(self, S: Any, kappa: float, zeta: float) -> None:
+        """The setup of a bridge of substructures (general.c; localized-dynamic only)."""
+        m, ref = self.model, self.reference
+        b, tr, s = m.bridge, m.train, m.settings
+        comp = ref.bridge
+        nd = b.ndof
+        S.general, S.nsub, S.nkind, S.ns = 1, b.nsub, len(b.kinds), 3
+        S.g_kind = self._arr(b.kind, np.int32)
+        S.g_line_x = self._arr(b.line_x)
+        S.g_inv_el = self._arr(1.0 / b.span_element_length)
+        # one contact-row table per element length (svbi.runtime.contact_rows.SpanPolynomials)
+        lengths, rclass = np.unique(b.span_element_length, return_inverse=True)
+        S.nrclass, S.g_rclass = len(lengths), self._arr(rclass, np.int32)
+        build = c_solver_build
+        S.rows = self._arr(
+            np.stack(
+                [
+                    build.row_coefficients(le, tr.speed, s.time_step, kappa, zeta, b.rail_height)
+                    for le in lengths
+                ]
+            )
+        )
+        if tr.acceleration != 0.0:
+            S.rows_va = self._arr(
+                np.stack(
+                    [
+                        build.row_coefficients_changing_speed(le, s.time_step, kappa, zeta, b.rail_height)
+                        for le in lengths
+                    ]
+                )
+            )
+        S.g_S, S.g_R = self._arr(np.stack(comp.S)), self._arr(np.stack(comp.R))
+        ptrs, idxs, vals = [], [], []
+        count = 0
+        for k in b.kinds:  # the union pattern of M, C and K of every kind, CSR with absolute pointers
+            ptr, idx, _ = _csr(((k.M != 0) | (k.C != 0) | (k.K != 0)).astype(float))
+            rows = np.repeat(np.arange(nd), np.diff(ptr))
+            ptrs.append(ptr + count)
+            idxs.append(idx)
+            vals.append(np.stack([k.M[rows, idx], k.C[rows, idx], k.K[rows, idx]]))
+            count += idx.size
+        S.g_mck_ptr = self._arr(np.concatenate(ptrs), np.int32)
+        S.g_mck_idx = self._arr(np.concatenate(idxs), np.int32)
+        mck = np.concatenate(vals, axis=1)
+        S.g_m, S.g_c, S.g_k = self._arr(mck[0]), self._arr(mck[1]), self._arr(mck[2])
+        ct = b.CT_map.tocsr()
+        S.g_ct_ptr, S.g_ct_idx = self._arr(ct.indptr, np.int32), self._arr(ct.indices, np.int32)
+        S.g_ct_val = self._arr(ct.data)
+        S.g_slot_dof = self._arr(b.support_dof.ravel(), np.int32)
+        S.g_slot_comp = self._arr(b.support_component.ravel(), np.int32)
+        S.g_slot_x = self._arr(b.support_x_all.ravel())
+        table = b.support_table
+        S.nact, S.g_act_slot = len(table.flat), self._arr(table.flat, np.int32)
+        merged = [np.argwhere(b.global_dof == g) for g in b.support_global]  # (sub, dof) pairs
+        S.g_rx_ptr = self._arr(np.concatenate([[0], np.cumsum([len(p) for p in merged])]), np.int32)
+        pairs = np.concatenate(merged) if merged else np.zeros((0, 2), dtype=int)
+        S.g_rx_sub, S.g_rx_dof = self._arr(pairs[:, 0], np.int32), self._arr(pairs[:, 1], np.int32)
+        em, xim = b.midspan_location()
+        S.mid_first = 3 * em
+        S.g_mid_w = self._arr(
+            ShapeKernel(b.contact_element_length)(np.full(b.spans, xim), np.arange(b.spans))[0]
+        )
+        S.mid_u = self._arr(AxialShapeKernel()(np.array([xim]))[0])
+        S.nlinks = comp.nlinks
+        self.setup_links, self.link_x = comp.nlinks, np.zeros(0)
+        if comp.nlinks:
+            L = comp.links
+            # links in track order (front to back) at their support lines: end a is on a span
+            node_x = b.span_starts[L.a_sub] + (L.a_dof // 3) * b.span_element_length[L.a_sub]
+            x = b.line_x[np.abs(b.line_x[:, None] - node_x[None, :]).argmin(axis=0)]
+            perm = np.argsort(-x, kind="stable")
+            S.g_lk_a_sub = self._arr(L.a_sub[perm], np.int32)
+            S.g_lk_a_dof = self._arr(L.a_dof[perm], np.int32)
+            S.g_lk_b_sub = self._arr(L.b_sub[perm], np.int32)
+            S.g_lk_b_dof = self._arr(L.b_dof[perm], np.int32)
+            S.g_lk_spring = self._arr(L.spring[perm].astype(np.int32), np.int32)
+            S.g_lk_x = self._arr(x[perm])
+            self.link_x = x
+            S.g_lk_col_a, S.g_lk_col_b = self._arr(comp.col_a[perm]), self._arr(comp.col_b[perm])
+            band, p = _lower_band(comp.A.toarray()[np.ix_(perm, perm)])
+            S.g_lk_A, S.band_links = self._arr(band), p
+            touching = [
+                np.flatnonzero((L.a_sub[perm] == sub) | (L.b_sub[perm] == sub)) for sub in range(b.nsub)
+            ]
+            S.g_sl_ptr = self._arr(np.concatenate([[0], np.cumsum([t.size for t in touching])]), np.int32)
+            S.g_sl_link = self._arr(np.concatenate(touching), np.int32)
+        else:
+            S.g_sl_ptr = self._arr(np.zeros(b.nsub + 1), np.int32)
 
     def _bandwidth_bound(self, code: int) -> int:
         """An upper bound of the interface half bandwidth over the whole run (from the geometry)."""
         b, tr = self.model.bridge, self.model.train
         nc = tr.contacts
         extent = float(np.ptp(tr.vehicle.wheel_offsets)) if not tr.moving_load and nc else 0.0
+        if not b.uniform:  # contacts and links (general.c: order_and_bandwidth)
+            nl = int(self.setup_links)
+            line = np.searchsorted(b.line_x, self.link_x)  # link_x: exactly on its line
+            per_line = int(np.bincount(line, minlength=b.spans + 1).max(initial=0))
+            lines = int(extent // b.span_lengths.min()) + 2
+            m = max(
+                _window_count(tr.offsets, float(b.span_lengths.max())) + 2 * per_line,
+                _window_count(tr.offsets, extent) + per_line * lines,
+            )
+            return max(1, min(m + 2, max(nc + nl - 1, 1)))
         width = max(b.span_length, extent)
         m = _window_count(tr.offsets, width)
         if code == 0:
@@ -590,7 +703,7 @@ class CStepper:
         d = recorder.data
         out = c_solver_build.Outputs(row=recorder.count, nout=recorder.nout)
         for name in c_solver_build.OUTPUT_NAMES:
-            setattr(out, name, c_solver_build.pointer(d[name]))
+            setattr(out, name, c_solver_build.pointer(d.get(name)))
         out.forces = c_solver_build.pointer(recorder.forces)
         if self.active_set_in_c:
             if recorder.in_contact is None:

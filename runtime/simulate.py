@@ -303,11 +303,13 @@ def simulate(
         model = build_model(scenario, hold_train=hold_train)
     s = model.settings
     requested = s.backend
-    if requested in ("c", "casadi") and not model.bridge.uniform:
+    general_in_c = requested == "c" and s.method == "localized-dynamic"
+    if requested in ("c", "casadi") and not model.bridge.uniform and not general_in_c:
+        runs = "localized-dynamic on any bridge, the other methods" if requested == "c" else "runs"
         warnings.warn(
-            f"solver.backend = {requested!r} runs the paper's bridge (identical simply supported spans "
-            "on rigid supports); this bridge (continuous girders, unequal spans or piers) runs on the "
-            "NumPy backend",
+            f"solver.backend = {requested!r} {runs} the paper's bridge (identical simply supported "
+            "spans on rigid supports); this bridge (continuous girders, unequal spans or piers) runs "
+            f"{s.method} on the NumPy backend",
             BackendFallback,
             stacklevel=2,
         )

@@ -115,6 +115,8 @@ class SubstructureCompliance:
         cols.append(np.arange(n))
         vals.append(L.compliance)
         A = sps.csc_matrix((np.concatenate(vals), (np.concatenate(rows), np.concatenate(cols))), shape=(n, n))
+        self.A = A
+        """``A = L S L^T`` (+ the springs' compliance), sparse: the C loop factors its band."""
         self._lu = spla.splu(A)
 
     def link_solve(self, r: np.ndarray) -> np.ndarray:

@@ -142,6 +142,46 @@ typedef struct {
   const double* VT_val; /* values */
   const int* creep_rolling; /* NW: 1 for a wheel that rolls (a spin DOF) and creeps */
   const double* creep_params; /* NW x 8: creep-law parameters of every wheel (creep_force kernel) */
+  int general; /* 1: spans and pier columns of several kinds joined by links (continuous girders, unequal spans, piers, bearings): the g_* fields replace the one-span fields above */
+  int nsub; /* substructures: the spans, then the pier columns */
+  int nkind; /* substructure kinds (one set of matrices each) */
+  int nlinks; /* links between substructures (continuity, bearings) */
+  int nact; /* active support constraints (the results' support dimension) */
+  int nrclass; /* contact-row tables (one per span element length) */
+  int band_links; /* half bandwidth of the link matrix A = L S L^T + diag(1/k) in link order */
+  const int* g_kind; /* nsub: kind of every substructure */
+  const double* g_line_x; /* spans + 1: position of every support line (m) */
+  const double* g_inv_el; /* spans: 1 / element length of every span */
+  const int* g_rclass; /* spans: which contact-row table of rows (rows_va) serves every span */
+  const double* g_S; /* nkind x nd x nd: compliance with the supports held, per kind */
+  const double* g_R; /* nkind x nd x 3: displacement per unit support target, per kind */
+  const int* g_mck_ptr; /* nkind x (nd + 1): absolute CSR row pointers of the union pattern of M, C, K */
+  const int* g_mck_idx; /* its column indices */
+  const double* g_m; /* M on that pattern */
+  const double* g_c; /* C on that pattern */
+  const double* g_k; /* K on that pattern */
+  const int* g_ct_ptr; /* nsub * nd + 1: CSR of C T (the quasi-static field of the linked bridge) */
+  const int* g_ct_idx; /* its columns: active supports */
+  const double* g_ct_val; /* its values */
+  const int* g_slot_dof; /* nsub x 3: DOF of every support slot */
+  const int* g_slot_comp; /* nsub x 3: 0 longitudinal, 1 vertical, 2 rotation (a pier base: no ground) */
+  const double* g_slot_x; /* nsub x 3: position of every support slot (m) */
+  const int* g_act_slot; /* nact: slot of every active support, in the results' order */
+  const int* g_rx_ptr; /* nact + 1: the substructure DOFs merged with each active support (reactions) */
+  const int* g_rx_sub; /* their substructures */
+  const int* g_rx_dof; /* their DOFs */
+  const int* g_lk_a_sub; /* nlinks: substructure of end a (links in track order, front to back) */
+  const int* g_lk_a_dof; /* nlinks: DOF of end a */
+  const int* g_lk_b_sub; /* nlinks: substructure of end b */
+  const int* g_lk_b_dof; /* nlinks: DOF of end b */
+  const int* g_lk_spring; /* nlinks: 1 for a bearing spring (its gap follows no constraint row) */
+  const double* g_lk_x; /* nlinks: position of every link (non-increasing) */
+  const double* g_lk_col_a; /* nlinks x nd: the column of S of end a's DOF */
+  const double* g_lk_col_b; /* nlinks x nd: the column of S of end b's DOF */
+  const double* g_lk_A; /* nlinks x (band_links + 1): lower band of A */
+  const int* g_sl_ptr; /* nsub + 1: the links touching every substructure */
+  const int* g_sl_link; /* the link */
+  const double* g_mid_w; /* spans x 6: vertical shape row at every span's midspan */
 } svbi_solver_setup;
 
 typedef struct {
@@ -197,6 +237,7 @@ typedef struct {
   double* midspan_ux; /* nout x spans */
   double* deck_acceleration; /* nout x spans: vertical acceleration at midspan */
   double* end_rotation; /* nout x spans x 2: rotation of the left and right end nodes */
+  double* pier_top_ux; /* nout x piers: longitudinal displacement of every pier top (general) */
   double* ground_uz; /* nout (x spans * ns when per support) */
   double* ground_ux; /* nout (x spans * ns when per support) */
   double* contact_force; /* nout x nc */

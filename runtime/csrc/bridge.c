@@ -63,6 +63,10 @@ void svbi_bridge_histories(const setup_t* S, work_t* w) {
 /* The support targets q^ from the histories PB, QB and the support motion of the step. */
 void svbi_support_targets(const setup_t* S, work_t* w) {
   int s, j, ns = S->ns, NS = S->spans * S->ns;
+  if (S->general) {
+    svbi_general_targets(S, w);
+    return;
+  }
   for (s = 0; s < S->spans; ++s) {
     for (j = 0; j < ns; ++j) {
       int k = s * ns + j;

@@ -53,10 +53,59 @@ static void support_target(const setup_t* S, const excitation_t* E, int which, d
   out[2] = (h[2] - 2.0 * h[1] + h[0]) / (dt * dt);
 }
 
+/* The ground under every contact at t: a travelling wave q(t - (x - x_ref) / c) seen by a point
+ * moving at v carries the factor (1 - v / c) and -(a / c) q'; a per-line or synchronous motion none. */
+static void ground_under(const setup_t* S, const excitation_t* E, work_t* w, double t) {
+  int i, nc = S->nc;
+  double f = E->apparent_velocity > 0.0 ? 1.0 - w->v / E->apparent_velocity : 1.0;
+  double fa = E->apparent_velocity > 0.0 ? w->a / E->apparent_velocity : 0.0;
+  for (i = 0; i < nc; ++i) {
+    double q[3];
+    ground_at(S, E, 0, t, w->cx[i], q);
+    w->under[i] = q[0];
+    w->under[nc + i] = E->apparent_velocity > 0.0 ? f * q[1] : q[1];
+    w->under[2 * nc + i] = E->apparent_velocity > 0.0 ? f * f * q[2] : q[2];
+    if (fa != 0.0) w->under[2 * nc + i] -= fa * q[1];
+    ground_at(S, E, 1, t, w->cx[i], q);
+    w->ulon[i] = E->apparent_velocity > 0.0 ? f * q[1] : q[1];
+  }
+}
+
+/* A bridge of substructures: the targets of every support slot at its own position and in its own
+ * direction (a pier base's rotation follows no ground), and the ground recorded at every active
+ * support (or once, for a synchronous motion). */
+static void general_supports(const setup_t* S, const excitation_t* E, work_t* w, double t) {
+  int k, NSL = 3 * S->nsub;
+  long nrec = n_recorded(S);
+  for (k = 0; k < NSL; ++k) {
+    double q[3] = {0.0, 0.0, 0.0};
+    int comp = S->g_slot_comp[k];
+    if (comp != 2) support_target(S, E, comp == 1 ? 0 : 1, t, S->g_slot_x[k], q);
+    w->qs[k] = q[0];
+    w->qs[NSL + k] = q[1];
+    w->qs[2 * NSL + k] = q[2];
+  }
+  if (E->ground_per_support) {
+    for (k = 0; k < nrec; ++k) {
+      double x = S->g_slot_x[S->g_act_slot[k]], qv[3], qh[3];
+      ground_at(S, E, 0, t, x, qv);
+      ground_at(S, E, 1, t, x, qh);
+      w->grec[k] = qv[0];
+      w->grec[nrec + k] = qh[0];
+    }
+  } else {
+    double qv[3], qh[3];
+    ground_at(S, E, 0, t, 0.0, qv);
+    ground_at(S, E, 1, t, 0.0, qh);
+    w->grec[0] = qv[0];
+    w->grec[1] = qh[0];
+  }
+}
+
 /* Positions, rail irregularity and ground motion at t = (n + 1) dt. */
 void svbi_excite(const setup_t* S, const excitation_t* E, work_t* w, long n, double t) {
   int i, j, s;
-  int nc = S->nc, ns = S->ns, NS = S->spans * S->ns;
+  int nc = S->nc, ns = S->ns, NS = (int)n_slots(S);
   long e = n - E->s_n0;
   if (S->acceleration == 0.0) {
     for (i = 0; i < nc; ++i) w->cx[i] = S->start + S->speed * t - S->offsets[i];
@@ -65,12 +114,17 @@ void svbi_excite(const setup_t* S, const excitation_t* E, work_t* w, long n, dou
   } else { /* svbi.runtime.train.Kinematics: a braking train stands from stop_time on */
     double tm = t < S->stop_time ? t : S->stop_time, travel;
     long k, nrow = (long)(ROW_DEG + 1) * ROW_COLS;
-    const double *T0 = S->rows_va, *T1 = T0 + nrow, *T2 = T1 + nrow, *Ta = T2 + nrow;
+    const double* T0 = S->rows_va;
     travel = S->speed * tm + 0.5 * S->acceleration * tm * tm;
     for (i = 0; i < nc; ++i) w->cx[i] = S->start + travel - S->offsets[i];
     w->v = S->speed + S->acceleration * tm;
     w->a = t < S->stop_time ? S->acceleration : 0.0;
-    for (k = 0; k < nrow; ++k) w->rows_now[k] = T0[k] + w->v * T1[k] + (w->v * w->v) * T2[k] + w->a * Ta[k];
+    long nt = S->general ? S->nrclass : 1, tb; /* every row table: nt blocks of T0, T1, T2, Ta */
+    for (tb = 0; tb < nt; ++tb) {
+      const double *U0 = T0 + 4 * tb * nrow, *U1 = U0 + nrow, *U2 = U1 + nrow, *Ua = U2 + nrow;
+      double* out = w->rows_now + tb * nrow;
+      for (k = 0; k < nrow; ++k) out[k] = U0[k] + w->v * U1[k] + (w->v * w->v) * U2[k] + w->a * Ua[k];
+    }
   }
 
   /* rail irregularity under every contact */
@@ -116,6 +170,11 @@ void svbi_excite(const setup_t* S, const excitation_t* E, work_t* w, long n, dou
     memset(w->grec, 0, sizeof(double) * 2 * (size_t)n_recorded(S));
     return;
   }
+  if (S->general) {
+    ground_under(S, E, w, t);
+    general_supports(S, E, w, t);
+    return;
+  }
   if (E->gv_mode <= 1 && E->gh_mode <= 1) {
     /* synchronous: one value for every position */
     double qv[3], qh[3], tv[3], th[3];
@@ -145,19 +204,8 @@ void svbi_excite(const setup_t* S, const excitation_t* E, work_t* w, long n, dou
   {
     /* travelling wave q(t - (x - x_ref) / c), seen by a point moving at v with the factor
      * (1 - v / c); or one record per support line, a point taking the nearest line */
-    double f = E->apparent_velocity > 0.0 ? 1.0 - w->v / E->apparent_velocity : 1.0;
-    double fa = E->apparent_velocity > 0.0 ? w->a / E->apparent_velocity : 0.0; /* -(a/c) q' */
     long nrec = n_recorded(S);
-    for (i = 0; i < nc; ++i) {
-      double q[3];
-      ground_at(S, E, 0, t, w->cx[i], q);
-      w->under[i] = q[0];
-      w->under[nc + i] = E->apparent_velocity > 0.0 ? f * q[1] : q[1];
-      w->under[2 * nc + i] = E->apparent_velocity > 0.0 ? f * f * q[2] : q[2];
-      if (fa != 0.0) w->under[2 * nc + i] -= fa * q[1];
-      ground_at(S, E, 1, t, w->cx[i], q);
-      w->ulon[i] = E->apparent_velocity > 0.0 ? f * q[1] : q[1];
-    }
+    ground_under(S, E, w, t);
     for (s = 0; s < S->spans; ++s) {
       for (j = 0; j < ns; ++j) {
         int k = s * ns + j;

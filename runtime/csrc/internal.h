@@ -154,22 +154,34 @@ typedef struct {
   double* Kdinv; /* nd: reciprocal diagonal of the span factor Kb */
   double* XB;    /* nd x pad: span right-hand sides, DOF after DOF over the spans padded to SW */
   double* Kvinv; /* NV x NV: inverse of the car's effective matrix */
+  /* ---- a bridge of substructures (general.c) ---- */
+  int* lpos;     /* nlinks: interface position of every link */
+  double* lam;   /* nlinks: link forces of the contact forces, Lambda' */
+  double* lam0;  /* nlinks: link forces closing the predictor */
+  double* LA;    /* nlinks x (band_links + 1): Cholesky factor of A = L S L^T + diag(1/k) */
 } work_t;
 
 /* Element (s, i) of a bridge-state array: span after span, or DOF after DOF over the spans padded
  * to a multiple of LW (localized). */
 #define BR(b, s, i) ((b)[w->blocked ? (long)(i) * w->pad + (s) : (long)(s) * S->nd + (i)])
 
-/* Unknowns of the interface system (contact forces, or multipliers). */
+/* Support slots: ns per span, or three per substructure (general: S->g_slot_*). */
+static inline long n_slots(const setup_t* S) { return S->general ? 3L * S->nsub : (long)S->spans * S->ns; }
+
+/* Substructures whose state the loop holds: the spans, and the piers of a general bridge. */
+static inline long n_subs(const setup_t* S) { return S->general ? S->nsub : S->spans; }
+
+/* Unknowns of the interface system (contact forces, or multipliers; general: and link forces). */
 static inline long n_multipliers(const setup_t* S) {
   long NS = (long)S->spans * S->ns;
+  if (S->method == 0 && S->general) return (long)S->nc + S->nlinks;
   if (S->method == 0) return S->moving_load ? 1 : S->nc;
   if (S->moving_load) return NS;
   return (S->method == 1 ? 2L * S->nc : (long)S->nc) + NS;
 }
 
 /* Recorded ground values per output row (per support). */
-static inline long n_recorded(const setup_t* S) { return (long)S->spans * S->ns; }
+static inline long n_recorded(const setup_t* S) { return S->general ? S->nact : (long)S->spans * S->ns; }
 
 /* excite.c: positions, rail irregularity and ground motion at t = (n + 1) dt. */
 void svbi_excite(const setup_t* S, const excitation_t* E, work_t* w, long n, double t);
@@ -182,6 +194,17 @@ void svbi_support_targets(const setup_t* S, work_t* w);
 void svbi_bridge_update_histories(const setup_t* S, work_t* w);
 void svbi_span_load(const setup_t* S, const work_t* w, int s, double* f);
 void svbi_bridge_update(const setup_t* S, work_t* w);
+
+/* general.c: a bridge of substructures joined by links (localized-dynamic). */
+void svbi_general_locate(const setup_t* S, work_t* w);
+void svbi_general_targets(const setup_t* S, work_t* w);
+void svbi_general_predictor(const setup_t* S, work_t* w, const double* creep);
+int svbi_general_interface(const setup_t* S, work_t* w, const int* active, double* P);
+double svbi_general_deflection(const setup_t* S, const work_t* w, const double* P, int c);
+void svbi_general_correct(const setup_t* S, work_t* w, const double* P);
+void svbi_general_link_forces(const setup_t* S, work_t* w, const double* P);
+int svbi_general_init(const setup_t* S, work_t* w);
+void svbi_general_reactions(const setup_t* S, const state_t* X, const work_t* w, double* out);
 
 /* localized.c, coupled.c: one step of each method. */
 int svbi_step_localized(const setup_t* S, state_t* X, work_t* w);

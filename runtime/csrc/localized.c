@@ -171,6 +171,7 @@ static double row_S_N0(const double* X, const int* nzX, int nX, const double* Sr
  * (airborne) wheel's row is P_i = 0 (svbi.runtime.localized._active_set_solve). */
 static int interface_solve(const setup_t* S, work_t* w, int bw, const int* active, double* P) {
   int k, i, j, s, nc = S->nc, nd = S->nd, status;
+  if (S->general) return svbi_general_interface(S, w, active, P);
   svbi_gb_zero(w->band, nc, bw);
   for (k = 0; k < S->cars; ++k)
     for (i = 0; i < NW; ++i)
@@ -220,6 +221,7 @@ static double predicted_uplift(const setup_t* S, const work_t* w, const double* 
     pv += (S->c_g[j] * P[cj] - w->dV[cj]) * S->V_B[i * NW + j];
   }
   ug = w->pt[c] + S->c_g[i] * (P[c] - pv);
+  if (w->con[c] && S->general) return ug - (rail - svbi_general_deflection(S, w, P, c));
   if (w->con[c]) { /* less the rail's deflection under this step's contact forces */
     const double* Nc = w->crow + (long)c * ROW_COLS + COL_N0;
     int s = w->cspan[c];
@@ -244,15 +246,26 @@ int svbi_step_localized(const setup_t* S, state_t* X, work_t* w) {
   w->hist = 1;
   svbi_group_by_span(S, w);
 #if SVBI_MOVING_LOAD
-  localized_predictor(S, w, 0);
+  if (S->general)
+    svbi_general_predictor(S, w, 0);
+  else
+    localized_predictor(S, w, 0);
 #else
-  localized_predictor(S, w, S->creep ? X->creep_force : 0);
+  if (S->general)
+    svbi_general_predictor(S, w, S->creep ? X->creep_force : 0);
+  else
+    localized_predictor(S, w, S->creep ? X->creep_force : 0);
 #endif
 #if SVBI_MOVING_LOAD
   {
     int i;
     for (i = 0; i < nc; ++i) w->rhs[i] = w->con[i] ? S->axle_loads[i] : 0.0;
-    localized_correct(S, w, w->rhs);
+    if (S->general) {
+      svbi_general_link_forces(S, w, w->rhs);
+      svbi_general_correct(S, w, w->rhs);
+    } else {
+      localized_correct(S, w, w->rhs);
+    }
     svbi_bridge_update_histories(S, w);
     for (i = 0; i < nc; ++i) {
       X->P[i] = S->axle_loads[i];
@@ -301,15 +314,16 @@ int svbi_step_localized(const setup_t* S, state_t* X, work_t* w) {
         w->rhs[c] = w->hB[c] - w->pt[c] + wu - S->c_g[i] * bd;
       }
     }
-    /* interface matrix F* + F_B, banded in track order */
+    /* interface matrix F* + F_B, banded in track order (a general bridge: with its links) */
     bw = S->bw_car;
     for (s = 0; s < S->spans; ++s) {
       int run = w->sstart[s + 1] - w->sstart[s];
       if (run - 1 > bw) bw = run - 1;
     }
-    if (bw > S->bw_max) return ST_BANDWIDTH;
+    if (!S->general && bw > S->bw_max) return ST_BANDWIDTH;
     if (bw > nc - 1) bw = nc - 1;
-    for (k = 0; k < nc; ++k) w->cpos[S->order[k]] = k;
+    if (!S->general)
+      for (k = 0; k < nc; ++k) w->cpos[S->order[k]] = k;
     if (!S->unilateral) {
       status = interface_solve(S, w, bw, 0, X->P);
       if (status) return status;
@@ -371,7 +385,10 @@ int svbi_step_localized(const setup_t* S, state_t* X, work_t* w) {
         u[d] += du[d];
       }
     }
-    localized_correct(S, w, X->P);
+    if (S->general)
+      svbi_general_correct(S, w, X->P);
+    else
+      localized_correct(S, w, X->P);
     svbi_bridge_update_histories(S, w);
     if (S->creep) svbi_creep_update(S, X, w);
   }

@@ -65,14 +65,19 @@ int svbi_record(const setup_t* S, const state_t* X, const excitation_t* E, outpu
   O->time[row] = X->t;
   for (s = 0; s < S->spans; ++s) {
     double uz = 0.0, ux = 0.0, az = 0.0;
-    for (j = 0; j < NE; ++j) uz += BR(w->bu, s, S->mid_first + j) * S->mid_w[j];
+    const double* mid_w = S->general ? S->g_mid_w + NE * s : S->mid_w; /* its span's element length */
+    for (j = 0; j < NE; ++j) uz += BR(w->bu, s, S->mid_first + j) * mid_w[j];
     for (j = 0; j < NE; ++j) ux += BR(w->bu, s, S->mid_first + j) * S->mid_u[j];
-    for (j = 0; j < NE; ++j) az += BR(w->ba, s, S->mid_first + j) * S->mid_w[j];
+    for (j = 0; j < NE; ++j) az += BR(w->ba, s, S->mid_first + j) * mid_w[j];
     O->midspan_uz[row * S->spans + s] = uz;
     O->midspan_ux[row * S->spans + s] = ux;
     O->deck_acceleration[row * S->spans + s] = az;
     O->end_rotation[(row * S->spans + s) * 2] = BR(w->bu, s, 2);
     O->end_rotation[(row * S->spans + s) * 2 + 1] = BR(w->bu, s, S->nd - 1);
+  }
+  if (S->general && S->nsub > S->spans) { /* the pier tops */
+    int np = S->nsub - S->spans;
+    for (j = 0; j < np; ++j) O->pier_top_ux[row * np + j] = BR(w->bu, S->spans + j, 3 * S->elements);
   }
   if (E->ground_per_support) {
     long nrec = n_recorded(S);
@@ -92,15 +97,25 @@ int svbi_record(const setup_t* S, const state_t* X, const excitation_t* E, outpu
     for (i = 0; i < nc; ++i) O->creepage[row * nc + i] = X->creepage[i];
   }
 #endif
-  for (s = 0; s < S->spans; ++s) {
-    for (j = 0; j < ns; ++j) {
-      int k = s * ns + j;
-      double g = w->qs[k] - BR(w->bu, s, S->sup[j]);
-      O->gap_support[row * NS + k] = g;
+  if (S->general) {
+    for (j = 0; j < S->nact; ++j) {
+      int k = S->g_act_slot[j];
+      double g = w->qs[k] - BR(w->bu, k / 3, S->g_slot_dof[k]);
+      O->gap_support[row * S->nact + j] = g;
       worst_of(&worst_s, g);
     }
+    svbi_general_reactions(S, X, w, O->support_reaction + row * S->nact);
+  } else {
+    for (s = 0; s < S->spans; ++s) {
+      for (j = 0; j < ns; ++j) {
+        int k = s * ns + j;
+        double g = w->qs[k] - BR(w->bu, s, S->sup[j]);
+        O->gap_support[row * NS + k] = g;
+        worst_of(&worst_s, g);
+      }
+    }
+    support_reactions(S, X, O, w, row);
   }
-  support_reactions(S, X, O, w, row);
 #if SVBI_MOVING_LOAD
   for (i = 0; i < nc; ++i) {
     O->gap_vehicle[row * nc + i] = 0.0;

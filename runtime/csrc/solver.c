@@ -48,7 +48,8 @@ static int* take_i(carver_t* c, long n) {
 }
 
 static void carve(const setup_t* S, carver_t* c, work_t* w) {
-  long nc = S->nc, nd = S->nd, spans = S->spans, NS = (long)S->spans * S->ns;
+  long nc = S->nc, nd = S->nd, spans = S->spans, NS = (long)S->spans * S->ns, NSL = n_slots(S);
+  long subs = n_subs(S);
   long nm = n_multipliers(S);
   long nv = SVBI_NV;
   w->cx = take_d(c, nc);
@@ -63,11 +64,11 @@ static void carve(const setup_t* S, carver_t* c, work_t* w) {
   w->cpos = take_i(c, nc);
   w->active = take_i(c, nc);
   w->rows_now = take_d(c, (ROW_DEG + 1) * ROW_COLS);
-  w->qs = take_d(c, 3 * NS);
+  w->qs = take_d(c, 3 * NSL);
   w->grec = take_d(c, 2 * n_recorded(S));
-  w->qhat = take_d(c, NS);
-  w->PB = take_d(c, spans * nd);
-  w->QB = take_d(c, spans * nd);
+  w->qhat = take_d(c, NSL);
+  w->PB = take_d(c, subs * nd);
+  w->QB = take_d(c, subs * nd);
   w->fb = take_d(c, nd);
   w->rf = take_d(c, nd);
   w->Lff = take_d(c, (long)S->nfree * (S->band_pf + 1));
@@ -108,13 +109,13 @@ static void carve(const setup_t* S, carver_t* c, work_t* w) {
   w->afirst = take_i(c, S->ns + nc);
   w->alen = take_i(c, S->ns + nc);
   {
-    long padded = S->method == 0 ? (spans + LW - 1) / LW * LW : 0;
+    long padded = S->method == 0 && !S->general ? (spans + LW - 1) / LW * LW : 0;
     w->TU = take_d(c, padded * nd);
     w->TV = take_d(c, padded * nd);
     w->TA = take_d(c, padded * nd);
     w->qb = take_d(c, 2L * S->ns * (padded > 0 ? padded : LW));
     w->RF = take_d(c, padded * (long)S->nfree);
-    if (S->method == 0) {
+    if (padded) {
       /* the Newmark histories of the blocked state */
       w->PB = take_d(c, padded * nd);
       w->QB = take_d(c, padded * nd);
@@ -125,11 +126,12 @@ static void carve(const setup_t* S, carver_t* c, work_t* w) {
   w->lidx = take_i(c, spans);
   w->lspan = take_i(c, spans);
   {
-    long nz = S->method == 0 ? (long)S->nfree * S->band_pf : 0;
-    w->fw_ptr = take_i(c, S->method == 0 ? S->nfree + 1 : 0);
+    int blocked = S->method == 0 && !S->general;
+    long nz = blocked ? (long)S->nfree * S->band_pf : 0;
+    w->fw_ptr = take_i(c, blocked ? S->nfree + 1 : 0);
     w->fw_r = take_i(c, nz);
     w->fw_c = take_d(c, nz);
-    w->bk_ptr = take_i(c, S->method == 0 ? S->nfree + 1 : 0);
+    w->bk_ptr = take_i(c, blocked ? S->nfree + 1 : 0);
     w->bk_r = take_i(c, nz);
     w->bk_c = take_d(c, nz);
   }
@@ -144,6 +146,14 @@ static void carve(const setup_t* S, carver_t* c, work_t* w) {
     w->Kdinv = take_d(c, on * nd);
     w->XB = take_d(c, cpad * nd);
     w->Kvinv = take_d(c, on * nv * nv);
+  }
+  {
+    /* a bridge of substructures (general.c) */
+    long nl = S->general ? S->nlinks : 0;
+    w->lpos = take_i(c, nl);
+    w->lam = take_d(c, nl);
+    w->lam0 = take_d(c, nl);
+    w->LA = take_d(c, nl * (S->band_links + 1));
   }
 }
 
@@ -240,7 +250,10 @@ int svbi_solver_init(const setup_t* S, double* work, int* iwork) {
     status = svbi_coupled_init(S, &w);
     if (status) return status;
   }
-  if (S->method == 0) {
+  if (S->general) {
+    status = svbi_general_init(S, &w);
+    if (status) return status;
+  } else if (S->method == 0) {
     memcpy(w.Lff, S->Khat_ff_band, sizeof(double) * (size_t)S->nfree * (size_t)(S->band_pf + 1));
     status = svbi_band_cholesky(w.Lff, S->nfree, S->band_pf);
     if (status) return status;
@@ -275,7 +288,7 @@ int svbi_solver_init(const setup_t* S, double* work, int* iwork) {
 
 /* The bridge state the steps work on: blocked copies for localized-dynamic. */
 static void bridge_view(const setup_t* S, state_t* X, work_t* w) {
-  if (S->method == 0) {
+  if (S->method == 0 && !S->general) {
     long s, i, nd = S->nd;
     w->pad = (S->spans + LW - 1) / LW * LW;
     w->nb = w->pad * nd;
@@ -301,12 +314,12 @@ static void bridge_view(const setup_t* S, state_t* X, work_t* w) {
     w->ba = X->aB;
     w->blocked = 0;
     w->hist = 0;
-    w->nb = (long)S->spans * S->nd;
+    w->nb = n_subs(S) * S->nd;
   }
 }
 
 static void bridge_store(const setup_t* S, state_t* X, const work_t* w) {
-  if (S->method == 0) {
+  if (S->method == 0 && !S->general) {
     long s, i, nd = S->nd;
     for (s = 0; s < S->spans; ++s) {
       for (i = 0; i < nd; ++i) {
@@ -337,7 +350,10 @@ int svbi_solver_run(const setup_t* S, state_t* X, const excitation_t* E, outputs
   for (n = n0; n < n0 + count; ++n) {
     double t = (double)(n + 1) * S->dt;
     svbi_excite(S, E, &w, n, t);
-    svbi_locate(S, &w);
+    if (S->general)
+      svbi_general_locate(S, &w);
+    else
+      svbi_locate(S, &w);
     if (S->method == 0)
       status = svbi_step_localized(S, X, &w);
     else

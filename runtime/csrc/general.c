@@ -1,0 +1,385 @@
+/*
+ * A bridge of substructures in the localized method (svbi.runtime.substructures, docs/method.md
+ * section 13): spans and pier columns of several kinds, each with its supports held at their targets
+ * (u = S f + R q^ per kind), joined by links (girder continuity, bearings on pier tops) whose forces
+ * Lambda load both ends. The paper's bridge (identical simply supported spans) keeps the blocked
+ * path of localized.c; this file serves every other bridge.
+ *
+ * The link forces are not eliminated with a dense matrix: the interface system of the step carries
+ * them as unknowns beside the contact forces, in one band ordered along the bridge (contacts front
+ * to back, each link at its support line), so that the cost stays linear in spans, piers and cars:
+ *
+ *     [ F* + F_B,same   -C_W ] [ P       ]   [ rhs ]
+ *     [ -C_N^T           A   ] [ Lambda' ] = [ 0   ]
+ *
+ * with C_X = X S L^T (X: the rows W_hat or N of the contacts), A = L S L^T + diag(1/k). Eliminating
+ * Lambda' gives the NumPy backend's (F* + F_B) P = rhs with F_B = W_hat S_eff N^T; Lambda' are the
+ * link forces of the contacts' loads (u = u~ - S (N^T P - L^T Lambda')).
+ *
+ * The bridge state is substructure after substructure (work_t blocked = 0).
+ */
+#include "internal.h"
+
+static inline const double* kind_S(const setup_t* S, int sub) {
+  return S->g_S + (long)S->g_kind[sub] * S->nd * S->nd;
+}
+
+/* Span (by the support lines), element, local coordinate and contact rows of every contact
+ * (svbi.runtime.bridge.Bridge.locate): each span has its own element length and row table. */
+void svbi_general_locate(const setup_t* S, work_t* w) {
+  int i, p, spans = S->spans;
+  long table = (long)(ROW_DEG + 1) * ROW_COLS;
+  const double* line = S->g_line_x;
+  for (i = 0; i < S->nc; ++i) {
+    double x = w->cx[i], local, element, xi, pw[ROW_DEG + 1];
+    double* row = w->crow + (long)i * ROW_COLS;
+    const double* cf;
+    int lo = 0, hi = spans + 1, span;
+    while (lo < hi) { /* numpy.searchsorted(line, x, side="right") */
+      int mid = (lo + hi) / 2;
+      if (line[mid] <= x)
+        lo = mid + 1;
+      else
+        hi = mid;
+    }
+    span = lo - 1;
+    if (span < 0) span = 0;
+    if (span > spans - 1) span = spans - 1;
+    w->con[i] = x >= 0.0 && x < line[spans];
+    local = (x - line[span]) * S->g_inv_el[span];
+    element = floor(local);
+    if (element < 0.0) element = 0.0;
+    if (element > S->elements - 1) element = (double)(S->elements - 1);
+    xi = local - element;
+    if (xi < 0.0) xi = 0.0;
+    if (xi > 1.0) xi = 1.0;
+    w->cspan[i] = span;
+    w->cfirst[i] = 3 * (int)element;
+    w->cxi[i] = xi;
+    cf = (S->acceleration == 0.0 ? S->rows : w->rows_now) + S->g_rclass[span] * table;
+    pw[0] = 1.0;
+    for (p = 1; p <= ROW_DEG; ++p) pw[p] = pw[p - 1] * xi;
+    svbi_contact_rows(pw, cf, row);
+  }
+}
+
+/* The support targets q^ of every slot (the point row of Eq. 22; unused slots get a harmless value:
+ * their column of R is zero). */
+void svbi_general_targets(const setup_t* S, work_t* w) {
+  int k, NSL = 3 * S->nsub, nd = S->nd;
+  for (k = 0; k < NSL; ++k) {
+    long d = (long)(k / 3) * nd + S->g_slot_dof[k];
+    w->qhat[k] = S->p_P * w->PB[d] + S->p_Q * w->QB[d] + S->p_q2 * w->qs[2 * NSL + k] +
+                 S->p_q1 * w->qs[NSL + k] + S->p_q * w->qs[k];
+  }
+}
+
+/* u[a] -= col_a lambda, u[b] += col_b lambda for every link: u - S L^T lambda. */
+static void link_load(const setup_t* S, work_t* w, const double* lambda, double sign) {
+  int l, d, nd = S->nd;
+  for (l = 0; l < S->nlinks; ++l) {
+    double f = sign * lambda[l];
+    double* ua = w->bu + (long)S->g_lk_a_sub[l] * nd;
+    double* ub = w->bu + (long)S->g_lk_b_sub[l] * nd;
+    const double* ca = S->g_lk_col_a + (long)l * nd;
+    const double* cb = S->g_lk_col_b + (long)l * nd;
+    if (f == 0.0) continue;
+    for (d = 0; d < nd; ++d) ua[d] -= ca[d] * f;
+    for (d = 0; d < nd; ++d) ub[d] += cb[d] * f;
+  }
+}
+
+/* The predictor: every substructure u = S (M P + C Q + C T q' - W_T^B F_creep) + R q^ (supports at
+ * their targets), then the links closed on their stabilised rows (Links.targets: the point row of
+ * Eq. 22 with no ground for a rigid link, 0 for a spring): Lambda0 = A^-1 (L u - g^). */
+void svbi_general_predictor(const setup_t* S, work_t* w, const double* creep) {
+  int s, i, j, q, l, nd = S->nd, NSL = 3 * S->nsub;
+  double* f = w->fb;
+  for (s = 0; s < S->nsub; ++s) {
+    int kind = S->g_kind[s];
+    const int* ptr = S->g_mck_ptr + (long)kind * (nd + 1);
+    const double* P = w->PB + (long)s * nd;
+    const double* Q = w->QB + (long)s * nd;
+    const double* Sk = kind_S(S, s);
+    const double* Rk = S->g_R + (long)kind * nd * 3;
+    const double* qh = w->qhat + 3L * s;
+    double* u = w->bu + (long)s * nd;
+    for (i = 0; i < nd; ++i) {
+      double v = 0.0;
+      long r = (long)s * nd + i;
+      for (q = ptr[i]; q < ptr[i + 1]; ++q) v += S->g_m[q] * P[S->g_mck_idx[q]] + S->g_c[q] * Q[S->g_mck_idx[q]];
+      for (q = S->g_ct_ptr[r]; q < S->g_ct_ptr[r + 1]; ++q)
+        v += S->g_ct_val[q] * w->qs[NSL + S->g_act_slot[S->g_ct_idx[q]]];
+      f[i] = v;
+    }
+#if !SVBI_MOVING_LOAD
+    if (creep && s < S->spans) { /* the creep forces of t_n load the rail (svbi.runtime.wheel_creep) */
+      int c;
+      for (c = 0; c < S->nc; ++c) {
+        if (w->con[c] && w->cspan[c] == s && creep[c] != 0.0) {
+          const double* T0 = w->crow + (long)c * ROW_COLS + COL_T0;
+          for (q = 0; q < NNZ_T0; ++q) f[w->cfirst[c] + nz_T0[q]] -= T0[nz_T0[q]] * creep[c];
+        }
+      }
+    }
+#else
+    (void)creep;
+#endif
+    for (i = 0; i < nd; ++i) {
+      const double* Si = Sk + (long)i * nd;
+      double v = 0.0;
+      for (j = 0; j < nd; ++j) v += Si[j] * f[j];
+      for (j = 0; j < 3; ++j) v += Rk[i * 3 + j] * qh[j];
+      u[i] = v;
+    }
+  }
+  if (!S->nlinks) return;
+  for (l = 0; l < S->nlinks; ++l) {
+    long a = (long)S->g_lk_a_sub[l] * nd + S->g_lk_a_dof[l], b = (long)S->g_lk_b_sub[l] * nd + S->g_lk_b_dof[l];
+    double target = S->g_lk_spring[l] ? 0.0 : S->p_P * (w->PB[a] - w->PB[b]) + S->p_Q * (w->QB[a] - w->QB[b]);
+    w->lam0[l] = w->bu[a] - w->bu[b] - target;
+  }
+  svbi_band_solve(w->LA, S->nlinks, S->band_links, w->lam0);
+  link_load(S, w, w->lam0, 1.0);
+}
+
+/* X S_sub col over the row X's non-zeros (element DOFs from first), col a column of S. */
+static inline double row_dot(const double* X, const int* nzX, int nX, const double* col, int first) {
+  int a;
+  double f = 0.0;
+  for (a = 0; a < nX; ++a) f += X[nzX[a]] * col[first + nzX[a]];
+  return f;
+}
+
+/* X S N0_j^T for row X of contact i and contact j's N0 on the same substructure (Srows: S from i's
+ * first DOF, row-major). */
+static double pair_same(const double* X, const int* nzX, int nX, const double* Srows, int nd, int firstj,
+                        const double* N0) {
+  int a, b;
+  double f = 0.0;
+  for (a = 0; a < nX; ++a) {
+    const double* Sr = Srows + (long)nzX[a] * nd + firstj;
+    double t = 0.0;
+    for (b = 0; b < NNZ_N0; ++b) t += Sr[nz_N0[b]] * N0[nz_N0[b]];
+    f += X[nzX[a]] * t;
+  }
+  return f;
+}
+
+/* X S L_l^T for row X of a contact on substructure s at element DOFs from first: the column of the
+ * link's end on s (+ end a, - end b). */
+static double row_link(const setup_t* S, const double* X, const int* nzX, int nX, int s, int first, int l) {
+  double f = 0.0;
+  int nd = S->nd;
+  if (S->g_lk_a_sub[l] == s) f += row_dot(X, nzX, nX, S->g_lk_col_a + (long)l * nd, first);
+  if (S->g_lk_b_sub[l] == s) f -= row_dot(X, nzX, nX, S->g_lk_col_b + (long)l * nd, first);
+  return f;
+}
+
+/* Interface positions (contacts in track order, links at their lines, one order along the bridge)
+ * and the half bandwidth they give this step. */
+static int order_and_bandwidth(const setup_t* S, work_t* w) {
+  int i = 0, l = 0, k, s, m, bw = 0, nc = S->nc, nl = S->nlinks;
+  for (k = 0; k < nc + nl; ++k) {
+    if (l >= nl || (i < nc && w->cx[S->order[i]] >= S->g_lk_x[l]))
+      w->cpos[S->order[i++]] = k;
+    else
+      w->lpos[l++] = k;
+  }
+#if !SVBI_MOVING_LOAD
+  for (k = 0; k < S->cars; ++k) {
+    int lo = w->cpos[k * NW], hi = lo;
+    for (i = 1; i < NW; ++i) {
+      int p = w->cpos[k * NW + i];
+      lo = p < lo ? p : lo;
+      hi = p > hi ? p : hi;
+    }
+    if (hi - lo > bw) bw = hi - lo;
+  }
+#endif
+  for (s = 0; s < S->nsub; ++s) {
+    int lo = 1 << 30, hi = -1;
+    if (s < S->spans) {
+      for (m = w->sstart[s]; m < w->sstart[s + 1]; ++m) {
+        int p = w->cpos[w->slist[m]];
+        lo = p < lo ? p : lo;
+        hi = p > hi ? p : hi;
+      }
+    }
+    for (m = S->g_sl_ptr[s]; m < S->g_sl_ptr[s + 1]; ++m) {
+      int p = w->lpos[S->g_sl_link[m]];
+      lo = p < lo ? p : lo;
+      hi = p > hi ? p : hi;
+    }
+    if (hi - lo > bw) bw = hi - lo;
+  }
+  if (S->nlinks) {
+    for (l = 0; l < nl; ++l) {
+      int r;
+      for (r = 1; r <= S->band_links && l + r < nl; ++r) {
+        if (S->g_lk_A[(long)l * (S->band_links + 1) + r] != 0.0) {
+          int d = w->lpos[l + r] - w->lpos[l];
+          if (d > bw) bw = d;
+        }
+      }
+    }
+  }
+  return bw;
+}
+
+/* The interface system of the step (file comment), banded along the bridge; an inactive (airborne)
+ * wheel's row is P_i = 0. P: the contact forces; w->lam: the link forces Lambda'. */
+int svbi_general_interface(const setup_t* S, work_t* w, const int* active, double* P) {
+  int k, i, j, s, m1, m2, l, status, nc = S->nc, nl = S->nlinks, nd = S->nd, n = nc + nl;
+  int bw = order_and_bandwidth(S, w);
+  if (bw > S->bw_max) return ST_BANDWIDTH;
+  if (bw > n - 1) bw = n - 1;
+  if (bw < 1) bw = n > 1 ? 1 : 0;
+  svbi_gb_zero(w->band, n, bw);
+#if !SVBI_MOVING_LOAD
+  for (k = 0; k < S->cars; ++k)
+    for (i = 0; i < NW; ++i)
+      for (j = 0; j < NW; ++j)
+        svbi_gb_add(w->band, bw, w->cpos[k * NW + i], w->cpos[k * NW + j], S->V_Fstar[i * NW + j]);
+#endif
+  for (s = 0; s < S->spans; ++s) {
+    const double* Sk = kind_S(S, s);
+    for (m1 = w->sstart[s]; m1 < w->sstart[s + 1]; ++m1) {
+      int ci = w->slist[m1], fi = w->cfirst[ci];
+      const double* Wh = w->crow + (long)ci * ROW_COLS + COL_W_HAT;
+      const double* Ni = w->crow + (long)ci * ROW_COLS + COL_N0;
+      const double* Srows = Sk + (long)fi * nd;
+      for (m2 = w->sstart[s]; m2 < w->sstart[s + 1]; ++m2) {
+        int cj = w->slist[m2];
+        const double* N0 = w->crow + (long)cj * ROW_COLS + COL_N0;
+        svbi_gb_add(w->band, bw, w->cpos[ci], w->cpos[cj],
+                    pair_same(Wh, nz_W_hat, NNZ_W_HAT, Srows, nd, w->cfirst[cj], N0));
+      }
+      for (m2 = S->g_sl_ptr[s]; m2 < S->g_sl_ptr[s + 1]; ++m2) {
+        l = S->g_sl_link[m2];
+        svbi_gb_add(w->band, bw, w->cpos[ci], w->lpos[l], -row_link(S, Wh, nz_W_hat, NNZ_W_HAT, s, fi, l));
+        svbi_gb_add(w->band, bw, w->lpos[l], w->cpos[ci], -row_link(S, Ni, nz_N0, NNZ_N0, s, fi, l));
+      }
+    }
+  }
+  for (l = 0; l < nl; ++l) { /* A, from its lower band */
+    int r, p = S->band_links;
+    const double* col = S->g_lk_A + (long)l * (p + 1);
+    svbi_gb_add(w->band, bw, w->lpos[l], w->lpos[l], col[0]);
+    for (r = 1; r <= p && l + r < nl; ++r) {
+      if (col[r] == 0.0) continue;
+      svbi_gb_add(w->band, bw, w->lpos[l + r], w->lpos[l], col[r]);
+      svbi_gb_add(w->band, bw, w->lpos[l], w->lpos[l + r], col[r]);
+    }
+  }
+  for (i = 0; i < nc; ++i) w->bsol[w->cpos[i]] = w->rhs[i];
+  for (l = 0; l < nl; ++l) w->bsol[w->lpos[l]] = 0.0;
+  if (active) {
+    for (i = 0; i < nc; ++i) {
+      if (!active[i]) {
+        int r = w->cpos[i], c0 = r - bw > 0 ? r - bw : 0, c1 = r + bw < n - 1 ? r + bw : n - 1, cc;
+        for (cc = c0; cc <= c1; ++cc) w->band[(2 * bw + r - cc) + (long)cc * (3 * bw + 1)] = 0.0;
+        svbi_gb_add(w->band, bw, r, r, 1.0);
+        w->bsol[r] = 0.0;
+      }
+    }
+  }
+  status = svbi_gb_factor_r(w->band, n, bw, w->piv, w->rpiv);
+  if (status) return status;
+  svbi_gb_solve_r(w->band, n, bw, w->piv, w->rpiv, w->bsol);
+  for (i = 0; i < nc; ++i) P[i] = w->bsol[w->cpos[i]];
+  for (l = 0; l < nl; ++l) w->lam[l] = w->bsol[w->lpos[l]];
+  return ST_OK;
+}
+
+/* (F_NN P)_c: the rail's deflection under contact c from this step's contact forces, through its
+ * substructure and the links (the NumPy backend's Bridge compliance pair(N, N) P). */
+double svbi_general_deflection(const setup_t* S, const work_t* w, const double* P, int c) {
+  int m, s = w->cspan[c], fc = w->cfirst[c], nd = S->nd;
+  const double* Nc = w->crow + (long)c * ROW_COLS + COL_N0;
+  const double* Srows = kind_S(S, s) + (long)fc * nd;
+  double f = 0.0;
+  for (m = w->sstart[s]; m < w->sstart[s + 1]; ++m) {
+    int cj = w->slist[m];
+    const double* Nj = w->crow + (long)cj * ROW_COLS + COL_N0;
+    f += pair_same(Nc, nz_N0, NNZ_N0, Srows, nd, w->cfirst[cj], Nj) * P[cj];
+  }
+  for (m = S->g_sl_ptr[s]; m < S->g_sl_ptr[s + 1]; ++m) {
+    int l = S->g_sl_link[m];
+    f -= row_link(S, Nc, nz_N0, NNZ_N0, s, fc, l) * w->lam[l];
+  }
+  return f;
+}
+
+/* u -= S (N^T P - L^T Lambda'): the contact forces and the link forces they call up. */
+void svbi_general_correct(const setup_t* S, work_t* w, const double* P) {
+  int c, q, d, nd = S->nd;
+  for (c = 0; c < S->nc; ++c) {
+    if (w->con[c] && P[c] != 0.0) {
+      const double* N0 = w->crow + (long)c * ROW_COLS + COL_N0;
+      const double* Sk = kind_S(S, w->cspan[c]);
+      double* u = w->bu + (long)w->cspan[c] * nd;
+      for (q = 0; q < NNZ_N0; ++q) {
+        /* S is symmetric: its row at the loaded DOF is the column */
+        const double* col = Sk + (long)(w->cfirst[c] + nz_N0[q]) * nd;
+        double f = N0[nz_N0[q]] * P[c];
+        for (d = 0; d < nd; ++d) u[d] -= col[d] * f;
+      }
+    }
+  }
+  if (S->nlinks) link_load(S, w, w->lam, -1.0);
+}
+
+/* Lambda' = A^-1 C_N^T P for prescribed forces P (moving loads; the interface system's link rows). */
+void svbi_general_link_forces(const setup_t* S, work_t* w, const double* P) {
+  int c, m, l;
+  if (!S->nlinks) return;
+  for (l = 0; l < S->nlinks; ++l) w->lam[l] = 0.0;
+  for (c = 0; c < S->nc; ++c) {
+    int s = w->cspan[c];
+    const double* Nc = w->crow + (long)c * ROW_COLS + COL_N0;
+    if (!w->con[c]) continue;
+    for (m = S->g_sl_ptr[s]; m < S->g_sl_ptr[s + 1]; ++m) {
+      l = S->g_sl_link[m];
+      w->lam[l] += row_link(S, Nc, nz_N0, NNZ_N0, s, w->cfirst[c], l) * P[c];
+    }
+  }
+  svbi_band_solve(w->LA, S->nlinks, S->band_links, w->lam);
+}
+
+/* Factor the link matrix once (svbi_solver_init). */
+int svbi_general_init(const setup_t* S, work_t* w) {
+  if (!S->nlinks) return ST_OK;
+  memcpy(w->LA, S->g_lk_A, sizeof(double) * (size_t)S->nlinks * (size_t)(S->band_links + 1));
+  return svbi_band_cholesky(w->LA, S->nlinks, S->band_links);
+}
+
+/* Support reactions of a bridge of substructures (svbi.runtime.reactions.support_reactions): the
+ * residual M a + C v - C T q' + K u + N P at every DOF merged with each active support, summed. */
+void svbi_general_reactions(const setup_t* S, const state_t* X, const work_t* w, double* out) {
+  int k, m, q, c, nd = S->nd, NSL = 3 * S->nsub;
+  for (k = 0; k < S->nact; ++k) {
+    double r = 0.0;
+    for (m = S->g_rx_ptr[k]; m < S->g_rx_ptr[k + 1]; ++m) {
+      int s = S->g_rx_sub[m], dof = S->g_rx_dof[m], kind = S->g_kind[s];
+      long row = (long)s * nd + dof;
+      const int* ptr = S->g_mck_ptr + (long)kind * (nd + 1);
+      const double* a = w->ba + (long)s * nd;
+      const double* v = w->bv + (long)s * nd;
+      const double* u = w->bu + (long)s * nd;
+      double f = 0.0;
+      for (q = ptr[dof]; q < ptr[dof + 1]; ++q) {
+        int j = S->g_mck_idx[q];
+        f += S->g_m[q] * a[j] + S->g_c[q] * v[j] + S->g_k[q] * u[j];
+      }
+      for (q = S->g_ct_ptr[row]; q < S->g_ct_ptr[row + 1]; ++q)
+        f -= S->g_ct_val[q] * w->qs[NSL + S->g_act_slot[S->g_ct_idx[q]]];
+      for (c = 0; c < S->nc; ++c) {
+        if (w->con[c] && w->cspan[c] == s && dof >= w->cfirst[c] && dof < w->cfirst[c] + NE)
+          f += w->crow[(long)c * ROW_COLS + COL_N0 + dof - w->cfirst[c]] * X->P[c];
+      }
+      r += f;
+    }
+    out[k] = r;
+  }
+}
