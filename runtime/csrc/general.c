@@ -230,17 +230,20 @@ static int order_and_bandwidth(const setup_t* S, work_t* w) {
 /* The interface system of the step (file comment), banded along the bridge; an inactive (airborne)
  * wheel's row is P_i = 0. P: the contact forces; w->lam: the link forces Lambda'. */
 int svbi_general_interface(const setup_t* S, work_t* w, const int* active, double* P) {
-  int k, i, j, s, m1, m2, l, status, nc = S->nc, nl = S->nlinks, nd = S->nd, n = nc + nl;
+  int i, s, m1, m2, l, status, nc = S->nc, nl = S->nlinks, nd = S->nd, n = nc + nl;
   int bw = order_and_bandwidth(S, w);
   if (bw > S->bw_max) return ST_BANDWIDTH;
   if (bw > n - 1) bw = n - 1;
   if (bw < 1) bw = n > 1 ? 1 : 0;
   svbi_gb_zero(w->band, n, bw);
 #if !SVBI_MOVING_LOAD
-  for (k = 0; k < S->cars; ++k)
-    for (i = 0; i < NW; ++i)
-      for (j = 0; j < NW; ++j)
-        svbi_gb_add(w->band, bw, w->cpos[k * NW + i], w->cpos[k * NW + j], S->V_Fstar[i * NW + j]);
+  {
+    int k, j;
+    for (k = 0; k < S->cars; ++k)
+      for (i = 0; i < NW; ++i)
+        for (j = 0; j < NW; ++j)
+          svbi_gb_add(w->band, bw, w->cpos[k * NW + i], w->cpos[k * NW + j], S->V_Fstar[i * NW + j]);
+  }
 #endif
   for (s = 0; s < S->spans; ++s) {
     const double* Sk = kind_S(S, s);
