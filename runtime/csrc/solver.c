@@ -63,7 +63,7 @@ static void carve(const setup_t* S, carver_t* c, work_t* w) {
   w->cfirst = take_i(c, nc);
   w->cpos = take_i(c, nc);
   w->active = take_i(c, nc);
-  w->rows_now = take_d(c, (ROW_DEG + 1) * ROW_COLS);
+  w->rows_now = take_d(c, (S->general ? S->nrclass : 1) * (ROW_DEG + 1) * ROW_COLS);
   w->qs = take_d(c, 3 * NSL);
   w->grec = take_d(c, 2 * n_recorded(S));
   w->qhat = take_d(c, NSL);
