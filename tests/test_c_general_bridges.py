@@ -8,12 +8,12 @@ import warnings
 
 import numpy as np
 import pytest
-import svbi
+from conftest import c_compiler_works
 from svbi.runtime.scenario import validate_scenario
 from svbi.runtime.simulate import BackendFallback
-
-from conftest import c_compiler_works
 from test_continuous_bridges import VIADUCT
+
+import svbi
 
 pytestmark = pytest.mark.skipif(not c_compiler_works(), reason="no working C compiler")
 
