@@ -531,20 +531,35 @@ class Bridge:
         self.free_global = free
         K = self.K_global
         lu = spla.splu(K[free][:, free].tocsc())
-        nsup = len(self.support_global)
-        Tg = np.zeros((self.nglobal, nsup))
-        Tg[self.support_global, np.arange(nsup)] = 1.0
-        Tg[free] = -lu.solve(np.asarray(K[free][:, self.support_global].todense()))
-        Tg[np.abs(Tg) < 1e-14] = 0.0
+        Tg = self._quasi_static_global(K, free, lu)
         # per substructure: T_s = Tg[global_dof[s]]; C T as one sparse map (nsub*ndof x nsup)
-        blocks = [self.kinds[self.kind[s]].C @ Tg[self.global_dof[s]] for s in range(nsub)]
-        self.CT_map = sps.csr_matrix(np.vstack(blocks))
-        self.T_map = sps.csr_matrix(np.vstack([Tg[self.global_dof[s]] for s in range(nsub)]))
+        self.T_map = Tg[self.global_dof.ravel()].tocsr()
+        C_blocks = sps.block_diag([self.kinds[self.kind[s]].C for s in range(nsub)], format="csr")
+        self.CT_map = (C_blocks @ self.T_map).tocsr()
         ez = np.zeros(self.nglobal)
         for s in range(nsub):
             ez[self.global_dof[s][1::3]] = 1.0
         self.dead_load_global = _gravity_reactions(self.M_global, K, ez, self.support_global, free, lu.solve)
         """Dead-load reaction of every active support constraint, N."""
+
+    def _quasi_static_global(self, K: Any, free: np.ndarray, lu: Any, block: int = 64) -> Any:
+        """``T``: the static displacement of every global DOF per unit motion of each active support
+        (the others held), sparse. Solved a block of supports at a time and trimmed below 1e-14, so
+        that memory stays linear in the bridge's length (a support's field decays within a few
+        spans)."""
+        import scipy.sparse as sps
+
+        sup = self.support_global
+        nsup = len(sup)
+        K_fs = K[free][:, sup].tocsc()
+        parts = [sps.csc_matrix((np.ones(nsup), (sup, np.arange(nsup))), shape=(self.nglobal, nsup))]
+        for j0 in range(0, nsup, block):
+            cols = np.arange(j0, min(j0 + block, nsup))
+            x = -lu.solve(np.asarray(K_fs[:, cols].todense()))
+            x[np.abs(x) < 1e-14] = 0.0
+            r, c = np.nonzero(x)
+            parts.append(sps.csc_matrix((x[r, c], (free[r], cols[c])), shape=(self.nglobal, nsup)))
+        return sps.csr_matrix(sum(parts[1:], parts[0]))
 
     def natural_frequencies(self, count: int = 10) -> np.ndarray:
         """The lowest natural frequencies (Hz) of the whole bridge, supports held."""

@@ -62,14 +62,15 @@ def _csr(matrix: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     return ptr, cols.astype(np.int32), np.ascontiguousarray(matrix[rows, cols])
 
 
-def _lower_band(matrix: np.ndarray) -> tuple[np.ndarray, int]:
-    """Lower band of a symmetric matrix, element (i, j) at ``[j, i - j]``, and its half bandwidth."""
-    rows, cols = np.nonzero(matrix)
+def _lower_band(matrix: Any) -> tuple[np.ndarray, int]:
+    """Lower band of a symmetric matrix (dense or scipy.sparse), element (i, j) at ``[j, i - j]``,
+    and its half bandwidth."""
+    rows, cols = matrix.nonzero()
     p = int(np.abs(rows - cols).max(initial=0))
     n = matrix.shape[0]
     band = np.zeros((n, p + 1))
     for k in range(p + 1):
-        band[: n - k, k] = np.diagonal(matrix, -k)
+        band[: n - k, k] = matrix.diagonal(-k)
     return band, p
 
 
@@ -616,7 +617,27 @@ class CStepper:
                     ]
                 )
             )
-        S.g_S, S.g_R = self._arr(np.stack(comp.S)), self._arr(np.stack(comp.R))
+        S.g_S = self._arr(np.stack(comp.S))
+        # every kind's K^ on the DOFs no support holds, banded (the predictor solves with its factor)
+        nm = Newmark(s.time_step)
+        nfree, frees, pfs, bands, kfs = [], np.zeros((len(b.kinds), nd), dtype=np.int32), [], [], []
+        for i, k in enumerate(b.kinds):
+            k_hat = nm.effective(k.K, k.C, k.M)
+            held = k.support_dofs[k.support_active]
+            free = _band_order(k_hat, np.setdiff1d(np.arange(nd), held))
+            band, pf = _lower_band(k_hat[np.ix_(free, free)])
+            nfree.append(free.size)
+            frees[i, : free.size] = free
+            pfs.append(pf)
+            bands.append(band.ravel())
+            fs = np.zeros((nd, 3))
+            fs[: free.size][:, k.support_active] = k_hat[np.ix_(free, held)]
+            kfs.append(fs)
+        S.g_nfree, S.g_free = self._arr(nfree, np.int32), self._arr(frees, np.int32)
+        S.g_pf, S.g_kfs = self._arr(pfs, np.int32), self._arr(np.stack(kfs))
+        S.g_kff_ptr = self._arr(np.concatenate([[0], np.cumsum([x.size for x in bands])]), np.int32)
+        S.g_kff = self._arr(np.concatenate(bands))
+        self.kff_size = sum(x.size for x in bands)
         ptrs, idxs, vals = [], [], []
         count = 0
         for k in b.kinds:  # the union pattern of M, C and K of every kind, CSR with absolute pointers
@@ -634,6 +655,7 @@ class CStepper:
         S.g_ct_ptr, S.g_ct_idx = self._arr(ct.indptr, np.int32), self._arr(ct.indices, np.int32)
         S.g_ct_val = self._arr(ct.data)
         S.g_slot_dof = self._arr(b.support_dof.ravel(), np.int32)
+        S.g_slot_active = self._arr(b.support_active.ravel().astype(np.int32), np.int32)
         S.g_slot_comp = self._arr(b.support_component.ravel(), np.int32)
         S.g_slot_x = self._arr(b.support_x_all.ravel())
         table = b.support_table
@@ -664,7 +686,7 @@ class CStepper:
             S.g_lk_x = self._arr(x[perm])
             self.link_x = x
             S.g_lk_col_a, S.g_lk_col_b = self._arr(comp.col_a[perm]), self._arr(comp.col_b[perm])
-            band, p = _lower_band(comp.A.toarray()[np.ix_(perm, perm)])
+            band, p = _lower_band(comp.A.tocsr()[perm][:, perm])
             S.g_lk_A, S.band_links = self._arr(band), p
             touching = [
                 np.flatnonzero((L.a_sub[perm] == sub) | (L.b_sub[perm] == sub)) for sub in range(b.nsub)

@@ -153,8 +153,13 @@ typedef struct {
   const double* g_line_x; /* spans + 1: position of every support line (m) */
   const double* g_inv_el; /* spans: 1 / element length of every span */
   const int* g_rclass; /* spans: which contact-row table of rows (rows_va) serves every span */
-  const double* g_S; /* nkind x nd x nd: compliance with the supports held, per kind */
-  const double* g_R; /* nkind x nd x 3: displacement per unit support target, per kind */
+  const double* g_S; /* nkind x nd x nd: compliance with the supports held, per kind (interface, correction) */
+  const int* g_nfree; /* nkind: DOFs of the kind that no support holds */
+  const int* g_free; /* nkind x nd: those DOFs (the first g_nfree), in band order */
+  const int* g_pf; /* nkind: half bandwidth of K^ on them */
+  const int* g_kff_ptr; /* nkind + 1: where each kind's band starts in g_kff */
+  const double* g_kff; /* the lower bands of K^ = K + a1 C + a0 M on the free DOFs, kind after kind */
+  const double* g_kfs; /* nkind x nd x 3: K^ between the free DOFs and the support slots (0: no support) */
   const int* g_mck_ptr; /* nkind x (nd + 1): absolute CSR row pointers of the union pattern of M, C, K */
   const int* g_mck_idx; /* its column indices */
   const double* g_m; /* M on that pattern */
@@ -164,6 +169,7 @@ typedef struct {
   const int* g_ct_idx; /* its columns: active supports */
   const double* g_ct_val; /* its values */
   const int* g_slot_dof; /* nsub x 3: DOF of every support slot */
+  const int* g_slot_active; /* nsub x 3: 1 where the slot holds its DOF on the ground */
   const int* g_slot_comp; /* nsub x 3: 0 longitudinal, 1 vertical, 2 rotation (a pier base: no ground) */
   const double* g_slot_x; /* nsub x 3: position of every support slot (m) */
   const int* g_act_slot; /* nact: slot of every active support, in the results' order */

@@ -93,44 +93,60 @@ static void link_load(const setup_t* S, work_t* w, const double* lambda, double 
  * their targets), then the links closed on their stabilised rows (Links.targets: the point row of
  * Eq. 22 with no ground for a rigid link, 0 for a spring): Lambda0 = A^-1 (L u - g^). */
 void svbi_general_predictor(const setup_t* S, work_t* w, const double* creep) {
-  int s, i, j, q, l, nd = S->nd, NSL = 3 * S->nsub;
-  double* f = w->fb;
-  for (s = 0; s < S->nsub; ++s) {
-    int kind = S->g_kind[s];
-    const int* ptr = S->g_mck_ptr + (long)kind * (nd + 1);
-    const double* P = w->PB + (long)s * nd;
-    const double* Q = w->QB + (long)s * nd;
-    const double* Sk = kind_S(S, s);
-    const double* Rk = S->g_R + (long)kind * nd * 3;
-    const double* qh = w->qhat + 3L * s;
-    double* u = w->bu + (long)s * nd;
-    for (i = 0; i < nd; ++i) {
-      double v = 0.0;
-      long r = (long)s * nd + i;
-      for (q = ptr[i]; q < ptr[i + 1]; ++q) v += S->g_m[q] * P[S->g_mck_idx[q]] + S->g_c[q] * Q[S->g_mck_idx[q]];
-      for (q = S->g_ct_ptr[r]; q < S->g_ct_ptr[r + 1]; ++q)
-        v += S->g_ct_val[q] * w->qs[NSL + S->g_act_slot[S->g_ct_idx[q]]];
-      f[i] = v;
-    }
+  int s, i, j, q, l, k, t, nd = S->nd, NSL = 3 * S->nsub;
+  double* f = w->fb; /* nd */
+  for (k = 0; k < S->nkind; ++k) {
+    /* the kind's members side by side (GB: free DOF after free DOF, m lanes), one blocked solve */
+    int nf = S->g_nfree[k], n0 = w->kmem_ptr[k], count = w->kmem_ptr[k + 1] - n0;
+    long m = (count + SW - 1) / SW * SW;
+    const int* ptr = S->g_mck_ptr + (long)k * (nd + 1);
+    const int* free = S->g_free + (long)k * nd;
+    const double* kfs = S->g_kfs + (long)k * nd * 3;
+    for (t = 0; t < count; ++t) {
+      const double* P;
+      const double* Q;
+      const double* qh;
+      s = w->kmem[n0 + t];
+      P = w->PB + (long)s * nd;
+      Q = w->QB + (long)s * nd;
+      qh = w->qhat + 3L * s;
+      for (i = 0; i < nd; ++i) {
+        double v = 0.0;
+        long r = (long)s * nd + i;
+        for (q = ptr[i]; q < ptr[i + 1]; ++q) v += S->g_m[q] * P[S->g_mck_idx[q]] + S->g_c[q] * Q[S->g_mck_idx[q]];
+        for (q = S->g_ct_ptr[r]; q < S->g_ct_ptr[r + 1]; ++q)
+          v += S->g_ct_val[q] * w->qs[NSL + S->g_act_slot[S->g_ct_idx[q]]];
+        f[i] = v;
+      }
 #if !SVBI_MOVING_LOAD
-    if (creep && s < S->spans) { /* the creep forces of t_n load the rail (svbi.runtime.wheel_creep) */
-      int c;
-      for (c = 0; c < S->nc; ++c) {
-        if (w->con[c] && w->cspan[c] == s && creep[c] != 0.0) {
+      if (creep && s < S->spans) { /* the creep forces of t_n load the rail (svbi.runtime.wheel_creep) */
+        int a;
+        for (a = w->sstart[s]; a < w->sstart[s + 1]; ++a) {
+          int c = w->slist[a];
           const double* T0 = w->crow + (long)c * ROW_COLS + COL_T0;
+          if (creep[c] == 0.0) continue;
           for (q = 0; q < NNZ_T0; ++q) f[w->cfirst[c] + nz_T0[q]] -= T0[nz_T0[q]] * creep[c];
         }
       }
-    }
 #else
-    (void)creep;
+      (void)creep;
 #endif
-    for (i = 0; i < nd; ++i) {
-      const double* Si = Sk + (long)i * nd;
-      double v = 0.0;
-      for (j = 0; j < nd; ++j) v += Si[j] * f[j];
-      for (j = 0; j < 3; ++j) v += Rk[i * 3 + j] * qh[j];
-      u[i] = v;
+      /* u = S f + R q^: K^_ff u_f = f_f - K^_fs q^, the supports at q^ */
+      for (i = 0; i < nf; ++i)
+        w->GB[i * m + t] = f[free[i]] - kfs[3 * i] * qh[0] - kfs[3 * i + 1] * qh[1] - kfs[3 * i + 2] * qh[2];
+    }
+    for (i = 0; i < nf; ++i)
+      for (t = count; t < m; ++t) w->GB[i * m + t] = 0.0;
+    svbi_band_solve_blocked(w->KF + S->g_kff_ptr[k], w->KD + (long)k * nd, nf, S->g_pf[k], w->GB, m / SW);
+    for (t = 0; t < count; ++t) {
+      double* u;
+      const int* slot;
+      s = w->kmem[n0 + t];
+      u = w->bu + (long)s * nd;
+      slot = S->g_slot_dof + 3L * s;
+      for (i = 0; i < nf; ++i) u[free[i]] = w->GB[i * m + t];
+      for (j = 0; j < 3; ++j)
+        if (S->g_slot_active[3 * s + j]) u[slot[j]] = w->qhat[3L * s + j];
     }
   }
   if (!S->nlinks) return;
@@ -350,8 +366,26 @@ void svbi_general_link_forces(const setup_t* S, work_t* w, const double* P) {
   svbi_band_solve(w->LA, S->nlinks, S->band_links, w->lam);
 }
 
-/* Factor the link matrix once (svbi_solver_init). */
+/* Factor every kind's K^ on its free DOFs and the link matrix, once (svbi_solver_init). */
 int svbi_general_init(const setup_t* S, work_t* w) {
+  int k, status;
+  memcpy(w->KF, S->g_kff, sizeof(double) * (size_t)S->g_kff_ptr[S->nkind]);
+  for (k = 0; k < S->nkind; ++k) {
+    int i, p = S->g_pf[k];
+    const double* L = w->KF + S->g_kff_ptr[k];
+    status = svbi_band_cholesky(w->KF + S->g_kff_ptr[k], S->g_nfree[k], p);
+    if (status) return status;
+    for (i = 0; i < S->g_nfree[k]; ++i) w->KD[(long)k * S->nd + i] = 1.0 / L[(long)i * (p + 1)];
+  }
+  { /* the members of every kind */
+    int s, n = 0;
+    for (k = 0; k < S->nkind; ++k) {
+      w->kmem_ptr[k] = n;
+      for (s = 0; s < S->nsub; ++s)
+        if (S->g_kind[s] == k) w->kmem[n++] = s;
+    }
+    w->kmem_ptr[S->nkind] = n;
+  }
   if (!S->nlinks) return ST_OK;
   memcpy(w->LA, S->g_lk_A, sizeof(double) * (size_t)S->nlinks * (size_t)(S->band_links + 1));
   return svbi_band_cholesky(w->LA, S->nlinks, S->band_links);

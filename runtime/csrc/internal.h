@@ -159,6 +159,11 @@ typedef struct {
   double* lam;   /* nlinks: link forces of the contact forces, Lambda' */
   double* lam0;  /* nlinks: link forces closing the predictor */
   double* LA;    /* nlinks x (band_links + 1): Cholesky factor of A = L S L^T + diag(1/k) */
+  double* KF;    /* every kind's banded Cholesky factor of K^ on its free DOFs (layout of g_kff) */
+  double* KD;    /* nkind x nd: reciprocal diagonals of those factors */
+  double* GB;    /* nd x (nsub + SW): right-hand sides of one kind's members, side by side */
+  int* kmem_ptr; /* nkind + 1 */
+  int* kmem;     /* nsub: the substructures, kind after kind */
 } work_t;
 
 /* Element (s, i) of a bridge-state array: span after span, or DOF after DOF over the spans padded

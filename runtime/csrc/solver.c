@@ -154,6 +154,11 @@ static void carve(const setup_t* S, carver_t* c, work_t* w) {
     w->lam = take_d(c, nl);
     w->lam0 = take_d(c, nl);
     w->LA = take_d(c, nl * (S->band_links + 1));
+    w->KF = take_d(c, S->general ? S->g_kff_ptr[S->nkind] : 0);
+    w->KD = take_d(c, S->general ? S->nkind * nd : 0);
+    w->GB = take_d(c, S->general ? nd * (S->nsub + SW) : 0);
+    w->kmem_ptr = take_i(c, S->general ? S->nkind + 1 : 0);
+    w->kmem = take_i(c, S->general ? S->nsub : 0);
   }
 }
 
