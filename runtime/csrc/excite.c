@@ -77,10 +77,21 @@ static void ground_under(const setup_t* S, const excitation_t* E, work_t* w, dou
 static void general_supports(const setup_t* S, const excitation_t* E, work_t* w, double t) {
   int k, NSL = 3 * S->nsub;
   long nrec = n_recorded(S);
+  int synchronous = E->gv_mode <= 1 && E->gh_mode <= 1;
+  double sync[2][3];
+  if (synchronous) { /* one target per direction for every support */
+    support_target(S, E, 0, t, 0.0, sync[0]);
+    support_target(S, E, 1, t, 0.0, sync[1]);
+  }
   for (k = 0; k < NSL; ++k) {
     double q[3] = {0.0, 0.0, 0.0};
-    int comp = S->g_slot_comp[k];
-    if (comp != 2) support_target(S, E, comp == 1 ? 0 : 1, t, S->g_slot_x[k], q);
+    int comp = S->g_slot_comp[k], which = comp == 1 ? 0 : 1;
+    if (comp != 2 && S->g_slot_active[k]) { /* an unused slot's target is never read */
+      if (synchronous)
+        memcpy(q, sync[which], sizeof q);
+      else
+        support_target(S, E, which, t, S->g_slot_x[k], q);
+    }
     w->qs[k] = q[0];
     w->qs[NSL + k] = q[1];
     w->qs[2 * NSL + k] = q[2];
