@@ -281,6 +281,14 @@ SETUP_FIELDS = [
     F("VT_val", "double*", "values"),
     F("creep_rolling", "int*", "NW: 1 for a wheel that rolls (a spin DOF) and creeps"),
     F("creep_params", "double*", "NW x 8: creep-law parameters of every wheel (creep_force kernel)"),
+    # the plastic impact of landing wheels (localized-dynamic, unilateral; impact.c)
+    F("I_MinvW", "double*", "NV x NW: M^-1 W of one car (full mass: the aux point rides its wheel)"),
+    F("I_MinvC", "double*", "NV x NV: M^-1 C"),
+    F("I_GV", "double*", "NW x NW: W^T M^-1 W"),
+    F("I_SM", "double*", "nd x nd (nkind x nd x nd when general): mass compliance, supports held"),
+    F("I_lk_col_a", "double*", "general: nlinks x nd, the column of S_M at end a (0 for a spring)"),
+    F("I_lk_col_b", "double*", "general: nlinks x nd, the column of S_M at end b (0 for a spring)"),
+    F("I_lk_A", "double*", "general: nlinks x (band_links + 1), lower band of L S_M L^T (1 for a spring)"),
     # a bridge of substructures (localized-dynamic; general.c, docs/c-backend.md "Bridges of substructures")
     F(
         "general",

@@ -529,6 +529,8 @@ class CStepper:
                 S.carbody_theta = int(tr.carbody_theta)
         if not b.uniform:
             self._general(S, kappa, zeta)
+        if self.active_set_in_c:
+            self._impact(S)
         S.bw_max = self._bandwidth_bound(code)
         return S
 
@@ -585,6 +587,37 @@ class CStepper:
         if classic:
             S.sG = self._arr(ref.sG[: b.nsupport])
             S.sC = float(ref.sC)
+
+    def _impact(self, S: Any) -> None:
+        """The plastic impact of landing wheels in C (impact.c): the NumPy stepper's constant
+        matrices (``unilateral.Impact``); for a bridge with links, the mass compliance's columns at
+        the links' ends and ``L S_M L^T`` in the C loop's link order (a spring passes no impulse:
+        an identity row that keeps its force at 0)."""
+        imp, b = self.reference.impact, self.model.bridge
+        S.I_MinvW, S.I_MinvC, S.I_GV = self._arr(imp.MinvW), self._arr(imp.MinvC), self._arr(imp.GV)
+        S.I_SM = self._arr(np.stack(imp.S_M.S))
+        if b.uniform or not S.nlinks:
+            return
+        links, perm, nd = self.reference.bridge.links, self.link_perm, b.ndof
+        rigid = ~links.spring
+        ka = b.kind[links.a_sub]
+        kb = b.kind[links.b_sub]
+        col_a = np.array([imp.S_M.S[k][:, d] for k, d in zip(ka, links.a_dof, strict=True)])
+        col_b = np.array([imp.S_M.S[k][:, d] for k, d in zip(kb, links.b_dof, strict=True)])
+        col_a[~rigid] = 0.0
+        col_b[~rigid] = 0.0
+        import scipy.sparse as sps
+
+        nl, r = len(links), np.flatnonzero(rigid)
+        A = sps.diags((~rigid).astype(float)).tocsr()
+        if imp.S_M.nlinks:  # the rigid links' L S_M L^T, placed among all links
+            E = sps.csr_matrix((np.ones(r.size), (r, np.arange(r.size))), shape=(nl, r.size))
+            A = A + E @ imp.S_M.A @ E.T
+        band, p = _lower_band(A.tocsr()[perm][:, perm])
+        full = np.zeros((len(links), S.band_links + 1))
+        full[:, : p + 1] = band
+        S.I_lk_col_a, S.I_lk_col_b = self._arr(col_a[perm]), self._arr(col_b[perm])
+        S.I_lk_A = self._arr(full)
 
     def _general(self, S: Any, kappa: float, zeta: float) -> None:
         """The setup of a bridge of substructures (general.c; localized-dynamic only)."""
@@ -684,7 +717,7 @@ class CStepper:
             S.g_lk_b_dof = self._arr(L.b_dof[perm], np.int32)
             S.g_lk_spring = self._arr(L.spring[perm].astype(np.int32), np.int32)
             S.g_lk_x = self._arr(x[perm])
-            self.link_x = x
+            self.link_x, self.link_perm = x, perm
             S.g_lk_col_a, S.g_lk_col_b = self._arr(comp.col_a[perm]), self._arr(comp.col_b[perm])
             band, p = _lower_band(comp.A.tocsr()[perm][:, perm])
             S.g_lk_A, S.band_links = self._arr(band), p

@@ -76,14 +76,16 @@ def test_bearing_springs_in_c():
 
 
 def test_lift_offs_and_landings_on_a_viaduct_in_c():
-    """Wheels lift off and land: C keeps the active set, NumPy takes only the landing steps.
+    """Wheels lift off, fly and land in C (the landing row and the plastic impact through the
+    linked bridge's mass compliance), with no NumPy step.
 
     Until the first landing the backends agree to round-off. A landing's plastic impact resolves
     the approach of an airborne wheel (a gap of millimetres, known to round-off of the whole
     state) into a force impulse: here the two wheels of a bogie land together and the difference
-    grows to 9e-8 of the force peak (measured), then decays with the impact transient. The paper's
+    grows to 3e-8 of the force peak (measured), then decays with the impact transient. The paper's
     bridge in the same regime (3 lift-offs) gives 7e-10; this is round-off amplified by the event,
-    not an error of either backend (contact states are identical step for step)."""
+    not an error of either backend (contact states are identical step for step; a change of 1e-12
+    in the earthquake's scale moves a chattering run far more, docs/method.md section 13)."""
     keys = {
         "train": {"speed_kmh": 100.0},
         "solver": {"duration": 5.0},
@@ -92,7 +94,7 @@ def test_lift_offs_and_landings_on_a_viaduct_in_c():
     }
     ref, c = run("numpy", **keys), run("c", **keys)
     assert ref.attrs["liftoffs"] >= 5
-    assert 1 <= c.attrs["numpy_steps"] < 0.01 * c.attrs["steps"]  # the landings only
+    assert c.attrs["numpy_steps"] == 0  # the landings too run in C
     np.testing.assert_array_equal(c.contact_state.values, ref.contact_state.values)
     airborne = ~ref.contact_state.values.reshape(ref.sizes["time"], -1).astype(bool)
     flights = np.flatnonzero(airborne.any(axis=1))

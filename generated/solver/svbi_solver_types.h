@@ -142,6 +142,13 @@ typedef struct {
   const double* VT_val; /* values */
   const int* creep_rolling; /* NW: 1 for a wheel that rolls (a spin DOF) and creeps */
   const double* creep_params; /* NW x 8: creep-law parameters of every wheel (creep_force kernel) */
+  const double* I_MinvW; /* NV x NW: M^-1 W of one car (full mass: the aux point rides its wheel) */
+  const double* I_MinvC; /* NV x NV: M^-1 C */
+  const double* I_GV; /* NW x NW: W^T M^-1 W */
+  const double* I_SM; /* nd x nd (nkind x nd x nd when general): mass compliance, supports held */
+  const double* I_lk_col_a; /* general: nlinks x nd, the column of S_M at end a (0 for a spring) */
+  const double* I_lk_col_b; /* general: nlinks x nd, the column of S_M at end b (0 for a spring) */
+  const double* I_lk_A; /* general: nlinks x (band_links + 1), lower band of L S_M L^T (1 for a spring) */
   int general; /* 1: spans and pier columns of several kinds joined by links (continuous girders, unequal spans, piers, bearings): the g_* fields replace the one-span fields above */
   int nsub; /* substructures: the spans, then the pier columns */
   int nkind; /* substructure kinds (one set of matrices each) */

@@ -182,14 +182,20 @@ static double pair_same(const double* X, const int* nzX, int nX, const double* S
   return f;
 }
 
-/* X S L_l^T for row X of a contact on substructure s at element DOFs from first: the column of the
- * link's end on s (+ end a, - end b). */
-static double row_link(const setup_t* S, const double* X, const int* nzX, int nX, int s, int first, int l) {
+/* X Z L_l^T for row X of a contact on substructure s at element DOFs from first, Z a compliance
+ * given by its columns at the links' ends (col_a, col_b: nlinks x nd): + end a, - end b. */
+double svbi_general_row_link(const setup_t* S, const double* X, const int* nzX, int nX, int s, int first, int l,
+                             const double* col_a, const double* col_b) {
   double f = 0.0;
   int nd = S->nd;
-  if (S->g_lk_a_sub[l] == s) f += row_dot(X, nzX, nX, S->g_lk_col_a + (long)l * nd, first);
-  if (S->g_lk_b_sub[l] == s) f -= row_dot(X, nzX, nX, S->g_lk_col_b + (long)l * nd, first);
+  if (S->g_lk_a_sub[l] == s) f += row_dot(X, nzX, nX, col_a + (long)l * nd, first);
+  if (S->g_lk_b_sub[l] == s) f -= row_dot(X, nzX, nX, col_b + (long)l * nd, first);
   return f;
+}
+
+/* X S L_l^T: the effective stiffness's compliance S. */
+static double row_link(const setup_t* S, const double* X, const int* nzX, int nX, int s, int first, int l) {
+  return svbi_general_row_link(S, X, nzX, nX, s, first, l, S->g_lk_col_a, S->g_lk_col_b);
 }
 
 /* Interface positions (contacts in track order, links at their lines, one order along the bridge)
@@ -245,7 +251,7 @@ static int order_and_bandwidth(const setup_t* S, work_t* w) {
 
 /* The interface system of the step (file comment), banded along the bridge; an inactive (airborne)
  * wheel's row is P_i = 0. P: the contact forces; w->lam: the link forces Lambda'. */
-int svbi_general_interface(const setup_t* S, work_t* w, const int* active, double* P) {
+int svbi_general_interface(const setup_t* S, work_t* w, const int* active, const int* landing, double* P) {
   int i, s, m1, m2, l, status, nc = S->nc, nl = S->nlinks, nd = S->nd, n = nc + nl;
   int bw = order_and_bandwidth(S, w);
   if (bw > S->bw_max) return ST_BANDWIDTH;
@@ -264,19 +270,21 @@ int svbi_general_interface(const setup_t* S, work_t* w, const int* active, doubl
   for (s = 0; s < S->spans; ++s) {
     const double* Sk = kind_S(S, s);
     for (m1 = w->sstart[s]; m1 < w->sstart[s + 1]; ++m1) {
-      int ci = w->slist[m1], fi = w->cfirst[ci];
-      const double* Wh = w->crow + (long)ci * ROW_COLS + COL_W_HAT;
+      int ci = w->slist[m1], fi = w->cfirst[ci], land = landing && landing[ci];
+      /* a landing wheel's row: N0 in place of W_hat (the position-level g_{n+1} = 0) */
+      const double* Wh = w->crow + (long)ci * ROW_COLS + (land ? COL_N0 : COL_W_HAT);
+      const int* nzW = land ? nz_N0 : nz_W_hat;
+      const int nW = land ? NNZ_N0 : NNZ_W_HAT;
       const double* Ni = w->crow + (long)ci * ROW_COLS + COL_N0;
       const double* Srows = Sk + (long)fi * nd;
       for (m2 = w->sstart[s]; m2 < w->sstart[s + 1]; ++m2) {
         int cj = w->slist[m2];
         const double* N0 = w->crow + (long)cj * ROW_COLS + COL_N0;
-        svbi_gb_add(w->band, bw, w->cpos[ci], w->cpos[cj],
-                    pair_same(Wh, nz_W_hat, NNZ_W_HAT, Srows, nd, w->cfirst[cj], N0));
+        svbi_gb_add(w->band, bw, w->cpos[ci], w->cpos[cj], pair_same(Wh, nzW, nW, Srows, nd, w->cfirst[cj], N0));
       }
       for (m2 = S->g_sl_ptr[s]; m2 < S->g_sl_ptr[s + 1]; ++m2) {
         l = S->g_sl_link[m2];
-        svbi_gb_add(w->band, bw, w->cpos[ci], w->lpos[l], -row_link(S, Wh, nz_W_hat, NNZ_W_HAT, s, fi, l));
+        svbi_gb_add(w->band, bw, w->cpos[ci], w->lpos[l], -row_link(S, Wh, nzW, nW, s, fi, l));
         svbi_gb_add(w->band, bw, w->lpos[l], w->cpos[ci], -row_link(S, Ni, nz_N0, NNZ_N0, s, fi, l));
       }
     }
@@ -291,7 +299,7 @@ int svbi_general_interface(const setup_t* S, work_t* w, const int* active, doubl
       svbi_gb_add(w->band, bw, w->lpos[l], w->lpos[l + r], col[r]);
     }
   }
-  for (i = 0; i < nc; ++i) w->bsol[w->cpos[i]] = w->rhs[i];
+  for (i = 0; i < nc; ++i) w->bsol[w->cpos[i]] = landing && landing[i] ? w->rland[i] : w->rhs[i];
   for (l = 0; l < nl; ++l) w->bsol[w->lpos[l]] = 0.0;
   if (active) {
     for (i = 0; i < nc; ++i) {

@@ -164,6 +164,21 @@ typedef struct {
   double* GB;    /* nd x (nsub + SW): right-hand sides of one kind's members, side by side */
   int* kmem_ptr; /* nkind + 1 */
   int* kmem;     /* nsub: the substructures, kind after kind */
+  /* ---- unilateral contact: landings and the plastic impact (localized.c, impact.c) ---- */
+  int* landing;  /* nc: a landing wheel's row is the position-level g_{n+1} = 0 */
+  int* released; /* nc: released in a pass of this step */
+  int* twice;    /* nc: released twice: stays free for the step */
+  double* rland; /* nc: the landing row's right-hand side */
+  double* IG;    /* nc x nc: mass flexibility at the contacts */
+  double* IGs;   /* nc x nc: its factor on a subset */
+  int* iidx;     /* nc */
+  int* idrop;    /* nc: landing wheels let go by the impact */
+  int* iunk;     /* nc */
+  double *ib, *ib2, *ib3, *iv1, *iv2, *iv3, *iv4; /* nc each */
+  double* IdV;   /* cars x NV */
+  double* IaV;   /* cars x NV */
+  double *dB1, *dB2, *dB3; /* whole-bridge fields (layout of bu) */
+  double* LAM;   /* nlinks x (band_links + 1): Cholesky factor of L S_M L^T (springs: 1) */
 } work_t;
 
 /* Element (s, i) of a bridge-state array: span after span, or DOF after DOF over the spans padded
@@ -204,10 +219,15 @@ void svbi_bridge_update(const setup_t* S, work_t* w);
 void svbi_general_locate(const setup_t* S, work_t* w);
 void svbi_general_targets(const setup_t* S, work_t* w);
 void svbi_general_predictor(const setup_t* S, work_t* w, const double* creep);
-int svbi_general_interface(const setup_t* S, work_t* w, const int* active, double* P);
+int svbi_general_interface(const setup_t* S, work_t* w, const int* active, const int* landing, double* P);
 double svbi_general_deflection(const setup_t* S, const work_t* w, const double* P, int c);
 void svbi_general_correct(const setup_t* S, work_t* w, const double* P);
 void svbi_general_link_forces(const setup_t* S, work_t* w, const double* P);
+double svbi_general_row_link(const setup_t* S, const double* X, const int* nzX, int nX, int s, int first, int l,
+                             const double* col_a, const double* col_b);
+
+/* impact.c: the plastic impact of the landing wheels after the localized step. */
+int svbi_impact(const setup_t* S, state_t* X, work_t* w, const int* active, const int* landing);
 int svbi_general_init(const setup_t* S, work_t* w);
 void svbi_general_reactions(const setup_t* S, const state_t* X, const work_t* w, double* out);
 

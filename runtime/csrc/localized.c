@@ -168,10 +168,11 @@ static double row_S_N0(const double* X, const int* nzX, int nX, const double* Sr
 }
 
 /* (F* + F_B) P = rhs, banded in track order (w->cpos), for the interface of this step; an inactive
- * (airborne) wheel's row is P_i = 0 (svbi.runtime.localized._active_set_solve). */
-static int interface_solve(const setup_t* S, work_t* w, int bw, const int* active, double* P) {
+ * (airborne) wheel's row is P_i = 0, a landing wheel's the position-level g_{n+1} = 0 (N0 in place
+ * of W_hat; svbi.runtime.localized._active_set_solve). */
+static int interface_solve(const setup_t* S, work_t* w, int bw, const int* active, const int* landing, double* P) {
   int k, i, j, s, nc = S->nc, nd = S->nd, status;
-  if (S->general) return svbi_general_interface(S, w, active, P);
+  if (S->general) return svbi_general_interface(S, w, active, landing, P);
   svbi_gb_zero(w->band, nc, bw);
   for (k = 0; k < S->cars; ++k)
     for (i = 0; i < NW; ++i)
@@ -180,18 +181,20 @@ static int interface_solve(const setup_t* S, work_t* w, int bw, const int* activ
   for (s = 0; s < S->spans; ++s) {
     int m1, m2;
     for (m1 = w->sstart[s]; m1 < w->sstart[s + 1]; ++m1) {
-      int ci = w->slist[m1];
-      const double* Wh = w->crow + (long)ci * ROW_COLS + COL_W_HAT;
+      int ci = w->slist[m1], land = landing && landing[ci];
+      const double* Wh = w->crow + (long)ci * ROW_COLS + (land ? COL_N0 : COL_W_HAT);
+      const int* nzW = land ? nz_N0 : nz_W_hat;
+      const int nW = land ? NNZ_N0 : NNZ_W_HAT;
       const double* Srows = S->S + (long)w->cfirst[ci] * nd;
       for (m2 = w->sstart[s]; m2 < w->sstart[s + 1]; ++m2) {
         int cj = w->slist[m2];
         const double* N0 = w->crow + (long)cj * ROW_COLS + COL_N0;
-        double fij = row_S_N0(Wh, nz_W_hat, NNZ_W_HAT, Srows, nd, w->cfirst[cj], N0);
+        double fij = row_S_N0(Wh, nzW, nW, Srows, nd, w->cfirst[cj], N0);
         svbi_gb_add(w->band, bw, w->cpos[ci], w->cpos[cj], fij);
       }
     }
   }
-  for (i = 0; i < nc; ++i) w->bsol[w->cpos[i]] = w->rhs[i];
+  for (i = 0; i < nc; ++i) w->bsol[w->cpos[i]] = landing && landing[i] ? w->rland[i] : w->rhs[i];
   if (active) {
     for (i = 0; i < nc; ++i) {
       if (!active[i]) {
@@ -312,6 +315,14 @@ int svbi_step_localized(const setup_t* S, state_t* X, work_t* w) {
         }
         w->hB[c] = svbi_row_target(S, w, c, w->Pg[c], w->Qg[c]);
         w->rhs[c] = w->hB[c] - w->pt[c] + wu - S->c_g[i] * bd;
+        if (S->unilateral) { /* a landing row: the rail height r (+ q off the bridge) less N0 u~_B */
+          double nu = 0.0;
+          if (w->con[c]) {
+            const double* N0 = w->crow + (long)c * ROW_COLS + COL_N0;
+            for (m = 0; m < NNZ_N0; ++m) nu += N0[nz_N0[m]] * BR(w->bu, w->cspan[c], w->cfirst[c] + nz_N0[m]);
+          }
+          w->rland[c] = (w->con[c] ? w->rail[c] : w->under[c] + w->rail[c]) - w->pt[c] + nu - S->c_g[i] * bd;
+        }
       }
     }
     /* interface matrix F* + F_B, banded in track order (a general bridge: with its links) */
@@ -325,31 +336,41 @@ int svbi_step_localized(const setup_t* S, state_t* X, work_t* w) {
     if (!S->general)
       for (k = 0; k < nc; ++k) w->cpos[S->order[k]] = k;
     if (!S->unilateral) {
-      status = interface_solve(S, w, bw, 0, X->P);
+      status = interface_solve(S, w, bw, 0, 0, X->P);
       if (status) return status;
     } else {
-      /* the per-wheel active set (svbi.runtime.unilateral.ActiveSet), pass by pass: a wheel in
-       * contact whose force goes tensile lifts off and the step is solved again without it; an
-       * airborne wheel that would reach its rail lands, and that step goes to NumPy (ST_EVENT:
-       * the landing row and the plastic impact) */
-      int pass, changed;
-      for (i = 0; i < nc; ++i) w->active[i] = X->in_contact[i];
-      for (pass = 0;; ++pass) {
-        status = interface_solve(S, w, bw, w->active, X->P);
+      /* the per-wheel active set (svbi.runtime.unilateral.ActiveSet.update), pass by pass: a wheel
+       * in contact whose force goes tensile lifts off; an airborne wheel that would reach its rail
+       * lands (its row the position-level g_{n+1} = 0, then the plastic impact, impact.c); a wheel
+       * released twice in the step stays free; the step is solved again after every change */
+      int passes = 0, changed, airborne;
+      for (i = 0; i < nc; ++i) {
+        w->active[i] = X->in_contact[i];
+        w->landing[i] = w->released[i] = w->twice[i] = 0;
+      }
+      for (;;) {
+        status = interface_solve(S, w, bw, w->active, w->landing, X->P);
         if (status) return status;
-        for (i = 0; i < nc; ++i)
-          if (!w->active[i] && predicted_uplift(S, w, X->P, i) <= 0.0) return ST_EVENT;
-        changed = 0;
+        changed = airborne = 0;
+        for (i = 0; i < nc; ++i) airborne |= !w->active[i];
+        for (i = 0; i < nc; ++i) { /* the uplifts, before any flip (all from this pass's P) */
+          w->ib[i] = !w->active[i] && !w->twice[i] ? predicted_uplift(S, w, X->P, i) : 1.0;
+        }
         for (i = 0; i < nc; ++i) {
-          if (w->active[i] && X->P[i] < 0.0) {
-            w->active[i] = 0;
+          int release = w->active[i] && X->P[i] < 0.0, land = airborne && !w->active[i] && !w->twice[i] && w->ib[i] <= 0.0;
+          if (release) {
+            w->active[i] = w->landing[i] = 0;
+            w->twice[i] |= w->released[i];
+            w->released[i] = 1;
+            changed = 1;
+          } else if (land) {
+            w->active[i] = w->landing[i] = 1;
             changed = 1;
           }
         }
         if (!changed) break;
-        if (pass > 2 * nc + 2) return ST_EVENT; /* NumPy reports a set that does not settle */
+        if (++passes > 2 * nc + 2) return ST_EVENT; /* NumPy reports a set that does not settle */
       }
-      for (i = 0; i < nc; ++i) X->in_contact[i] = (unsigned char)w->active[i];
     }
 
     /* back-substitution: wheel-aux forces, aux points, vehicles, bridge */
@@ -390,6 +411,17 @@ int svbi_step_localized(const setup_t* S, state_t* X, work_t* w) {
     else
       localized_correct(S, w, X->P);
     svbi_bridge_update_histories(S, w);
+    if (S->unilateral) {
+      int landed = 0;
+      for (i = 0; i < nc; ++i) landed |= w->landing[i];
+      for (i = 0; i < nc; ++i) w->idrop[i] = 0;
+      if (landed) { /* the plastic impact at t_{n+1}; the next step's histories afresh */
+        status = svbi_impact(S, X, w, w->active, w->landing);
+        if (status) return status;
+        w->hist = 0;
+      }
+      for (i = 0; i < nc; ++i) X->in_contact[i] = (unsigned char)(w->active[i] && !w->idrop[i]);
+    }
     if (S->creep) svbi_creep_update(S, X, w);
   }
   return ST_OK;

@@ -160,6 +160,32 @@ static void carve(const setup_t* S, carver_t* c, work_t* w) {
     w->kmem_ptr = take_i(c, S->general ? S->nkind + 1 : 0);
     w->kmem = take_i(c, S->general ? S->nsub : 0);
   }
+  {
+    /* unilateral contact, localized (impact.c) */
+    long u = S->unilateral, field = u ? ((spans + LW - 1) / LW * LW > subs ? (spans + LW - 1) / LW * LW : subs) * nd : 0;
+    w->landing = take_i(c, nc);
+    w->released = take_i(c, nc);
+    w->twice = take_i(c, nc);
+    w->rland = take_d(c, nc);
+    w->IG = take_d(c, u * nc * nc);
+    w->IGs = take_d(c, u * nc * nc);
+    w->iidx = take_i(c, nc);
+    w->idrop = take_i(c, nc);
+    w->iunk = take_i(c, nc);
+    w->ib = take_d(c, nc);
+    w->ib2 = take_d(c, nc);
+    w->ib3 = take_d(c, nc);
+    w->iv1 = take_d(c, nc);
+    w->iv2 = take_d(c, nc);
+    w->iv3 = take_d(c, nc);
+    w->iv4 = take_d(c, nc);
+    w->IdV = take_d(c, u * S->cars * nv);
+    w->IaV = take_d(c, u * S->cars * nv);
+    w->dB1 = take_d(c, field);
+    w->dB2 = take_d(c, field);
+    w->dB3 = take_d(c, field);
+    w->LAM = take_d(c, u && S->general ? (long)S->nlinks * (S->band_links + 1) : 0);
+  }
 }
 
 int svbi_solver_workspace(const setup_t* S, long* n_double, long* n_int) {
@@ -253,6 +279,11 @@ int svbi_solver_init(const setup_t* S, double* work, int* iwork) {
 #endif
   if (S->method != 0) {
     status = svbi_coupled_init(S, &w);
+    if (status) return status;
+  }
+  if (S->unilateral && S->general && S->nlinks) { /* the rigid links' mass matrix (impact.c) */
+    memcpy(w.LAM, S->I_lk_A, sizeof(double) * (size_t)S->nlinks * (size_t)(S->band_links + 1));
+    status = svbi_band_cholesky(w.LAM, S->nlinks, S->band_links);
     if (status) return status;
   }
   if (S->general) {
