@@ -360,8 +360,8 @@ class CStepper:
         self.reference = numpy_steppers()[method](model, state)
         self.unilateral = getattr(self.reference, "act", None) is not None
         self.active_set_in_c = self.unilateral and method == "localized-dynamic"
-        """localized-dynamic keeps the active set in the C loop (lift-offs and airborne wheels' P = 0
-        rows); only a landing step goes to NumPy (the landing row and the impact)."""
+        """localized-dynamic keeps the whole active set in the C loop (lift-offs, airborne wheels' P = 0
+        rows, landings and their impact); a step whose active set does not settle goes to NumPy."""
         self.handovers = 0
         """Unilateral runs: how many times NumPy took steps over from the C loop."""
         self.numpy_steps = 0
@@ -598,7 +598,7 @@ class CStepper:
         S.I_SM = self._arr(np.stack(imp.S_M.S))
         if b.uniform or not S.nlinks:
             return
-        links, perm, nd = self.reference.bridge.links, self.link_perm, b.ndof
+        links, perm = self.reference.bridge.links, self.link_perm
         rigid = ~links.spring
         ka = b.kind[links.a_sub]
         kb = b.kind[links.b_sub]
@@ -786,12 +786,12 @@ class CStepper:
         """Run every step, writing into ``recorder``; raises ``simulate.Diverged`` like the NumPy loop.
 
         Unilateral contact (docs/method.md section 12): localized-dynamic keeps the per-wheel active
-        set in C (lift-offs, airborne wheels' P = 0 rows) and stops at a step where a wheel would
-        land (``STATUS_EVENT``); the coupled methods run the bilateral step, so a chunk in which a
-        contact force went tensile is not valid. Either way the chunk is rolled back, C redoes (bit
-        for bit) the steps before the event, and the NumPy stepper of the same method (same state,
-        multipliers and recorder) takes the landing step (localized) or the steps from the tensile
-        one until every wheel has been on its rail, with no change of the active set, for
+        set in C (lift-offs, flights, landings and their impact) and stops only at a step whose
+        active set does not settle (``STATUS_EVENT``); the coupled methods run the bilateral step, so
+        a chunk in which a contact force went tensile is not valid. Either way the chunk is rolled
+        back, C redoes (bit for bit) the steps before the event, and the NumPy stepper of the same
+        method (same state, multipliers and recorder) takes that step (localized) or the steps from
+        the tensile one until every wheel has been on its rail, with no change of the active set, for
         ``HANDBACK_STEPS`` steps (coupled); the C loop goes on from there.
         """
         steps = self.model.settings.steps
