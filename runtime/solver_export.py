@@ -84,12 +84,12 @@ class _Baker:
         if address not in self.known:
             raise ValueError(f"cannot export {name}: the loop reads an array the exporter does not know")
         a = self.known[address]
-        integer = a.dtype.kind in "iu"
+        integer = a.dtype.kind in "iub"
         values = [str(int(v)) for v in a.reshape(-1)] if integer else [_double(v) for v in a.reshape(-1)]
         self.arrays.append(
             {
                 "name": name,
-                "ctype": "int" if integer else "double",
+                "ctype": ("unsigned char" if a.itemsize == 1 else "int") if integer else "double",
                 "const": const,
                 "values": values,
                 "lines": _lines(values),
@@ -135,13 +135,16 @@ def scenario_files(
             f"cannot export this scenario: its excitations ({stepper.excitation.describe}) are "
             "evaluated by Python while the loop runs"
         )
-    # the standalone loop has no NumPy stepper to take contact events: it runs the bilateral step
-    # (docs/c-backend.md, "Export"); an airborne wheel's state is not part of it
-    stepper.setup.unilateral = 0
-    stepper.cstate.in_contact = None
+    # localized-dynamic keeps the whole active set in C (lift-offs, flights, landings and their
+    # impact): the standalone loop runs unilateral contact as svbi run does. The coupled methods hand
+    # contact events to NumPy, which the standalone loop does not have: they run the bilateral step
+    # (docs/c-backend.md, "Export")
+    unilateral = bool(stepper.setup.unilateral)
+    if not unilateral:
+        stepper.cstate.in_contact = None
     spec = stepper.library.spec
     recorder = Recorder(model)
-    recorder.force(0, state.P)
+    recorder.force(0, state.P, state.contact_state)
     recorder.record(state, model.contacts(0.0), model.settings.method == "coupled-classic")
     stepper.setup.force_limit = float(DivergenceGuard(model).force_limit)
 
@@ -151,6 +154,9 @@ def scenario_files(
             known[a.ctypes.data] = a
     for key in ("uV", "vV", "aV", "uB", "vB", "aB", "ug", "vg", "ag", "P", "PV", "creepage", "creep_force"):
         a = getattr(state, key)
+        known[a.ctypes.data] = a
+    if unilateral:
+        a = stepper.reference.act.in_contact
         known[a.ctypes.data] = a
     for a in stepper.lam.values():
         known[a.ctypes.data] = a
@@ -211,8 +217,17 @@ def scenario_files(
             continue
         outputs.append({"name": name, "size": a.size, "row0": a.reshape(a.shape[0], -1)[0]})
     outputs.append({"name": "forces", "size": recorder.forces.size, "row0": recorder.forces[0]})
+    if unilateral:  # the wheels' states (one byte each) and uplifts
+        for name in ("contact_state", "wheel_uplift"):
+            a = recorder.data[name]
+            outputs.append({"name": name, "size": a.size, "row0": a[0]})
+        steps = recorder.in_contact
+        outputs.append({"name": "contact_steps", "size": steps.size, "row0": steps[0]})
     for o in outputs:  # the initial row 0, as svbi.simulate records it before the loop
-        o["init"] = _lines([_double(v) for v in o["row0"]])
+        byte = o["row0"].dtype.itemsize == 1
+        o["ctype"] = "unsigned char" if byte else "double"
+        row0 = o["row0"].reshape(-1)
+        o["init"] = _lines([str(int(v)) for v in row0] if byte else [_double(v) for v in row0])
 
     n_double, n_int = ctypes.c_long(), ctypes.c_long()
     stepper.library.workspace(ctypes.byref(stepper.setup), ctypes.byref(n_double), ctypes.byref(n_int))
