@@ -13,6 +13,13 @@
    fraction of the loop, for every run after the worker's first (which pays imports and the compile
    cache). The target is 10 %.
 3. **Memory per worker**: the workers' peak resident set (``ru_maxrss``) after their runs.
+4. **What two cores give here**: two small C programs compiled with svbi's optimisation flags, run
+   alone and then two at once (one per core): a latency-bound one (a dependent chain of
+   multiply-adds) and a throughput-bound one (independent vectorised multiply-adds over an array in
+   L1, as the C loop's inner products are); and svbi's own C loop on the HSLM run, alone and two
+   processes at once, with one BLAS thread (as svbi's CLI and Dask's workers set) and with
+   OpenBLAS's default threads (which spin on the other core). Throughput of two over one: the
+   ceiling of any sweep of such runs here.
 
 With ``--quick``: 20 runs once and 3 paper runs (else the throughput sweeps run twice each,
 alternating, and the best counts: the development machine is shared).
@@ -27,8 +34,13 @@ import tempfile
 import time
 from pathlib import Path
 
-import numpy as np
-from svbi.runtime.sweep import load_study, read_store, run_sweep
+# as `svbi sweep` (svbi.runtime.cli.BLAS_THREADS): one BLAS thread in this process, the scheduler's
+BLAS_VARS = ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS")
+for _name in BLAS_VARS:
+    os.environ.setdefault(_name, "1")
+
+import numpy as np  # noqa: E402
+from svbi.runtime.sweep import load_study, read_store, run_sweep  # noqa: E402
 
 REPO = Path(__file__).resolve().parents[1]
 EXAMPLES = REPO / "examples"
@@ -66,6 +78,109 @@ def steady_rate(store) -> float:
     warm = max(ended[pid == p][np.argmin(started[pid == p])] for p in np.unique(pid))
     later = started >= warm
     return float(later.sum() / (ended[later].max() - warm)) if later.sum() > 1 else float("nan")
+
+
+LATENCY_C = r"""
+#include <stdio.h>
+#include <time.h>
+int main(void) {
+  double a[512], s0 = 0, s1 = 0, s2 = 0, s3 = 0;
+  int i, r;
+  struct timespec t0, t1;
+  for (i = 0; i < 512; ++i) a[i] = 1.0 + i * 1e-9;
+  clock_gettime(CLOCK_MONOTONIC, &t0);
+  for (r = 0; r < 800000; ++r)
+    for (i = 0; i < 512; i += 4) {
+      s0 = s0 * 0.999999 + a[i];
+      s1 = s1 * 0.999999 + a[i + 1];
+      s2 = s2 * 0.999999 + a[i + 2];
+      s3 = s3 * 0.999999 + a[i + 3];
+    }
+  clock_gettime(CLOCK_MONOTONIC, &t1);
+  printf("%.6f %g\n", (t1.tv_sec - t0.tv_sec) + 1e-9 * (t1.tv_nsec - t0.tv_nsec), s0 + s1 + s2 + s3);
+  return 0;
+}
+"""
+
+THROUGHPUT_C = r"""
+#include <stdio.h>
+#include <time.h>
+#define N 2048
+int main(void) {
+  static double a[N], b[N], c[N];
+  int i, r;
+  struct timespec t0, t1;
+  for (i = 0; i < N; ++i) { a[i] = 1.0 + i * 1e-9; b[i] = 0.5; c[i] = 0; }
+  clock_gettime(CLOCK_MONOTONIC, &t0);
+  for (r = 0; r < 400000; ++r) {
+    for (i = 0; i < N; ++i) c[i] = c[i] * 0.999 + a[i] * b[i];
+    __asm__ volatile("" ::: "memory");
+  }
+  clock_gettime(CLOCK_MONOTONIC, &t1);
+  printf("%.6f %g\n", (t1.tv_sec - t0.tv_sec) + 1e-9 * (t1.tv_nsec - t0.tv_nsec), c[7]);
+  return 0;
+}
+"""
+
+HSLM_RUNS = r"""
+import sys, time, warnings
+import svbi
+from svbi.runtime.scenario import load_scenario
+sc = load_scenario(sys.argv[1], overrides={"train.hslm": "A5", "train.speed_kmh": 300.0,
+                                           "solver.time_step": 2e-4, "solver.output_every": 5})
+with warnings.catch_warnings():
+    warnings.simplefilter("ignore")
+    svbi.simulate(sc)
+    loops = [svbi.simulate(sc).attrs["loop_time_s"] for _ in range(int(sys.argv[2]))]
+print(sorted(loops)[len(loops) // 2])
+"""
+
+
+def _alone_and_pair(cmd: list[str], env: dict[str, str] | None = None) -> tuple[float, float]:
+    """Seconds of ``cmd`` (it prints them first) alone, and the mean of two copies run at once."""
+    import subprocess
+
+    def timed(out: str) -> float:
+        return float(out.split()[0])
+
+    alone = timed(subprocess.run(cmd, capture_output=True, text=True, check=True, env=env).stdout)
+    procs = [subprocess.Popen(cmd, stdout=subprocess.PIPE, text=True, env=env) for _ in range(2)]
+    pair = [timed(p.communicate()[0]) for p in procs]
+    return alone, sum(pair) / 2
+
+
+def core_scaling(folder: Path) -> None:
+    import shutil
+    import subprocess
+    import sys
+
+    print("\n4. what two cores give here: throughput of two processes at once / one alone")
+    cc = shutil.which(os.environ.get("CC", "cc"))
+    for name, src in (
+        ("latency-bound C (dependent multiply-adds)", LATENCY_C),
+        ("throughput-bound C (vectorised multiply-adds in L1)", THROUGHPUT_C),
+    ):
+        if cc is None:
+            print(f"   {name}: no C compiler")
+            continue
+        c_file, exe = folder / "probe.c", folder / "probe"
+        c_file.write_text(src, encoding="utf-8")
+        subprocess.run([cc, "-O3", "-o", str(exe), str(c_file)], check=True)
+        alone, pair = _alone_and_pair([str(exe)])
+        _scaling_row(name, alone, pair)
+    script = folder / "hslm_runs.py"
+    script.write_text(HSLM_RUNS, encoding="utf-8")
+    cmd = [sys.executable, str(script), str(EXAMPLES / "hslm-span.toml"), "20"]
+    one = {**os.environ, **{name: "1" for name in BLAS_VARS}}
+    alone, pair = _alone_and_pair(cmd, one)
+    _scaling_row("svbi C loop, HSLM-A5 run, 1 BLAS thread (svbi's)", alone, pair)
+    default = {k: v for k, v in os.environ.items() if k not in BLAS_VARS}
+    alone, pair = _alone_and_pair(cmd, default)
+    _scaling_row("the same, OpenBLAS's default threads", alone, pair)
+
+
+def _scaling_row(name: str, alone: float, pair: float) -> None:
+    print(f"   {name:<52} alone {alone:6.3f} s, two at once {pair:6.3f} s each: {2 * alone / pair:.2f}x")
 
 
 def main() -> None:
@@ -129,6 +244,7 @@ def main() -> None:
             f"\n3. memory per worker (peak RSS): {np.nanmax(store.worker_peak_rss_mb.values):.0f} MB "
             "on the paper scenario"
         )
+        core_scaling(folder)
 
 
 if __name__ == "__main__":

@@ -7,8 +7,18 @@ modules stay independent of each other.
 from __future__ import annotations
 
 import gc
+import os
 
 import typer
+
+BLAS_THREADS = ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS")
+"""Set to 1 before NumPy loads, unless the user set them: svbi's dense algebra is on small matrices
+(the loop is in C), so a multi-threaded BLAS only keeps spinning threads busy on the other cores:
+`svbi run examples/paper-2020.toml` takes 1.40-1.50 s instead of 1.60 s with them, and two runs side
+by side on two cores keep 1.85x the throughput of one instead of 1.07x (benchmarks/bench_sweep.py,
+section 4). Dask's workers get the same (its ``pre-spawn-environ``)."""
+for _name in BLAS_THREADS:
+    os.environ.setdefault(_name, "1")
 
 app = typer.Typer(
     name="svbi",
