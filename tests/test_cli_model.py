@@ -76,3 +76,23 @@ def test_bad_model_file_is_a_clear_error(tmp_path: Path) -> None:
     result = runner.invoke(app, ["derive", str(bad)])
     assert result.exit_code == 2
     assert "bodies[0].mass" in result.output and "Traceback" not in result.output
+
+
+def test_the_cli_runs_one_blas_thread_unless_the_user_says_otherwise():
+    """The loop is in C and svbi's dense algebra is small: a multi-threaded BLAS only spins on the
+    other cores (benchmarks/bench_sweep.py section 4). The CLI sets one thread before NumPy loads;
+    a user's own setting wins."""
+    import os
+    import subprocess
+    import sys
+
+    code = (
+        "import svbi.runtime.cli, numpy, os; "
+        "print(os.environ['OPENBLAS_NUM_THREADS'], os.environ['OMP_NUM_THREADS'])"
+    )
+    env = {k: v for k, v in os.environ.items() if k not in ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS")}
+    out = subprocess.run([sys.executable, "-c", code], env=env, capture_output=True, text=True, check=True)
+    assert out.stdout.split() == ["1", "1"]
+    env["OPENBLAS_NUM_THREADS"] = "2"
+    out = subprocess.run([sys.executable, "-c", code], env=env, capture_output=True, text=True, check=True)
+    assert out.stdout.split() == ["2", "1"]
