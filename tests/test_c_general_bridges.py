@@ -144,6 +144,21 @@ def test_braking_train_on_unequal_spans_under_a_travelling_quake_in_c():
     assert float(c.train_speed[-1]) < float(c.train_speed[0])
 
 
+def test_a_braking_train_lifts_off_and_lands_in_c():
+    """The impact's rail rates carry the train's deceleration (the convective a w_x term): a braking
+    train under a 2 g vertical quake, wheels lifting off and landing, C = NumPy (measured 2e-9 of
+    the force peak, 4e-9 creep, identical contact states)."""
+    keys = {
+        "train": {"speed_kmh": 120.0, "acceleration": -2.0},
+        "solver": {"duration": 4.0},
+        "earthquake": {"longitudinal": "none", "target_pga": 19.62},
+        "contact": {"normal": "unilateral"},
+    }
+    ref, c = run("numpy", **keys), run("c", **keys)
+    assert ref.attrs["liftoffs"] >= 5 and c.attrs["numpy_steps"] == 0
+    assert_c_equals_numpy(c, ref, rtol=2e-8, gap_atol=1e-10)
+
+
 def test_one_record_per_support_line_and_moving_loads_in_c():
     lines = ["synthetic"] * 4  # 3 spans: 4 support lines, each its own (seeded) record
     keys = {
