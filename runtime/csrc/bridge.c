@@ -5,30 +5,34 @@
  */
 #include "internal.h"
 
+/* Contact i at the local coordinate local (in elements) of span span: its element (clamped to the
+ * span), xi and contact rows from the row table cf (the generated unrolled evaluation). */
+void svbi_place(const setup_t* S, work_t* w, int i, int span, double local, const double* cf) {
+  int p;
+  double element = floor(local), xi, pw[ROW_DEG + 1];
+  if (element < 0.0) element = 0.0;
+  if (element > S->elements - 1) element = (double)(S->elements - 1);
+  xi = local - element;
+  if (xi < 0.0) xi = 0.0;
+  if (xi > 1.0) xi = 1.0;
+  w->cspan[i] = span;
+  w->cfirst[i] = 3 * (int)element;
+  w->cxi[i] = xi;
+  pw[0] = 1.0;
+  for (p = 1; p <= ROW_DEG; ++p) pw[p] = pw[p - 1] * xi;
+  svbi_contact_rows(pw, cf, w->crow + (long)i * ROW_COLS); /* generated: the structural non-zeros */
+}
+
 /* Span, element, local coordinate and contact rows of every contact (svbi.runtime.bridge.locate). */
 void svbi_locate(const setup_t* S, work_t* w) {
-  int i, p;
+  int i;
+  const double* cf = S->acceleration == 0.0 ? S->rows : w->rows_now;
   for (i = 0; i < S->nc; ++i) {
     double x = w->cx[i];
-    double span_f = floor(x * S->inv_span_length);
-    double span, local, element, xi, pw[ROW_DEG + 1];
-    double* row = w->crow + (long)i * ROW_COLS;
-    const double* cf = S->acceleration == 0.0 ? S->rows : w->rows_now;
+    double span_f = floor(x * S->inv_span_length), span;
     w->con[i] = span_f >= 0.0 && span_f < (double)S->spans;
     span = span_f < 0.0 ? 0.0 : (span_f > S->spans - 1 ? (double)(S->spans - 1) : span_f);
-    local = (x - span * S->span_length) * S->inv_element_length;
-    element = floor(local);
-    if (element < 0.0) element = 0.0;
-    if (element > S->elements - 1) element = (double)(S->elements - 1);
-    xi = local - element;
-    if (xi < 0.0) xi = 0.0;
-    if (xi > 1.0) xi = 1.0;
-    w->cspan[i] = (int)span;
-    w->cfirst[i] = 3 * (int)element;
-    w->cxi[i] = xi;
-    pw[0] = 1.0;
-    for (p = 1; p <= ROW_DEG; ++p) pw[p] = pw[p - 1] * xi;
-    svbi_contact_rows(pw, cf, row); /* generated: the structural non-zeros, unrolled */
+    svbi_place(S, w, i, (int)span, (x - span * S->span_length) * S->inv_element_length, cf);
   }
 }
 

@@ -27,13 +27,11 @@ static inline const double* kind_S(const setup_t* S, int sub) {
 /* Span (by the support lines), element, local coordinate and contact rows of every contact
  * (svbi.runtime.bridge.Bridge.locate): each span has its own element length and row table. */
 void svbi_general_locate(const setup_t* S, work_t* w) {
-  int i, p, spans = S->spans;
+  int i, spans = S->spans;
   long table = (long)(ROW_DEG + 1) * ROW_COLS;
   const double* line = S->g_line_x;
   for (i = 0; i < S->nc; ++i) {
-    double x = w->cx[i], local, element, xi, pw[ROW_DEG + 1];
-    double* row = w->crow + (long)i * ROW_COLS;
-    const double* cf;
+    double x = w->cx[i];
     int lo = 0, hi = spans + 1, span;
     while (lo < hi) { /* numpy.searchsorted(line, x, side="right") */
       int mid = (lo + hi) / 2;
@@ -46,20 +44,8 @@ void svbi_general_locate(const setup_t* S, work_t* w) {
     if (span < 0) span = 0;
     if (span > spans - 1) span = spans - 1;
     w->con[i] = x >= 0.0 && x < line[spans];
-    local = (x - line[span]) * S->g_inv_el[span];
-    element = floor(local);
-    if (element < 0.0) element = 0.0;
-    if (element > S->elements - 1) element = (double)(S->elements - 1);
-    xi = local - element;
-    if (xi < 0.0) xi = 0.0;
-    if (xi > 1.0) xi = 1.0;
-    w->cspan[i] = span;
-    w->cfirst[i] = 3 * (int)element;
-    w->cxi[i] = xi;
-    cf = (S->acceleration == 0.0 ? S->rows : w->rows_now) + S->g_rclass[span] * table;
-    pw[0] = 1.0;
-    for (p = 1; p <= ROW_DEG; ++p) pw[p] = pw[p - 1] * xi;
-    svbi_contact_rows(pw, cf, row);
+    svbi_place(S, w, i, span, (x - line[span]) * S->g_inv_el[span],
+               (S->acceleration == 0.0 ? S->rows : w->rows_now) + S->g_rclass[span] * table);
   }
 }
 
@@ -299,21 +285,9 @@ int svbi_general_interface(const setup_t* S, work_t* w, const int* active, const
       svbi_gb_add(w->band, bw, w->lpos[l], w->lpos[l + r], col[r]);
     }
   }
-  for (i = 0; i < nc; ++i) w->bsol[w->cpos[i]] = landing && landing[i] ? w->rland[i] : w->rhs[i];
   for (l = 0; l < nl; ++l) w->bsol[w->lpos[l]] = 0.0;
-  if (active) {
-    for (i = 0; i < nc; ++i) {
-      if (!active[i]) {
-        int r = w->cpos[i], c0 = r - bw > 0 ? r - bw : 0, c1 = r + bw < n - 1 ? r + bw : n - 1, cc;
-        for (cc = c0; cc <= c1; ++cc) w->band[(2 * bw + r - cc) + (long)cc * (3 * bw + 1)] = 0.0;
-        svbi_gb_add(w->band, bw, r, r, 1.0);
-        w->bsol[r] = 0.0;
-      }
-    }
-  }
-  status = svbi_gb_factor_r(w->band, n, bw, w->piv, w->rpiv);
+  status = svbi_interface_finish(S, w, n, bw, active, landing);
   if (status) return status;
-  svbi_gb_solve_r(w->band, n, bw, w->piv, w->rpiv, w->bsol);
   for (i = 0; i < nc; ++i) P[i] = w->bsol[w->cpos[i]];
   for (l = 0; l < nl; ++l) w->lam[l] = w->bsol[w->lpos[l]];
   return ST_OK;

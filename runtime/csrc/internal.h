@@ -207,6 +207,7 @@ static inline long n_recorded(const setup_t* S) { return S->general ? S->nact : 
 void svbi_excite(const setup_t* S, const excitation_t* E, work_t* w, long n, double t);
 
 /* bridge.c: contacts on the bridge, Newmark histories, span loads. */
+void svbi_place(const setup_t* S, work_t* w, int i, int span, double local, const double* cf);
 void svbi_locate(const setup_t* S, work_t* w);
 void svbi_group_by_span(const setup_t* S, work_t* w);
 void svbi_bridge_histories(const setup_t* S, work_t* w);
@@ -232,6 +233,7 @@ int svbi_general_init(const setup_t* S, work_t* w);
 void svbi_general_reactions(const setup_t* S, const state_t* X, const work_t* w, double* out);
 
 /* localized.c, coupled.c: one step of each method. */
+int svbi_interface_finish(const setup_t* S, work_t* w, int n, int bw, const int* active, const int* landing);
 int svbi_step_localized(const setup_t* S, state_t* X, work_t* w);
 int svbi_step_coupled(const setup_t* S, state_t* X, work_t* w, int classic);
 int svbi_coupled_init(const setup_t* S, work_t* w); /* after Kb, Kv are factored */

@@ -151,6 +151,28 @@ static void localized_correct(const setup_t* S, work_t* w, const double* force) 
   }
 }
 
+/* The contact rows' right-hand sides (a landing wheel's: its landing row's), an inactive wheel's
+ * row replaced by P_i = 0 (band row zeroed, unit diagonal), then the banded LU and the solve, in
+ * w->bsol (n unknowns: the contacts at w->cpos, and a general bridge's links). */
+int svbi_interface_finish(const setup_t* S, work_t* w, int n, int bw, const int* active, const int* landing) {
+  int i, status, nc = S->nc;
+  for (i = 0; i < nc; ++i) w->bsol[w->cpos[i]] = landing && landing[i] ? w->rland[i] : w->rhs[i];
+  if (active) {
+    for (i = 0; i < nc; ++i) {
+      if (!active[i]) {
+        int r = w->cpos[i], c0 = r - bw > 0 ? r - bw : 0, c1 = r + bw < n - 1 ? r + bw : n - 1, cc;
+        for (cc = c0; cc <= c1; ++cc) w->band[(2 * bw + r - cc) + (long)cc * (3 * bw + 1)] = 0.0;
+        svbi_gb_add(w->band, bw, r, r, 1.0);
+        w->bsol[r] = 0.0;
+      }
+    }
+  }
+  status = svbi_gb_factor_r(w->band, n, bw, w->piv, w->rpiv);
+  if (status) return status;
+  svbi_gb_solve_r(w->band, n, bw, w->piv, w->rpiv, w->bsol);
+  return ST_OK;
+}
+
 #if !SVBI_MOVING_LOAD
 /* X S N0_j^T for a row X of contact i (non-zeros nzX) and contact j's N0 on the same span: Srows is
  * S from contact i's first DOF, firstj contact j's first DOF. */
@@ -194,20 +216,8 @@ static int interface_solve(const setup_t* S, work_t* w, int bw, const int* activ
       }
     }
   }
-  for (i = 0; i < nc; ++i) w->bsol[w->cpos[i]] = landing && landing[i] ? w->rland[i] : w->rhs[i];
-  if (active) {
-    for (i = 0; i < nc; ++i) {
-      if (!active[i]) {
-        int r = w->cpos[i], c0 = r - bw > 0 ? r - bw : 0, c1 = r + bw < nc - 1 ? r + bw : nc - 1, cc;
-        for (cc = c0; cc <= c1; ++cc) w->band[(2 * bw + r - cc) + (long)cc * (3 * bw + 1)] = 0.0;
-        svbi_gb_add(w->band, bw, r, r, 1.0);
-        w->bsol[r] = 0.0;
-      }
-    }
-  }
-  status = svbi_gb_factor_r(w->band, nc, bw, w->piv, w->rpiv);
+  status = svbi_interface_finish(S, w, nc, bw, active, landing);
   if (status) return status;
-  svbi_gb_solve_r(w->band, nc, bw, w->piv, w->rpiv, w->bsol);
   for (i = 0; i < nc; ++i) P[i] = w->bsol[w->cpos[i]];
   return ST_OK;
 }
