@@ -153,21 +153,6 @@ static inline double row_dot(const double* X, const int* nzX, int nX, const doub
   return f;
 }
 
-/* X S N0_j^T for row X of contact i and contact j's N0 on the same substructure (Srows: S from i's
- * first DOF, row-major). */
-static double pair_same(const double* X, const int* nzX, int nX, const double* Srows, int nd, int firstj,
-                        const double* N0) {
-  int a, b;
-  double f = 0.0;
-  for (a = 0; a < nX; ++a) {
-    const double* Sr = Srows + (long)nzX[a] * nd + firstj;
-    double t = 0.0;
-    for (b = 0; b < NNZ_N0; ++b) t += Sr[nz_N0[b]] * N0[nz_N0[b]];
-    f += X[nzX[a]] * t;
-  }
-  return f;
-}
-
 /* X Z L_l^T for row X of a contact on substructure s at element DOFs from first, Z a compliance
  * given by its columns at the links' ends (col_a, col_b: nlinks x nd): + end a, - end b. */
 double svbi_general_row_link(const setup_t* S, const double* X, const int* nzX, int nX, int s, int first, int l,
@@ -266,7 +251,7 @@ int svbi_general_interface(const setup_t* S, work_t* w, const int* active, const
       for (m2 = w->sstart[s]; m2 < w->sstart[s + 1]; ++m2) {
         int cj = w->slist[m2];
         const double* N0 = w->crow + (long)cj * ROW_COLS + COL_N0;
-        svbi_gb_add(w->band, bw, w->cpos[ci], w->cpos[cj], pair_same(Wh, nzW, nW, Srows, nd, w->cfirst[cj], N0));
+        svbi_gb_add(w->band, bw, w->cpos[ci], w->cpos[cj], svbi_row_S_N0(Wh, nzW, nW, Srows, nd, w->cfirst[cj], N0));
       }
       for (m2 = S->g_sl_ptr[s]; m2 < S->g_sl_ptr[s + 1]; ++m2) {
         l = S->g_sl_link[m2];
@@ -303,7 +288,7 @@ double svbi_general_deflection(const setup_t* S, const work_t* w, const double* 
   for (m = w->sstart[s]; m < w->sstart[s + 1]; ++m) {
     int cj = w->slist[m];
     const double* Nj = w->crow + (long)cj * ROW_COLS + COL_N0;
-    f += pair_same(Nc, nz_N0, NNZ_N0, Srows, nd, w->cfirst[cj], Nj) * P[cj];
+    f += svbi_row_S_N0(Nc, nz_N0, NNZ_N0, Srows, nd, w->cfirst[cj], Nj) * P[cj];
   }
   for (m = S->g_sl_ptr[s]; m < S->g_sl_ptr[s + 1]; ++m) {
     int l = S->g_sl_link[m];

@@ -69,9 +69,10 @@ static void mass_field(const setup_t* S, work_t* w, const double* F, double* out
     }
   }
   if (!S->general || !S->nlinks) return;
-  for (l = 0; l < S->nlinks; ++l)
-    w->lam0[l] = S->g_lk_spring[l] ? 0.0
-                                   : BR(out, S->g_lk_a_sub[l], S->g_lk_a_dof[l]) - BR(out, S->g_lk_b_sub[l], S->g_lk_b_dof[l]);
+  for (l = 0; l < S->nlinks; ++l) {
+    double gap = BR(out, S->g_lk_a_sub[l], S->g_lk_a_dof[l]) - BR(out, S->g_lk_b_sub[l], S->g_lk_b_dof[l]);
+    w->lam0[l] = S->g_lk_spring[l] ? 0.0 : gap; /* a spring passes no impulse */
+  }
   svbi_band_solve(w->LAM, S->nlinks, S->band_links, w->lam0);
   for (l = 0; l < S->nlinks; ++l) {
     const double* ca = S->I_lk_col_a + (long)l * nd;
@@ -93,7 +94,7 @@ static void contact_load(const setup_t* S, work_t* w, const double* f, double* F
 
 /* The mass flexibility G (nc x nc, dense, row-major) at the contacts. */
 static void flexibility(const setup_t* S, work_t* w, double* G) {
-  int i, j, a, b, l, m, nc = S->nc, nd = S->nd;
+  int i, j, l, m, nc = S->nc, nd = S->nd;
   memset(G, 0, sizeof(double) * (size_t)nc * (size_t)nc);
   for (i = 0; i < nc; ++i)
     for (j = 0; j < NW; ++j) G[(long)i * nc + (i / NW) * NW + j] = S->I_GV[(i % NW) * NW + j];
@@ -104,11 +105,8 @@ static void flexibility(const setup_t* S, work_t* w, double* G) {
     SM = mass_compliance(S, w->cspan[i]);
     for (j = 0; j < nc; ++j) {
       const double* Nj = w->crow + (long)j * ROW_COLS + COL_N0;
-      double g = 0.0;
       if (!w->con[j] || w->cspan[j] != w->cspan[i]) continue;
-      for (a = 0; a < NE; ++a)
-        for (b = 0; b < NE; ++b) g += Ni[a] * SM[(long)(w->cfirst[i] + a) * nd + w->cfirst[j] + b] * Nj[b];
-      G[(long)i * nc + j] += g;
+      G[(long)i * nc + j] += svbi_row_S_N0(Ni, nz_N0, NNZ_N0, SM + (long)w->cfirst[i] * nd, nd, w->cfirst[j], Nj);
     }
   }
   if (!S->general || !S->nlinks) return;

@@ -191,6 +191,21 @@ static inline long n_slots(const setup_t* S) { return S->general ? 3L * S->nsub 
 /* Substructures whose state the loop holds: the spans, and the piers of a general bridge. */
 static inline long n_subs(const setup_t* S) { return S->general ? S->nsub : S->spans; }
 
+/* X S N0_j^T for a row X of contact i (non-zeros nzX) and contact j's N0 on the same substructure:
+ * Srows is S (row-major, nd x nd) from contact i's first DOF, firstj contact j's first DOF. */
+static inline double svbi_row_S_N0(const double* X, const int* nzX, int nX, const double* Srows, int nd, int firstj,
+                                   const double* N0) {
+  int a, b;
+  double f = 0.0;
+  for (a = 0; a < nX; ++a) {
+    const double* Sr = Srows + (long)nzX[a] * nd + firstj;
+    double t = 0.0;
+    for (b = 0; b < NNZ_N0; ++b) t += Sr[nz_N0[b]] * N0[nz_N0[b]];
+    f += X[nzX[a]] * t;
+  }
+  return f;
+}
+
 /* Unknowns of the interface system (contact forces, or multipliers; general: and link forces). */
 static inline long n_multipliers(const setup_t* S) {
   long NS = (long)S->spans * S->ns;

@@ -174,21 +174,6 @@ int svbi_interface_finish(const setup_t* S, work_t* w, int n, int bw, const int*
 }
 
 #if !SVBI_MOVING_LOAD
-/* X S N0_j^T for a row X of contact i (non-zeros nzX) and contact j's N0 on the same span: Srows is
- * S from contact i's first DOF, firstj contact j's first DOF. */
-static double row_S_N0(const double* X, const int* nzX, int nX, const double* Srows, int nd, int firstj,
-                       const double* N0) {
-  int a, b;
-  double f = 0.0;
-  for (a = 0; a < nX; ++a) {
-    const double* Sr = Srows + (long)nzX[a] * nd + firstj;
-    double t = 0.0;
-    for (b = 0; b < NNZ_N0; ++b) t += Sr[nz_N0[b]] * N0[nz_N0[b]];
-    f += X[nzX[a]] * t;
-  }
-  return f;
-}
-
 /* (F* + F_B) P = rhs, banded in track order (w->cpos), for the interface of this step; an inactive
  * (airborne) wheel's row is P_i = 0, a landing wheel's the position-level g_{n+1} = 0 (N0 in place
  * of W_hat; svbi.runtime.localized._active_set_solve). */
@@ -211,7 +196,7 @@ static int interface_solve(const setup_t* S, work_t* w, int bw, const int* activ
       for (m2 = w->sstart[s]; m2 < w->sstart[s + 1]; ++m2) {
         int cj = w->slist[m2];
         const double* N0 = w->crow + (long)cj * ROW_COLS + COL_N0;
-        double fij = row_S_N0(Wh, nzW, nW, Srows, nd, w->cfirst[cj], N0);
+        double fij = svbi_row_S_N0(Wh, nzW, nW, Srows, nd, w->cfirst[cj], N0);
         svbi_gb_add(w->band, bw, w->cpos[ci], w->cpos[cj], fij);
       }
     }
@@ -242,7 +227,7 @@ static double predicted_uplift(const setup_t* S, const work_t* w, const double* 
     for (m = w->sstart[s]; m < w->sstart[s + 1]; ++m) {
       int cj = w->slist[m];
       const double* Nj = w->crow + (long)cj * ROW_COLS + COL_N0;
-      rail -= row_S_N0(Nc, nz_N0, NNZ_N0, Srows, nd, w->cfirst[cj], Nj) * P[cj];
+      rail -= svbi_row_S_N0(Nc, nz_N0, NNZ_N0, Srows, nd, w->cfirst[cj], Nj) * P[cj];
     }
   }
   return ug - rail;
@@ -367,7 +352,8 @@ int svbi_step_localized(const setup_t* S, state_t* X, work_t* w) {
           w->ib[i] = !w->active[i] && !w->twice[i] ? predicted_uplift(S, w, X->P, i) : 1.0;
         }
         for (i = 0; i < nc; ++i) {
-          int release = w->active[i] && X->P[i] < 0.0, land = airborne && !w->active[i] && !w->twice[i] && w->ib[i] <= 0.0;
+          int release = w->active[i] && X->P[i] < 0.0;
+          int land = airborne && !w->active[i] && !w->twice[i] && w->ib[i] <= 0.0;
           if (release) {
             w->active[i] = w->landing[i] = 0;
             w->twice[i] |= w->released[i];

@@ -162,7 +162,8 @@ static void carve(const setup_t* S, carver_t* c, work_t* w) {
   }
   {
     /* unilateral contact, localized (impact.c) */
-    long u = S->unilateral, field = u ? ((spans + LW - 1) / LW * LW > subs ? (spans + LW - 1) / LW * LW : subs) * nd : 0;
+    long u = S->unilateral, lanes = (spans + LW - 1) / LW * LW; /* the blocked layout's spans */
+    long field = u ? (lanes > subs ? lanes : subs) * nd : 0;
     w->landing = take_i(c, nc);
     w->released = take_i(c, nc);
     w->twice = take_i(c, nc);
