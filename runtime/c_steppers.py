@@ -693,10 +693,15 @@ class CStepper:
         S.g_slot_x = self._arr(b.support_x_all.ravel())
         table = b.support_table
         S.nact, S.g_act_slot = len(table.flat), self._arr(table.flat, np.int32)
-        merged = [np.argwhere(b.global_dof == g) for g in b.support_global]  # (sub, dof) pairs
-        S.g_rx_ptr = self._arr(np.concatenate([[0], np.cumsum([len(p) for p in merged])]), np.int32)
-        pairs = np.concatenate(merged) if merged else np.zeros((0, 2), dtype=int)
-        S.g_rx_sub, S.g_rx_dof = self._arr(pairs[:, 0], np.int32), self._arr(pairs[:, 1], np.int32)
+        # the (sub, dof) pairs that share each active support's global DOF, support after support
+        flat = b.global_dof.ravel()
+        rank = np.full(b.nglobal, -1)
+        rank[b.support_global] = np.arange(len(b.support_global))
+        members = np.flatnonzero(rank[flat] >= 0)
+        members = members[np.argsort(rank[flat[members]], kind="stable")]
+        counts = np.bincount(rank[flat[members]], minlength=len(b.support_global))
+        S.g_rx_ptr = self._arr(np.concatenate([[0], np.cumsum(counts)]), np.int32)
+        S.g_rx_sub, S.g_rx_dof = self._arr(members // nd, np.int32), self._arr(members % nd, np.int32)
         em, xim = b.midspan_location()
         S.mid_first = 3 * em
         S.g_mid_w = self._arr(
