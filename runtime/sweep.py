@@ -69,8 +69,8 @@ ended (Unix time, s) and the worker process's id."""
 _UNION_TAGS = {"str", "int", "float", "bool"}
 _RUN_UNITS = {
     "worker_peak_rss_mb": {"units": "MB"},
-    "started": {"units": "s since 1970-01-01"},
-    "ended": {"units": "s since 1970-01-01"},
+    "started": {"units": "seconds since 1970-01-01"},
+    "ended": {"units": "seconds since 1970-01-01"},
     "worker_pid": {"long_name": "process id of the worker that ran it"},
 }
 

@@ -145,6 +145,10 @@ def test_sweep_metrics_equal_svbi_run_and_failures_are_recorded(tmp_path):
     assert report.statuses == {"ok": 2, "failed": 2}
     store = read_store(out)
     assert list(store.status.dims) == ["train.speed_kmh", "solver.time_step"]
+    with xr.open_dataset(out) as plain:  # a user's plain xarray reads it, the run times as dates
+        assert (
+            plain.started.dtype.kind == "M" and plain.status.values.tolist() == store.status.values.tolist()
+        )
     assert store.status.sel({"solver.time_step": 2e-3}).values.tolist() == ["failed", "failed"]
     assert "contact.creep: the explicit creep force is unstable" in str(store.message.values[0, 1])
     assert np.isnan(store.peak_deck_acceleration.sel({"solver.time_step": 2e-3})).all()
