@@ -179,3 +179,29 @@ def test_coupled_methods_on_a_general_bridge_fall_back_to_numpy_with_a_warning()
             warnings.simplefilter("always", BackendFallback)
             ds = svbi.simulate(validate_scenario(data))
     assert ds.attrs["backend"] == "numpy"
+
+
+def test_unequal_simply_supported_spans_without_links_in_c():
+    """Three unequal simply supported spans on rigid supports: three kinds, three row tables, no
+    links (the interface holds only the contacts); wheels lift off and land."""
+    from test_continuous_bridges import bridge_dict
+
+    data = {
+        "bridge": bridge_dict(girders=[dict(spans=[24.0]), dict(spans=[36.0]), dict(spans=[30.0])])
+        | {"elements_per_span": 8, "rail_height": 1.5},
+        "train": dict(vehicle="pioneer-2d", cars=2, speed_kmh=250.0),
+        "track": dict(irregularity="german-low", seed=2),
+        "earthquake": dict(vertical="synthetic", longitudinal="synthetic", arrival=0.0, target_pga=15.0),
+        "contact": dict(normal="unilateral"),
+        "solver": dict(time_step=5e-4, duration=2.0),
+    }
+    runs = {}
+    for backend in ("numpy", "c"):
+        data["solver"]["backend"] = backend
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore", UserWarning)
+            warnings.simplefilter("error", BackendFallback)
+            runs[backend] = svbi.simulate(validate_scenario(data))
+    ref, c = runs["numpy"], runs["c"]
+    assert ref.attrs["liftoffs"] >= 1 and c.attrs["numpy_steps"] == 0
+    assert_c_equals_numpy(c, ref)
