@@ -81,6 +81,8 @@ static void link_load(const setup_t* S, work_t* w, const double* lambda, double 
 void svbi_general_predictor(const setup_t* S, work_t* w, const double* creep) {
   int s, i, j, q, l, k, t, nd = S->nd, NSL = 3 * S->nsub;
   double* f = w->fb; /* nd */
+  double* q1 = w->qact;
+  for (k = 0; k < S->nact; ++k) q1[k] = w->qs[NSL + S->g_act_slot[k]]; /* the active supports' q' */
   for (k = 0; k < S->nkind; ++k) {
     /* the kind's members side by side (GB: free DOF after free DOF, m lanes), one blocked solve */
     int nf = S->g_nfree[k], n0 = w->kmem_ptr[k], count = w->kmem_ptr[k + 1] - n0;
@@ -100,8 +102,7 @@ void svbi_general_predictor(const setup_t* S, work_t* w, const double* creep) {
         double v = 0.0;
         long r = (long)s * nd + i;
         for (q = ptr[i]; q < ptr[i + 1]; ++q) v += S->g_m[q] * P[S->g_mck_idx[q]] + S->g_c[q] * Q[S->g_mck_idx[q]];
-        for (q = S->g_ct_ptr[r]; q < S->g_ct_ptr[r + 1]; ++q)
-          v += S->g_ct_val[q] * w->qs[NSL + S->g_act_slot[S->g_ct_idx[q]]];
+        for (q = S->g_ct_ptr[r]; q < S->g_ct_ptr[r + 1]; ++q) v += S->g_ct_val[q] * q1[S->g_ct_idx[q]];
         f[i] = v;
       }
 #if !SVBI_MOVING_LOAD

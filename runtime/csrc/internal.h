@@ -164,6 +164,7 @@ typedef struct {
   double* GB;    /* nd x (nsub + SW): right-hand sides of one kind's members, side by side */
   int* kmem_ptr; /* nkind + 1 */
   int* kmem;     /* nsub: the substructures, kind after kind */
+  double* qact;  /* nact: the active supports' q' of the step */
   /* ---- unilateral contact: landings and the plastic impact (localized.c, impact.c) ---- */
   int* landing;  /* nc: a landing wheel's row is the position-level g_{n+1} = 0 */
   int* released; /* nc: released in a pass of this step */

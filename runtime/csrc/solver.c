@@ -159,6 +159,7 @@ static void carve(const setup_t* S, carver_t* c, work_t* w) {
     w->GB = take_d(c, S->general ? nd * (S->nsub + SW) : 0);
     w->kmem_ptr = take_i(c, S->general ? S->nkind + 1 : 0);
     w->kmem = take_i(c, S->general ? S->nsub : 0);
+    w->qact = take_d(c, S->general ? S->nact : 0);
   }
   {
     /* unilateral contact, localized (impact.c) */
