@@ -54,6 +54,7 @@ static inline double dot_el(const work_t* w, const setup_t* S, const double* X, 
  * compliance, then the rigid links closed (the NumPy SubstructureCompliance.field). */
 static void mass_field(const setup_t* S, work_t* w, const double* F, double* out) {
   int s, i, j, l, nd = S->nd, subs = (int)n_subs(S);
+  memset(out, 0, sizeof(double) * (size_t)w->nb); /* the blocked layout's padding lanes stay 0 */
   for (s = 0; s < subs; ++s) {
     const double* SM = mass_compliance(S, s);
     const double* fs = w->fb;
