@@ -34,8 +34,9 @@ def _functions() -> tuple[Any, Any]:
 class CasadiContactRows:
     """Drop-in for :class:`svbi.runtime.contact_rows.ContactRowKernel`, evaluated by CasADi."""
 
-    def __init__(self, le: float, speed: float, dt: float, kappa: float, zeta: float) -> None:
-        self.le, self.speed = le, speed
+    def __init__(self, le: float | np.ndarray, speed: float, dt: float, kappa: float, zeta: float) -> None:
+        """``le``: the element length, or one per span (a bridge of unequal spans)."""
+        self.le, self.speed = np.asarray(le, dtype=float), speed
         self.newmark = np.array([dt, kappa, zeta])
         self._maps: dict[int, tuple[Any, Any]] = {}
         self._units = np.vstack([np.zeros((1, UNIT_INPUTS)), np.eye(UNIT_INPUTS)]).T  # 17 x 18
@@ -49,18 +50,21 @@ class CasadiContactRows:
     def __call__(
         self, xi: np.ndarray, span: np.ndarray | None = None, v: float | None = None, a: float = 0.0
     ) -> ContactRows:
-        """Rows at ``xi`` (the CasADi backend runs the paper's bridge at constant speed: one element
-        length and the run's speed, so ``span``, ``v`` and ``a`` are not needed)."""
+        """Rows at ``xi`` of the spans ``span`` (each with its element length); the CasADi backend
+        runs trains at constant speed, so ``v`` and ``a`` are not needed."""
         xi = np.asarray(xi, dtype=float)
         n = xi.size
         rows, discrete = self._mapped(n)
-        N, N_x, N_xx, _, _ = (np.array(v.full()).reshape(n, 6) for v in rows(xi[None, :], self.le, 0.0))
         m = UNIT_INPUTS + 1
+        if self.le.ndim == 0:
+            le, les = float(self.le), float(self.le)
+        else:  # one element length per contact, as the mapped calls take their arguments
+            le = self.le[np.asarray(span)][None, :]
+            les = np.repeat(le, m, axis=1)
+        N, N_x, N_xx, _, _ = (np.array(v.full()).reshape(n, 6) for v in rows(xi[None, :], le, 0.0))
         units = np.tile(self._units, (1, n))
         xis = np.repeat(xi, m)[None, :]
-        out = discrete(
-            xis, self.le, self.speed, self.newmark, units[0:2], units[2:8], units[8:14], units[14:17]
-        )
+        out = discrete(xis, les, self.speed, self.newmark, units[0:2], units[2:8], units[8:14], units[14:17])
         W_hat = np.array(out[0].full()).reshape(n, m, 6)[:, 0, :]  # mapped 1x6 rows, side by side
         h = np.array(out[1].full()).reshape(n, m)
         coef = h[:, 1:] - h[:, :1]  # h_B is linear and homogeneous: the unit responses
@@ -90,7 +94,9 @@ def casadi_stepper(method: str) -> Any:
         kappa, zeta = (
             (0.0, 0.0) if method == "coupled-classic" else (model.settings.kappa, model.settings.zeta)
         )
-        stepper.rows = CasadiContactRows(model.bridge.element_length, model.speed, model.dt, kappa, zeta)
+        stepper.rows = CasadiContactRows(
+            model.bridge.contact_element_length, model.speed, model.dt, kappa, zeta
+        )
         assert old.d == stepper.point.d or method == "coupled-classic"
         stepper.backend = "casadi"
         return stepper

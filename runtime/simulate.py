@@ -303,13 +303,11 @@ def simulate(
         model = build_model(scenario, hold_train=hold_train)
     s = model.settings
     requested = s.backend
-    general_in_c = requested == "c" and s.method == "localized-dynamic"
-    if requested in ("c", "casadi") and not model.bridge.uniform and not general_in_c:
-        runs = "localized-dynamic on any bridge, the other methods" if requested == "c" else "runs"
+    if requested == "c" and not model.bridge.uniform and s.method != "localized-dynamic":
         warnings.warn(
-            f"solver.backend = {requested!r} {runs} the paper's bridge (identical simply supported "
-            "spans on rigid supports); this bridge (continuous girders, unequal spans or piers) runs "
-            f"{s.method} on the NumPy backend",
+            f"solver.backend = 'c' runs localized-dynamic on any bridge, the other methods on the "
+            "paper's bridge (identical simply supported spans on rigid supports); this bridge "
+            f"(continuous girders, unequal spans or piers) runs {s.method} on the NumPy backend",
             BackendFallback,
             stacklevel=2,
         )

@@ -252,3 +252,16 @@ def test_exported_solver_runs_a_viaduct_with_piers_as_svbi_run(tmp_path):
         got = np.stack([table[c] for c in cols], axis=1)
         expected = ref[name].values.reshape(len(table), -1)
         assert float(np.abs(got - expected).max()) <= 1e-10 * float(np.abs(expected).max()), name
+
+
+def test_casadi_backend_runs_a_bridge_of_substructures():
+    """The CasADi backend evaluates each contact's rows with its span's element length (the
+    Functions take it as an input), on every method: no fallback on a bridge with unequal spans,
+    a continuous girder and piers (NumPy's results to 1e-12, measured 2e-13)."""
+    for method in ("localized-dynamic", "coupled-classic"):
+        keys = {"contact": {"normal": "bilateral"}, "solver": {"duration": 0.3}}
+        ref, cas = run("numpy", method, **keys), run("casadi", method, **keys)
+        assert cas.attrs["backend"] == "casadi"
+        for name in ("contact_force", "midspan_uz", "pier_top_ux", "support_reaction"):
+            peak = float(np.abs(ref[name]).max())
+            assert float(np.abs(cas[name] - ref[name]).max()) <= 1e-12 * peak, (method, name)
