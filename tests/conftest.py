@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import functools
 from pathlib import Path
+from typing import Any
 
 import pytest
 
@@ -34,3 +35,39 @@ def c_compiler_works() -> bool:
         return False
     c_solver_build.load_loop(c_solver_build.LoopSpec("moving-load", 0, 0))  # raises with the message
     return True
+
+
+def export_and_run(tmp_path: Path, scenario: dict | None = None) -> tuple[Any, Any, str]:
+    """`svbi export pioneer-2d DIR --solver` with ``scenario`` baked in (None: the built-in example),
+    built with `make` and run with no Python (its CSV), and the same scenario through `svbi run`:
+    ``(table, results, make's output)``."""
+    import subprocess
+    import warnings
+
+    import numpy as np
+    import tomli_w
+    import xarray as xr
+    from svbi.runtime import cli, solver_export
+    from typer.testing import CliRunner
+
+    scenario_file = tmp_path / "exported.toml"
+    scenario_file.write_text(tomli_w.dumps(scenario or solver_export.example_scenario("pioneer-2d")))
+    cli._register()
+    runner = CliRunner()
+    folder = tmp_path / "solver"
+    args = ["export", "pioneer-2d", str(folder), "--solver"]
+    done = runner.invoke(cli.app, args + (["--scenario", str(scenario_file)] if scenario else []))
+    assert done.exit_code == 0, done.output
+    build = subprocess.run(["make", "-C", str(folder)], capture_output=True, text=True, check=False)
+    assert build.returncode == 0, build.stdout + build.stderr
+    csv = tmp_path / "out.csv"
+    ran = subprocess.run(
+        [str(folder / solver_export.PROGRAM), str(csv)], capture_output=True, text=True, check=False
+    )
+    assert ran.returncode == 0, ran.stderr
+    results = tmp_path / "run.nc"
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        done = runner.invoke(cli.app, ["run", str(scenario_file), "-o", str(results), "-q"])
+    assert done.exit_code == 0, done.output
+    return np.genfromtxt(csv, delimiter=",", names=True), xr.load_dataset(results), build.stdout

@@ -33,7 +33,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from conftest import c_compiler_works
+from conftest import c_compiler_works, export_and_run
 from svbi.runtime import c_solver_build, c_steppers, kernel_cache
 from svbi.runtime.excitation.ground import RecordGround, ground_motion
 from svbi.runtime.excitation.synthetic import synthetic_record
@@ -367,34 +367,8 @@ def test_render_is_deterministic():
 def test_exported_solver_builds_with_make_and_reproduces_svbi_run(tmp_path):
     """The exported folder builds with `make` under the strict warning set and, with no Python,
     writes the same numbers as `svbi run` on the scenario baked into it."""
-    import tomli_w
-    import xarray as xr
-    from svbi.runtime import cli, solver_export
-    from typer.testing import CliRunner
-
-    cli._register()
-    runner = CliRunner()
-    folder = tmp_path / "solver"
-    done = runner.invoke(cli.app, ["export", "pioneer-2d", str(folder), "--solver"])
-    assert done.exit_code == 0, done.output
-    build = subprocess.run(["make", "-C", str(folder)], capture_output=True, text=True, check=False)
-    assert build.returncode == 0, build.stdout + build.stderr
-    assert "-Werror" in build.stdout
-    csv = tmp_path / "out.csv"
-    ran = subprocess.run(
-        [str(folder / solver_export.PROGRAM), str(csv)], capture_output=True, text=True, check=False
-    )
-    assert ran.returncode == 0, ran.stderr
-    table = np.genfromtxt(csv, delimiter=",", names=True)
-
-    scenario_file = tmp_path / "example.toml"
-    scenario_file.write_text(tomli_w.dumps(solver_export.example_scenario("pioneer-2d")))
-    results = tmp_path / "run.nc"
-    with warnings.catch_warnings():
-        warnings.simplefilter("ignore")
-        done = runner.invoke(cli.app, ["run", str(scenario_file), "-o", str(results), "-q"])
-    assert done.exit_code == 0, done.output
-    ref = xr.load_dataset(results)
+    table, ref, build = export_and_run(tmp_path)
+    assert "-Werror" in build
     assert ref.attrs["backend"] == "c" and len(table) == ref.sizes["time"] > 100
     np.testing.assert_array_equal(table["time"], ref.time.values)
     columns = {
@@ -416,11 +390,6 @@ def test_exported_solver_runs_lift_offs_and_landings_as_svbi_run(tmp_path):
     """localized-dynamic keeps the whole active set in C (lift-offs, flights, landings and their
     impact), so the standalone exported loop runs unilateral contact with no Python and writes the
     same numbers as `svbi run`."""
-    import tomli_w
-    import xarray as xr
-    from svbi.runtime import cli, solver_export
-    from typer.testing import CliRunner
-
     scenario = {
         "title": "export with lift-offs: one car under a 3 g vertical record",
         "bridge": dict(
@@ -438,29 +407,7 @@ def test_exported_solver_runs_lift_offs_and_landings_as_svbi_run(tmp_path):
         "contact": dict(normal="unilateral"),
         "solver": dict(method="localized-dynamic", backend="c", time_step=1e-3, duration=4.0, output_every=5),
     }
-    scenario_file = tmp_path / "liftoff.toml"
-    scenario_file.write_text(tomli_w.dumps(scenario))
-    cli._register()
-    runner = CliRunner()
-    folder = tmp_path / "solver"
-    done = runner.invoke(
-        cli.app, ["export", "pioneer-2d", str(folder), "--solver", "--scenario", str(scenario_file)]
-    )
-    assert done.exit_code == 0, done.output
-    build = subprocess.run(["make", "-C", str(folder)], capture_output=True, text=True, check=False)
-    assert build.returncode == 0, build.stdout + build.stderr
-    csv = tmp_path / "out.csv"
-    ran = subprocess.run(
-        [str(folder / solver_export.PROGRAM), str(csv)], capture_output=True, text=True, check=False
-    )
-    assert ran.returncode == 0, ran.stderr
-    table = np.genfromtxt(csv, delimiter=",", names=True)
-    results = tmp_path / "run.nc"
-    with warnings.catch_warnings():
-        warnings.simplefilter("ignore")
-        done = runner.invoke(cli.app, ["run", str(scenario_file), "-o", str(results), "-q"])
-    assert done.exit_code == 0, done.output
-    ref = xr.load_dataset(results)
+    table, ref, _ = export_and_run(tmp_path, scenario)
     assert ref.attrs["liftoffs"] >= 5 and ref.attrs["numpy_steps"] == 0
     assert len(table) == ref.sizes["time"]
     cols = [f"contact_force_{c}_{w}" for c in ref.car.values for w in ref.wheel.values]

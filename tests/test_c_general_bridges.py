@@ -8,7 +8,7 @@ import warnings
 
 import numpy as np
 import pytest
-from conftest import c_compiler_works
+from conftest import c_compiler_works, export_and_run
 from svbi.runtime.scenario import validate_scenario
 from svbi.runtime.simulate import BackendFallback
 from test_continuous_bridges import VIADUCT
@@ -210,38 +210,10 @@ def test_unequal_simply_supported_spans_without_links_in_c():
 def test_exported_solver_runs_a_viaduct_with_piers_as_svbi_run(tmp_path):
     """`svbi export --solver` bakes a bridge of substructures (kinds, links, per-span row tables,
     support slots) into the standalone loop, with unilateral contact: its CSV equals `svbi run`."""
-    import subprocess
-
-    import tomli_w
-    import xarray as xr
-    from svbi.runtime import cli, solver_export
-    from typer.testing import CliRunner
-
     data = {k: dict(v) for k, v in VIADUCT.items()}
     data["solver"] = data["solver"] | {"backend": "c", "duration": 1.0, "output_every": 5}
     data["contact"] = {"normal": "unilateral"}
-    scenario = tmp_path / "viaduct.toml"
-    scenario.write_text(tomli_w.dumps(data))
-    cli._register()
-    runner = CliRunner()
-    folder = tmp_path / "solver"
-    done = runner.invoke(
-        cli.app, ["export", "pioneer-2d", str(folder), "--solver", "--scenario", str(scenario)]
-    )
-    assert done.exit_code == 0, done.output
-    build = subprocess.run(["make", "-C", str(folder)], capture_output=True, text=True, check=False)
-    assert build.returncode == 0, build.stdout + build.stderr
-    csv = tmp_path / "out.csv"
-    ran = subprocess.run(
-        [str(folder / solver_export.PROGRAM), str(csv)], capture_output=True, text=True, check=False
-    )
-    assert ran.returncode == 0, ran.stderr
-    table = np.genfromtxt(csv, delimiter=",", names=True)
-    with warnings.catch_warnings():
-        warnings.simplefilter("ignore")
-        done = runner.invoke(cli.app, ["run", str(scenario), "-o", str(tmp_path / "run.nc"), "-q"])
-    assert done.exit_code == 0, done.output
-    ref = xr.load_dataset(tmp_path / "run.nc")
+    table, ref, _ = export_and_run(tmp_path, data)
     assert ref.attrs["backend"] == "c" and len(table) == ref.sizes["time"] > 100
     series = {
         "contact_force": [f"contact_force_{c}_{w}" for c in ref.car.values for w in ref.wheel.values],
