@@ -286,6 +286,11 @@ SETUP_FIELDS = [
     F("I_MinvC", "double*", "NV x NV: M^-1 C"),
     F("I_GV", "double*", "NW x NW: W^T M^-1 W"),
     F("I_SM", "double*", "nd x nd (nkind x nd x nd when general): mass compliance, supports held"),
+    F(
+        "I_shapes",
+        "double*",
+        "row tables (one per element length) x 2 x (ROW_DEG + 1) x 6: N1 and N2 (dN0/dx, d2N0/dx2) in xi",
+    ),
     F("I_lk_col_a", "double*", "general: nlinks x nd, the column of S_M at end a (0 for a spring)"),
     F("I_lk_col_b", "double*", "general: nlinks x nd, the column of S_M at end b (0 for a spring)"),
     F("I_lk_A", "double*", "general: nlinks x (band_links + 1), lower band of L S_M L^T (1 for a spring)"),

@@ -590,28 +590,31 @@ class CStepper:
 
     def _impact(self, S: Any) -> None:
         """The plastic impact of landing wheels in C (impact.c): the NumPy stepper's constant
-        matrices (``unilateral.Impact``); for a bridge with links, the mass compliance's columns at
-        the links' ends and ``L S_M L^T`` in the C loop's link order (a spring passes no impulse:
-        an identity row that keeps its force at 0)."""
+        matrices (``unilateral.Impact``), the generated shape tables ``N1, N2`` of every element
+        length; for a bridge with links, the mass compliance's columns at the rigid links' ends and
+        ``L S_M L^T`` in the C loop's link order (a spring passes no impulse: a zero column and an
+        identity row that keeps its force at 0)."""
+        import scipy.sparse as sps
+        from svbi.runtime.contact_rows import shape_tables
+
         imp, b = self.reference.impact, self.model.bridge
         S.I_MinvW, S.I_MinvC, S.I_GV = self._arr(imp.MinvW), self._arr(imp.MinvC), self._arr(imp.GV)
         S.I_SM = self._arr(np.stack(imp.S_M.S))
+        lengths = [b.element_length] if b.uniform else np.unique(b.span_element_length)  # g_rclass order
+        shapes = np.array([[shape_tables(le)[k] for k in ("N1", "N2")] for le in lengths])
+        assert shapes.shape[2] == c_solver_build.row_structure()[0] + 1  # the C loop's ROW_DEG
+        S.I_shapes = self._arr(shapes)
         if b.uniform or not S.nlinks:
             return
         links, perm = self.reference.bridge.links, self.link_perm
-        rigid = ~links.spring
-        ka = b.kind[links.a_sub]
-        kb = b.kind[links.b_sub]
-        col_a = np.array([imp.S_M.S[k][:, d] for k, d in zip(ka, links.a_dof, strict=True)])
-        col_b = np.array([imp.S_M.S[k][:, d] for k, d in zip(kb, links.b_dof, strict=True)])
-        col_a[~rigid] = 0.0
-        col_b[~rigid] = 0.0
-        import scipy.sparse as sps
-
-        nl, r = len(links), np.flatnonzero(rigid)
-        A = sps.diags((~rigid).astype(float)).tocsr()
-        if imp.S_M.nlinks:  # the rigid links' L S_M L^T, placed among all links
-            E = sps.csr_matrix((np.ones(r.size), (r, np.arange(r.size))), shape=(nl, r.size))
+        rigid = np.flatnonzero(~links.spring)
+        col_a, col_b = np.zeros((len(links), b.ndof)), np.zeros((len(links), b.ndof))
+        A = sps.diags(links.spring.astype(float)).tocsr()
+        if imp.S_M.nlinks:  # the rigid links (S_M's own subset, in order), placed among all links
+            col_a[rigid], col_b[rigid] = imp.S_M.col_a, imp.S_M.col_b
+            E = sps.csr_matrix(
+                (np.ones(rigid.size), (rigid, np.arange(rigid.size))), shape=(len(links), rigid.size)
+            )
             A = A + E @ imp.S_M.A @ E.T
         band, p = _lower_band(A.tocsr()[perm][:, perm])
         full = np.zeros((len(links), S.band_links + 1))

@@ -107,7 +107,8 @@ def test_lift_offs_and_landings_on_a_viaduct_in_c():
     Until the first landing the backends agree to round-off. A landing's plastic impact resolves
     the approach of an airborne wheel (a gap of millimetres, known to round-off of the whole
     state) into a force impulse: here the two wheels of a bogie land together and the difference
-    grows to 3e-8 of the force peak (measured), then decays with the impact transient. The paper's
+    grows to 3e-8 of the force peak, 4e-8 of the body accelerations' (measured), then decays with
+    the impact transient. The paper's
     bridge in the same regime (3 lift-offs) gives 7e-10; this is round-off amplified by the event,
     not an error of either backend (contact states are identical step for step; a change of 1e-12
     in the earthquake's scale moves a chattering run far more, docs/method.md section 13)."""
@@ -128,7 +129,7 @@ def test_lift_offs_and_landings_on_a_viaduct_in_c():
     assert_c_equals_numpy(
         c.isel(time=before), ref.isel(time=before), skip=("contact_force_filtered", "unloading_ratio")
     )
-    assert_c_equals_numpy(c, ref, rtol=1e-6, gap_atol=1e-10)
+    assert_c_equals_numpy(c, ref, rtol=1e-7, gap_atol=1e-10)
 
 
 def test_braking_train_on_unequal_spans_under_a_travelling_quake_in_c():

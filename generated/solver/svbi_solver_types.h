@@ -146,6 +146,7 @@ typedef struct {
   const double* I_MinvC; /* NV x NV: M^-1 C */
   const double* I_GV; /* NW x NW: W^T M^-1 W */
   const double* I_SM; /* nd x nd (nkind x nd x nd when general): mass compliance, supports held */
+  const double* I_shapes; /* row tables (one per element length) x 2 x (ROW_DEG + 1) x 6: N1 and N2 (dN0/dx, d2N0/dx2) in xi */
   const double* I_lk_col_a; /* general: nlinks x nd, the column of S_M at end a (0 for a spring) */
   const double* I_lk_col_b; /* general: nlinks x nd, the column of S_M at end b (0 for a spring) */
   const double* I_lk_A; /* general: nlinks x (band_links + 1), lower band of L S_M L^T (1 for a spring) */

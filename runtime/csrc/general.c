@@ -379,9 +379,12 @@ void svbi_general_reactions(const setup_t* S, const state_t* X, const work_t* w,
       }
       for (q = S->g_ct_ptr[row]; q < S->g_ct_ptr[row + 1]; ++q)
         f -= S->g_ct_val[q] * w->qs[NSL + S->g_act_slot[S->g_ct_idx[q]]];
-      for (c = 0; c < S->nc; ++c) {
-        if (w->con[c] && w->cspan[c] == s && dof >= w->cfirst[c] && dof < w->cfirst[c] + NE)
-          f += w->crow[(long)c * ROW_COLS + COL_N0 + dof - w->cfirst[c]] * X->P[c];
+      if (s < S->spans) { /* the contacts on this span (piers carry none) */
+        for (c = w->sstart[s]; c < w->sstart[s + 1]; ++c) {
+          int i = w->slist[c];
+          if (dof >= w->cfirst[i] && dof < w->cfirst[i] + NE)
+            f += w->crow[(long)i * ROW_COLS + COL_N0 + dof - w->cfirst[i]] * X->P[i];
+        }
       }
       r += f;
     }

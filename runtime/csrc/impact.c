@@ -16,26 +16,24 @@
 
 #if !SVBI_MOVING_LOAD
 
-/* N0, N1 = dN0/dx and N2 = d2N0/dx2 under contact c: the generated polynomial of N0 in xi (the row
- * table of its span) and its derivatives over the element length. */
+/* N0, N1 = dN0/dx and N2 = d2N0/dx2 under contact c: N0 from its contact rows, N1 and N2 from the
+ * generated shape tables of its span's element length (I_shapes, polynomials in xi). */
 static void shape_rows(const setup_t* S, const work_t* w, int c, double* N0, double* N1, double* N2) {
-  long table = (long)(ROW_DEG + 1) * ROW_COLS;
-  int s = w->cspan[c], p, j;
-  const double* cf = S->acceleration == 0.0 ? S->rows : w->rows_now;
-  double inv_le = S->inv_element_length, xi = w->cxi[c], pw[ROW_DEG + 1];
-  if (S->general) {
-    cf += S->g_rclass[s] * table;
-    inv_le = S->g_inv_el[s];
-  }
+  int p, j, cls = S->general ? S->g_rclass[w->cspan[c]] : 0;
+  const double* t1 = S->I_shapes + (long)cls * 2 * (ROW_DEG + 1) * NE;
+  const double* t2 = t1 + (ROW_DEG + 1) * NE;
+  double xi = w->cxi[c], pw[ROW_DEG + 1];
   pw[0] = 1.0;
   for (p = 1; p <= ROW_DEG; ++p) pw[p] = pw[p - 1] * xi;
   for (j = 0; j < NE; ++j) {
     double d1 = 0.0, d2 = 0.0;
-    for (p = 1; p <= ROW_DEG; ++p) d1 += (double)p * cf[p * ROW_COLS + COL_N0 + j] * pw[p - 1];
-    for (p = 2; p <= ROW_DEG; ++p) d2 += (double)(p * (p - 1)) * cf[p * ROW_COLS + COL_N0 + j] * pw[p - 2];
+    for (p = 0; p <= ROW_DEG; ++p) {
+      d1 += t1[p * NE + j] * pw[p];
+      d2 += t2[p * NE + j] * pw[p];
+    }
     N0[j] = w->crow[(long)c * ROW_COLS + COL_N0 + j];
-    N1[j] = d1 * inv_le;
-    N2[j] = d2 * inv_le * inv_le;
+    N1[j] = d1;
+    N2[j] = d2;
   }
 }
 

@@ -321,15 +321,17 @@ int svbi_step_localized(const setup_t* S, state_t* X, work_t* w) {
       }
     }
     /* interface matrix F* + F_B, banded in track order (a general bridge: with its links) */
-    bw = S->bw_car;
-    for (s = 0; s < S->spans; ++s) {
-      int run = w->sstart[s + 1] - w->sstart[s];
-      if (run - 1 > bw) bw = run - 1;
-    }
-    if (!S->general && bw > S->bw_max) return ST_BANDWIDTH;
-    if (bw > nc - 1) bw = nc - 1;
-    if (!S->general)
+    bw = 0; /* a general bridge orders and bounds its interface itself (general.c) */
+    if (!S->general) {
+      bw = S->bw_car;
+      for (s = 0; s < S->spans; ++s) {
+        int run = w->sstart[s + 1] - w->sstart[s];
+        if (run - 1 > bw) bw = run - 1;
+      }
+      if (bw > S->bw_max) return ST_BANDWIDTH;
+      if (bw > nc - 1) bw = nc - 1;
       for (k = 0; k < nc; ++k) w->cpos[S->order[k]] = k;
+    }
     if (!S->unilateral) {
       status = interface_solve(S, w, bw, 0, 0, X->P);
       if (status) return status;
