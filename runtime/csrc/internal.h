@@ -31,6 +31,7 @@
 
 #define NE 6 /* DOFs of one bridge element (frame2d) */
 #define LW 2 /* lanes of the localized bridge state: spans padded to a multiple of LW ([DOF][spans]) */
+#define VLANES 4 /* cars per chunk of the localized vehicles' lane layout (two SSE2 registers) */
 
 typedef svbi_solver_setup setup_t;
 typedef svbi_solver_state state_t;
@@ -85,6 +86,10 @@ typedef struct {
   double* PVh;   /* cars x NV: Newmark history P - a0 u of the vehicle increment */
   double* QVh;   /* cars x NV */
   double* dVh;   /* cars x NV: vehicle increment over the step */
+  /* localized: the cars as lanes (vehicle.c, svbi_vehicle_predictors): u, P~, Q~, f, du as
+   * [NV][vcp] and the wheels' W^T u~, W^T P, W^T Q and P_V as [NW][vcp], cars padded to VLANES */
+  double* VL;
+  long vcp;
   double* xV;    /* cars x NV (coupled) */
   double* Kv;    /* NV x NV: Cholesky factor of the car's effective matrix (coupled, set once) */
   double* G;     /* NV x NW: K^-1 W, the same for every car (coupled, set once) */
@@ -301,6 +306,8 @@ void svbi_vehicle_increment_load(const setup_t* S, const double* u, const double
 void svbi_vehicle_increment_load_nz(const setup_t* S, const work_t* w, const double* u, const double* v,
                                     const double* a, double* Pt, double* Qt, double* PV, double* QV, double* f);
 void svbi_creep_vehicle_load(const setup_t* S, const double* force, int k, double* f);
+void svbi_vehicle_predictors(const setup_t* S, const state_t* X, work_t* w);
+void svbi_vehicle_update(const setup_t* S, state_t* X, work_t* w);
 void svbi_creep_update(const setup_t* S, state_t* X, const work_t* w);
 void svbi_creep_bridge_load(const setup_t* S, const double* force, work_t* w);
 double svbi_row_target(const setup_t* S, const work_t* w, int i, double Pg, double Qg);

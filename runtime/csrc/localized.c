@@ -273,24 +273,17 @@ int svbi_step_localized(const setup_t* S, state_t* X, work_t* w) {
   return ST_OK;
 #else
   {
-    int k, i, j, d, m, s, bw, status;
+    int k, i, j, m, s, bw, status;
     /* vehicle predictors (all contact forces zero) and the wheel-aux targets. The vehicles solve
-     * for the increment over the step (Newmark.update_increment): PVh, QVh hold its histories. */
+     * for the increment over the step (Newmark.update_increment), every car at once as a lane. */
+    svbi_vehicle_predictors(S, X, w);
     for (k = 0; k < S->cars; ++k) {
-      const double* u = X->uV + (long)k * NV;
-      const double* v = X->vV + (long)k * NV;
-      const double* a = X->aV + (long)k * NV;
-      double* Pt = w->PVh + (long)k * NV;
-      double* Qt = w->QVh + (long)k * NV;
-      double* du = w->dVh + (long)k * NV;
-      double f[NV], ut[NV], PV[NV], QV[NV];
-      svbi_vehicle_increment_load_nz(S, w, u, v, a, Pt, Qt, PV, QV, f);
-      if (S->creep) svbi_creep_vehicle_load(S, X->creep_force, k, f);
-      vec_mat_nz(w, 3, f, du); /* du~ = K^-T f */
-      for (d = 0; d < NV; ++d) ut[d] = u[d] + du[d];
+      long cp = w->vcp;
+      const double* WT = w->VL + 5L * NV * cp;
+      const double *WP = WT + NW * cp, *WQ = WP + NW * cp;
       for (i = 0; i < NW; ++i) {
         int c = k * NW + i;
-        double wt = wheel(S, ut, i), wp = wheel(S, PV, i), wq = wheel(S, QV, i), hV;
+        double wt = WT[i * cp + k], wp = WP[i * cp + k], wq = WQ[i * cp + k], hV;
         w->Pg[c] = S->a0 * X->ug[c] + S->a2 * X->vg[c] + X->ag[c];
         w->Qg[c] = S->a1 * X->ug[c] + X->vg[c];
         w->pt[c] = (w->Pg[c] - S->gravity) / S->a0;
@@ -373,10 +366,6 @@ int svbi_step_localized(const setup_t* S, state_t* X, work_t* w) {
 
     /* back-substitution: wheel-aux forces, aux points, vehicles, bridge */
     for (k = 0; k < S->cars; ++k) {
-      double* u = X->uV + (long)k * NV;
-      double* du = w->dVh + (long)k * NV;
-      const double* Pt = w->PVh + (long)k * NV;
-      const double* Qt = w->QVh + (long)k * NV;
       for (i = 0; i < NW; ++i) {
         int c = k * NW + i;
         double pv = 0.0;
@@ -393,17 +382,8 @@ int svbi_step_localized(const setup_t* S, state_t* X, work_t* w) {
         X->vg[c] = S->a1 * ug - w->Qg[c];
         X->ag[c] = S->a0 * ug - w->Pg[c];
       }
-      for (d = 0; d < NV; ++d) {
-        double s2 = 0.0;
-        for (i = 0; i < NW; ++i) s2 += X->PV[k * NW + i] * S->V_A[d * NW + i];
-        du[d] += s2;
-      }
-      for (d = 0; d < NV; ++d) {
-        X->vV[k * NV + d] = S->a1 * du[d] - Qt[d];
-        X->aV[k * NV + d] = S->a0 * du[d] - Pt[d];
-        u[d] += du[d];
-      }
     }
+    svbi_vehicle_update(S, X, w);
     if (S->general)
       svbi_general_correct(S, w, X->P);
     else

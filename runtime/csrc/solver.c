@@ -78,6 +78,8 @@ static void carve(const setup_t* S, carver_t* c, work_t* w) {
   w->PVh = take_d(c, S->cars * nv);
   w->QVh = take_d(c, S->cars * nv);
   w->dVh = take_d(c, S->cars * nv);
+  w->vcp = (S->cars + VLANES - 1) / VLANES * VLANES;
+  w->VL = take_d(c, S->method == 0 && nv ? (5 * nv + 4L * S->nw) * w->vcp : 0);
   w->xV = take_d(c, S->cars * nv);
   w->Kv = take_d(c, nv * nv);
   w->G = take_d(c, nv * (nv ? S->nw : 0));

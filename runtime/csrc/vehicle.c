@@ -41,6 +41,122 @@ void svbi_vehicle_increment_load_nz(const setup_t* S, const work_t* w, const dou
   for (d = 0; d < NV; ++d) f[d] = S->V_F[d] - sk[d] + sm[d] + sc[d];
 }
 
+/* y = x^T A over column d's non-zeros of A (work_t vnz_*, matrix a), for the cars as lanes (x, y
+ * [NV][cp]): every lane's sum is vec_mat_nz's, in the same order (the same result), VLANES cars at
+ * a time in registers. */
+static inline void lanes_vec_mat(const work_t* w, int a, const double* x, double* y, long cp) {
+  const int* ptr = w->vnz_ptr + a * (NV + 1);
+  const int* idx = w->vnz_idx + a * NV * NV;
+  const double* val = w->vnz_val + a * NV * NV;
+  int d, k, l;
+  long c;
+  for (d = 0; d < NV; ++d) {
+    for (c = 0; c < cp; c += VLANES) {
+      double s[VLANES];
+      for (l = 0; l < VLANES; ++l) s[l] = 0.0;
+      for (k = ptr[d]; k < ptr[d + 1]; ++k) {
+        const double* xr = x + (long)idx[k] * cp + c;
+        double v = val[k];
+        for (l = 0; l < VLANES; ++l) s[l] += xr[l] * v;
+      }
+      for (l = 0; l < VLANES; ++l) y[(long)d * cp + c + l] = s[l];
+    }
+  }
+}
+
+/* The localized step's vehicle predictors, every car at once as a lane (work_t VL): the increment
+ * load f = F - K^T u + M^T P~ + C^T Q~ (+ the creep forces of t_n on the wheel spins), the
+ * predictor increment du~ = K^-T f, and for every wheel W^T (u + du~), W^T P and W^T Q. The sums of
+ * svbi_vehicle_increment_load_nz, svbi_creep_vehicle_load and vec_mat_nz in their order (the same
+ * result); P~, Q~ and du~ stay in VL for svbi_vehicle_update. */
+void svbi_vehicle_predictors(const setup_t* S, const state_t* X, work_t* w) {
+  long cp = w->vcp, o = NV * cp, c;
+  double *U = w->VL, *Pt = U + o, *Qt = Pt + o, *F = Qt + o, *DU = F + o;
+  double *WT = DU + o, *WP = WT + NW * cp, *WQ = WP + NW * cp;
+  int k, d, i, j, l;
+  for (d = 0; d < NV; ++d) {
+    for (k = 0; k < S->cars; ++k) {
+      double u = X->uV[(long)k * NV + d], v = X->vV[(long)k * NV + d], a = X->aV[(long)k * NV + d];
+      U[d * cp + k] = u;
+      Pt[d * cp + k] = S->a2 * v + a;
+      Qt[d * cp + k] = v;
+    }
+    for (; k < cp; ++k) U[d * cp + k] = Pt[d * cp + k] = Qt[d * cp + k] = 0.0;
+  }
+  lanes_vec_mat(w, 0, U, F, cp);
+  for (d = 0; d < NV; ++d)
+    for (c = 0; c < cp; ++c) F[d * cp + c] = S->V_F[d] - F[d * cp + c];
+  lanes_vec_mat(w, 1, Pt, DU, cp);
+  for (c = 0; c < o; ++c) F[c] += DU[c];
+  lanes_vec_mat(w, 2, Qt, DU, cp);
+  for (c = 0; c < o; ++c) F[c] += DU[c];
+  if (S->creep) { /* W_T^V F of t_n, summed as svbi_creep_vehicle_load */
+    const double* force = X->creep_force;
+    for (c = 0; c < o; ++c) DU[c] = 0.0;
+    for (i = 0; i < NW; ++i) {
+      for (j = S->VT_ptr[i]; j < S->VT_ptr[i + 1]; ++j) {
+        double* row = DU + (long)S->VT_idx[j] * cp;
+        double v = S->VT_val[j];
+        for (k = 0; k < S->cars; ++k) row[k] += force[k * NW + i] * v;
+      }
+    }
+    for (c = 0; c < o; ++c) F[c] += DU[c];
+  }
+  lanes_vec_mat(w, 3, F, DU, cp); /* du~ = K^-T f */
+  for (i = 0; i < NW; ++i) {
+    for (c = 0; c < cp; c += VLANES) {
+      double st[VLANES], sp[VLANES], sq[VLANES];
+      for (l = 0; l < VLANES; ++l) st[l] = sp[l] = sq[l] = 0.0;
+      for (j = S->VW_ptr[i]; j < S->VW_ptr[i + 1]; ++j) {
+        long r = (long)S->VW_idx[j] * cp + c;
+        double v = S->VW_val[j];
+        for (l = 0; l < VLANES; ++l) {
+          st[l] += (U[r + l] + DU[r + l]) * v;
+          sp[l] += (S->a0 * U[r + l] + Pt[r + l]) * v;
+          sq[l] += (S->a1 * U[r + l] + Qt[r + l]) * v;
+        }
+      }
+      for (l = 0; l < VLANES; ++l) {
+        WT[i * cp + c + l] = st[l];
+        WP[i * cp + c + l] = sp[l];
+        WQ[i * cp + c + l] = sq[l];
+      }
+    }
+  }
+}
+
+/* The vehicles' back-substitution, every car at once: du = du~ + V_A P_V (P_V in X->PV), then
+ * v = a1 du - Q~, a = a0 du - P~, u += du (Newmark.update_increment), into the state. */
+void svbi_vehicle_update(const setup_t* S, state_t* X, work_t* w) {
+  long cp = w->vcp, o = NV * cp, c;
+  double *U = w->VL, *Pt = U + o, *Qt = Pt + o, *DU = Qt + 2 * o;
+  double* LP = DU + o + 3L * NW * cp;
+  int k, d, i, l;
+  for (i = 0; i < NW; ++i) {
+    for (k = 0; k < S->cars; ++k) LP[i * cp + k] = X->PV[k * NW + i];
+    for (; k < cp; ++k) LP[i * cp + k] = 0.0;
+  }
+  for (d = 0; d < NV; ++d) {
+    for (c = 0; c < cp; c += VLANES) {
+      double s[VLANES];
+      for (l = 0; l < VLANES; ++l) s[l] = 0.0;
+      for (i = 0; i < NW; ++i) {
+        double v = S->V_A[d * NW + i];
+        for (l = 0; l < VLANES; ++l) s[l] += LP[i * cp + c + l] * v;
+      }
+      for (l = 0; l < VLANES; ++l) DU[d * cp + c + l] += s[l];
+    }
+  }
+  for (k = 0; k < S->cars; ++k) {
+    for (d = 0; d < NV; ++d) {
+      double du = DU[d * cp + k];
+      X->vV[(long)k * NV + d] = S->a1 * du - Qt[d * cp + k];
+      X->aV[(long)k * NV + d] = S->a0 * du - Pt[d * cp + k];
+      X->uV[(long)k * NV + d] += du;
+    }
+  }
+}
+
 /* f += W_T^V F: the creep forces of t_n on the wheel spins of car k. */
 void svbi_creep_vehicle_load(const setup_t* S, const double* force, int k, double* f) {
   int i, j, d;
