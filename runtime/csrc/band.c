@@ -153,10 +153,17 @@ void svbi_gb_solve(const double* AB, int n, int bw, const int* ipiv, double* b) 
   }
 }
 
+#if defined(__GNUC__)
+#define SVBI_ALWAYS_INLINE __attribute__((always_inline)) inline
+#else
+#define SVBI_ALWAYS_INLINE inline
+#endif
+
 /* svbi_gb_factor that also stores the reciprocal of every pivot (rpiv: n) and scales the column
- * by it (one division per column instead of one per sub-diagonal entry). */
-int svbi_gb_factor_r(double* AB, int n, int bw, int* ipiv, double* rpiv) {
-  int ku = bw, kv = 2 * bw, ldab = 3 * bw + 1;
+ * by it (one division per column instead of one per sub-diagonal entry). bw is a constant where
+ * svbi_gb_factor_r inlines it (the interface's usual half-bandwidths): its loops then unroll. */
+static SVBI_ALWAYS_INLINE int gb_factor_r(double* AB, int n, const int bw, int* ipiv, double* rpiv) {
+  const int ku = bw, kv = 2 * bw, ldab = 3 * bw + 1;
   int j, i, jp, ju = 0, km, jj;
   for (j = 0; j < n; ++j) {
     double* colj = AB + (long)j * ldab;
@@ -187,21 +194,47 @@ int svbi_gb_factor_r(double* AB, int n, int bw, int* ipiv, double* rpiv) {
     }
     r = 1.0 / colj[kv];
     rpiv[j] = r;
-    for (i = 1; i <= km; ++i) colj[kv + i] *= r;
-    for (jj = j + 1; jj <= ju; ++jj) {
-      double* cc = AB + (long)jj * ldab;
-      double u = cc[kv + j - jj];
-      if (u != 0.0) {
-        for (i = 1; i <= km; ++i) cc[kv + j + i - jj] -= colj[kv + i] * u;
+    if (km == bw) { /* every column but the last bw: a constant trip count */
+      for (i = 1; i <= bw; ++i) colj[kv + i] *= r;
+      for (jj = j + 1; jj <= ju; ++jj) {
+        double* cc = AB + (long)jj * ldab;
+        double u = cc[kv + j - jj];
+        if (u != 0.0) {
+          for (i = 1; i <= bw; ++i) cc[kv + j + i - jj] -= colj[kv + i] * u;
+        }
+      }
+    } else {
+      for (i = 1; i <= km; ++i) colj[kv + i] *= r;
+      for (jj = j + 1; jj <= ju; ++jj) {
+        double* cc = AB + (long)jj * ldab;
+        double u = cc[kv + j - jj];
+        if (u != 0.0) {
+          for (i = 1; i <= km; ++i) cc[kv + j + i - jj] -= colj[kv + i] * u;
+        }
       }
     }
   }
   return SVBI_SOLVER_STATUS_OK;
 }
 
+int svbi_gb_factor_r(double* AB, int n, int bw, int* ipiv, double* rpiv) {
+  switch (bw) {
+    case 1: return gb_factor_r(AB, n, 1, ipiv, rpiv);
+    case 2: return gb_factor_r(AB, n, 2, ipiv, rpiv);
+    case 3: return gb_factor_r(AB, n, 3, ipiv, rpiv);
+    case 4: return gb_factor_r(AB, n, 4, ipiv, rpiv);
+    case 5: return gb_factor_r(AB, n, 5, ipiv, rpiv);
+    case 6: return gb_factor_r(AB, n, 6, ipiv, rpiv);
+    case 7: return gb_factor_r(AB, n, 7, ipiv, rpiv);
+    case 8: return gb_factor_r(AB, n, 8, ipiv, rpiv);
+    default: return gb_factor_r(AB, n, bw, ipiv, rpiv);
+  }
+}
+
 /* The solve with svbi_gb_factor_r's factor: multiplications by the reciprocal pivots. */
-void svbi_gb_solve_r(const double* AB, int n, int bw, const int* ipiv, const double* rpiv, double* b) {
-  int kv = 2 * bw, ldab = 3 * bw + 1;
+static SVBI_ALWAYS_INLINE void gb_solve_r(const double* AB, int n, const int bw, const int* ipiv, const double* rpiv,
+                                          double* b) {
+  const int kv = 2 * bw, ldab = 3 * bw + 1;
   int j, i;
   for (j = 0; j < n - 1; ++j) {
     const double* colj = AB + (long)j * ldab;
@@ -214,14 +247,33 @@ void svbi_gb_solve_r(const double* AB, int n, int bw, const int* ipiv, const dou
       b[j] = tmp;
     }
     x = b[j];
-    for (i = 1; i <= lm; ++i) b[j + i] -= colj[kv + i] * x;
+    if (lm == bw)
+      for (i = 1; i <= bw; ++i) b[j + i] -= colj[kv + i] * x;
+    else
+      for (i = 1; i <= lm; ++i) b[j + i] -= colj[kv + i] * x;
   }
   for (j = n - 1; j >= 0; --j) {
     const double* colj = AB + (long)j * ldab;
-    int i0 = j - kv > 0 ? j - kv : 0;
     double x = b[j] * rpiv[j];
     b[j] = x;
-    for (i = i0; i < j; ++i) b[i] -= colj[kv + i - j] * x;
+    if (j >= kv)
+      for (i = j - kv; i < j; ++i) b[i] -= colj[kv + i - j] * x;
+    else
+      for (i = 0; i < j; ++i) b[i] -= colj[kv + i - j] * x;
+  }
+}
+
+void svbi_gb_solve_r(const double* AB, int n, int bw, const int* ipiv, const double* rpiv, double* b) {
+  switch (bw) {
+    case 1: gb_solve_r(AB, n, 1, ipiv, rpiv, b); return;
+    case 2: gb_solve_r(AB, n, 2, ipiv, rpiv, b); return;
+    case 3: gb_solve_r(AB, n, 3, ipiv, rpiv, b); return;
+    case 4: gb_solve_r(AB, n, 4, ipiv, rpiv, b); return;
+    case 5: gb_solve_r(AB, n, 5, ipiv, rpiv, b); return;
+    case 6: gb_solve_r(AB, n, 6, ipiv, rpiv, b); return;
+    case 7: gb_solve_r(AB, n, 7, ipiv, rpiv, b); return;
+    case 8: gb_solve_r(AB, n, 8, ipiv, rpiv, b); return;
+    default: gb_solve_r(AB, n, bw, ipiv, rpiv, b);
   }
 }
 

@@ -48,6 +48,12 @@ void svbi_ppoly_eval(const svbi_ppoly* p, double x, double* out) {
   }
   s = x - p->x[i];
   c = p->c + (long)i * (k + 1);
+  if (k == 3) { /* cubic pieces (splines, the onset ramp): the loops below unrolled, the same sums */
+    out[0] = ((c[0] * s + c[1]) * s + c[2]) * s + c[3];
+    out[1] = (3.0 * c[0] * s + 2.0 * c[1]) * s + c[2];
+    out[2] = 6.0 * c[0] * s + 2.0 * c[1];
+    return;
+  }
   v0 = 0.0;
   for (m = 0; m <= k; ++m) v0 = v0 * s + c[m];
   v1 = 0.0;
