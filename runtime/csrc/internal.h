@@ -30,8 +30,10 @@
 #endif
 
 #define NE 6 /* DOFs of one bridge element (frame2d) */
-#define LW 2 /* lanes of the localized bridge state: spans padded to a multiple of LW ([DOF][spans]) */
-#define VLANES 4 /* cars per chunk of the localized vehicles' lane layout (two SSE2 registers) */
+/* lanes of the localized bridge state: spans padded to a multiple of LW ([DOF][spans]); four
+ * doubles fill one AVX2 register (c_solver_build.simd_flags), two SSE2 registers */
+#define LW 4
+#define VLANES 4 /* cars per chunk of the localized vehicles' lane layout (as LW) */
 
 typedef svbi_solver_setup setup_t;
 typedef svbi_solver_state state_t;
