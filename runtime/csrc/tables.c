@@ -7,9 +7,28 @@
 
 #include "tables.h"
 
+#if defined(__GNUC__)
+#define SVBI_ALWAYS_INLINE __attribute__((always_inline)) inline
+#else
+#define SVBI_ALWAYS_INLINE inline
+#endif
+
+/* Value and first two derivatives of one piece at s by Horner's rule; k a constant where it is
+ * inlined, so that the loops unroll (the same sums). */
+static SVBI_ALWAYS_INLINE void horner(const double* c, double s, const int k, double* out) {
+  int m;
+  double v0 = 0.0, v1 = 0.0, v2 = 0.0;
+  for (m = 0; m <= k; ++m) v0 = v0 * s + c[m];
+  for (m = 0; m < k; ++m) v1 = v1 * s + (double)(k - m) * c[m];
+  for (m = 0; m < k - 1; ++m) v2 = v2 * s + (double)(k - m) * (double)(k - m - 1) * c[m];
+  out[0] = v0;
+  out[1] = v1;
+  out[2] = v2;
+}
+
 void svbi_ppoly_eval(const svbi_ppoly* p, double x, double* out) {
-  int i, m, k = p->k, n = p->n;
-  double s, v0, v1, v2;
+  int i, k = p->k, n = p->n;
+  double s;
   const double* c;
   if (n == 0 || x <= p->x[0]) {
     if (n == 0 && x > p->x[0]) {
@@ -48,19 +67,10 @@ void svbi_ppoly_eval(const svbi_ppoly* p, double x, double* out) {
   }
   s = x - p->x[i];
   c = p->c + (long)i * (k + 1);
-  if (k == 3) { /* cubic pieces (splines, the onset ramp): the loops below unrolled, the same sums */
-    out[0] = ((c[0] * s + c[1]) * s + c[2]) * s + c[3];
-    out[1] = (3.0 * c[0] * s + 2.0 * c[1]) * s + c[2];
-    out[2] = 6.0 * c[0] * s + 2.0 * c[1];
-    return;
-  }
-  v0 = 0.0;
-  for (m = 0; m <= k; ++m) v0 = v0 * s + c[m];
-  v1 = 0.0;
-  for (m = 0; m < k; ++m) v1 = v1 * s + (double)(k - m) * c[m];
-  v2 = 0.0;
-  for (m = 0; m < k - 1; ++m) v2 = v2 * s + (double)(k - m) * (double)(k - m - 1) * c[m];
-  out[0] = v0;
-  out[1] = v1;
-  out[2] = v2;
+  if (k == 3) /* cubic (splines, ground motions) and quintic (rail profiles, onset ramps) pieces */
+    horner(c, s, 3, out);
+  else if (k == 5)
+    horner(c, s, 5, out);
+  else
+    horner(c, s, k, out);
 }
