@@ -67,6 +67,14 @@ def library() -> ctypes.CDLL:
     lib.svbi_gb_factor_r.argtypes = [DP, ctypes.c_int, ctypes.c_int, IP, DP]
     lib.svbi_gb_solve_r.argtypes = [DP, ctypes.c_int, ctypes.c_int, IP, DP, DP]
     lib.svbi_ppoly_eval.argtypes = [ctypes.POINTER(c_solver_build.PPoly), ctypes.c_double, DP]
+    lib.svbi_ppoly_eval_many.argtypes = [
+        ctypes.POINTER(c_solver_build.PPoly),
+        DP,
+        ctypes.c_int,
+        DP,
+        ctypes.c_long,
+    ]
+    lib.svbi_ppoly_eval_many.restype = None
     for name in (
         "svbi_band_solve",
         "svbi_band_solve_blocked",
@@ -349,6 +357,28 @@ def test_ppoly_eval_matches_scipy_ppoly(k: int, breaks: str) -> None:
     np.testing.assert_array_equal(evaluate(p, x[0]), [p.left0, p.left1, p.left2])
     np.testing.assert_array_equal(evaluate(p, x[-1]), [p.right0, p.right1, p.right2])
     np.testing.assert_array_equal(evaluate(p, x[-1] + 5.0), [p.right0, p.right1, p.right2])
+
+
+@pytest.mark.parametrize(("k", "breaks"), [(3, "uniform"), (5, "nearly-uniform"), (5, "random")])
+def test_ppoly_eval_many_is_the_point_by_point_evaluation(k: int, breaks: str) -> None:
+    """The batched evaluation (the rail under every contact at once) gives, point by point, the bits
+    of svbi_ppoly_eval: inside, at the breaks, beyond both ends, over more than one block of 64."""
+    rng = np.random.default_rng(10 + k)
+    n = 29
+    x = np.cumsum(rng.uniform(0.1, 2.0, n + 1)) if breaks == "random" else 1.0 + 0.5 * np.arange(n + 1)
+    if breaks == "nearly-uniform":
+        x[1:-1] += rng.uniform(-1e-7, 1e-7, n - 1)
+    pp = scipy.interpolate.PPoly(rng.standard_normal((k + 1, n)), x)
+    keep: list = []
+    p = table(pp, breaks != "random", keep)
+    points = np.concatenate([rng.uniform(x[0] - 2.0, x[-1] + 2.0, 150), x, [x[0] - 1.0, x[-1] + 1.0]])
+    stride = points.size + 3  # rows apart by more than the count: the stride is honoured
+    out = np.full(3 * stride, np.nan)
+    library().svbi_ppoly_eval_many(ctypes.byref(p), dp(points), points.size, dp(out), stride)
+    got = out.reshape(3, stride)[:, : points.size].T
+    want = np.array([evaluate(p, float(v)) for v in points])
+    np.testing.assert_array_equal(got, want)
+    assert np.isnan(out.reshape(3, stride)[:, points.size :]).all()
 
 
 def test_ppoly_without_intervals_is_a_step() -> None:

@@ -140,6 +140,8 @@ void svbi_excite(const setup_t* S, const excitation_t* E, work_t* w, long n, dou
 
   /* rail irregularity under every contact */
   if (E->irr_mode == 1) {
+    /* the profile at every contact at once (svbi_ppoly_eval_many), then the onset and the start */
+    svbi_ppoly_eval_many(&E->irr_base, w->cx, nc, w->rail, nc);
     for (i = 0; i < nc; ++i) {
       double x = w->cx[i], b[3], h[3];
       if (!(x > E->irr_start)) {
@@ -148,16 +150,14 @@ void svbi_excite(const setup_t* S, const excitation_t* E, work_t* w, long n, dou
         w->rail[2 * nc + i] = 0.0;
         continue;
       }
-      svbi_ppoly_eval(&E->irr_base, x, b);
       if (E->irr_ramp) {
+        b[0] = w->rail[i];
+        b[1] = w->rail[nc + i];
+        b[2] = w->rail[2 * nc + i];
         svbi_ppoly_eval(&E->irr_onset, x, h);
         w->rail[i] = h[0] * b[0];
         w->rail[nc + i] = h[1] * b[0] + h[0] * b[1];
         w->rail[2 * nc + i] = h[2] * b[0] + 2.0 * h[1] * b[1] + h[0] * b[2];
-      } else {
-        w->rail[i] = b[0];
-        w->rail[nc + i] = b[1];
-        w->rail[2 * nc + i] = b[2];
       }
     }
   } else if (E->irr_mode == 2) {

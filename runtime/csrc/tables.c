@@ -26,10 +26,79 @@ static SVBI_ALWAYS_INLINE void horner(const double* c, double s, const int k, do
   out[2] = v2;
 }
 
+/* The interval of x inside the breaks (x[0] < x < x[n]): an O(1) guess on uniform breaks, stepped
+ * to the exact interval, or a bisection. */
+static inline int interval_of(const svbi_ppoly* p, double x) {
+  int i, n = p->n;
+  if (p->uniform) {
+    i = (int)floor((x - p->x[0]) / p->h);
+    if (i < 0) i = 0;
+    if (i > n - 1) i = n - 1;
+    while (i > 0 && x < p->x[i]) --i;
+    while (i < n - 1 && x >= p->x[i + 1]) ++i;
+  } else {
+    int lo = 0, hi = n - 1;
+    while (lo < hi) {
+      int mid = (lo + hi + 1) / 2;
+      if (p->x[mid] <= x)
+        lo = mid;
+      else
+        hi = mid - 1;
+    }
+    i = lo;
+  }
+  return i;
+}
+
+/* Horner at s in piece i, k taken as a constant for the usual degrees. */
+static inline void piece(const svbi_ppoly* p, int i, double s, double* out) {
+  int k = p->k;
+  const double* c = p->c + (long)i * (k + 1);
+  if (k == 3) /* cubic (splines, ground motions) and quintic (rail profiles, onset ramps) pieces */
+    horner(c, s, 3, out);
+  else if (k == 5)
+    horner(c, s, 5, out);
+  else
+    horner(c, s, k, out);
+}
+
+/* svbi_ppoly_eval at count points, out[0..2][j] at out + j, out + stride + j, out + 2 stride + j. The
+ * intervals of a block of points are found first and the pieces evaluated after, so that the
+ * points' dependency chains (a division, a table load, Horner) overlap instead of following one
+ * another; the same arithmetic as svbi_ppoly_eval, point by point. */
+void svbi_ppoly_eval_many(const svbi_ppoly* p, const double* x, int count, double* out, long stride) {
+  enum { BLOCK = 64 };
+  int idx[BLOCK], j, j0;
+  for (j0 = 0; j0 < count; j0 += BLOCK) {
+    int nb = count - j0 < BLOCK ? count - j0 : BLOCK;
+    for (j = 0; j < nb; ++j) {
+      double xj = x[j0 + j];
+      /* -1: the constant left end, -2: the right end (as svbi_ppoly_eval) */
+      idx[j] = p->n == 0 ? (xj > p->x[0] ? -2 : -1) : xj <= p->x[0] ? -1 : xj >= p->x[p->n] ? -2 : interval_of(p, xj);
+    }
+    for (j = 0; j < nb; ++j) {
+      double v[3];
+      int i = idx[j];
+      if (i >= 0) {
+        piece(p, i, x[j0 + j] - p->x[i], v);
+      } else if (i == -1) {
+        v[0] = p->left0;
+        v[1] = p->left1;
+        v[2] = p->left2;
+      } else {
+        v[0] = p->right0;
+        v[1] = p->right1;
+        v[2] = p->right2;
+      }
+      out[j0 + j] = v[0];
+      out[stride + j0 + j] = v[1];
+      out[2 * stride + j0 + j] = v[2];
+    }
+  }
+}
+
 void svbi_ppoly_eval(const svbi_ppoly* p, double x, double* out) {
-  int i, k = p->k, n = p->n;
-  double s;
-  const double* c;
+  int i, n = p->n;
   if (n == 0 || x <= p->x[0]) {
     if (n == 0 && x > p->x[0]) {
       out[0] = p->right0;
@@ -48,29 +117,6 @@ void svbi_ppoly_eval(const svbi_ppoly* p, double x, double* out) {
     out[2] = p->right2;
     return;
   }
-  if (p->uniform) {
-    i = (int)floor((x - p->x[0]) / p->h);
-    if (i < 0) i = 0;
-    if (i > n - 1) i = n - 1;
-    while (i > 0 && x < p->x[i]) --i;
-    while (i < n - 1 && x >= p->x[i + 1]) ++i;
-  } else {
-    int lo = 0, hi = n - 1;
-    while (lo < hi) {
-      int mid = (lo + hi + 1) / 2;
-      if (p->x[mid] <= x)
-        lo = mid;
-      else
-        hi = mid - 1;
-    }
-    i = lo;
-  }
-  s = x - p->x[i];
-  c = p->c + (long)i * (k + 1);
-  if (k == 3) /* cubic (splines, ground motions) and quintic (rail profiles, onset ramps) pieces */
-    horner(c, s, 3, out);
-  else if (k == 5)
-    horner(c, s, 5, out);
-  else
-    horner(c, s, k, out);
+  i = interval_of(p, x);
+  piece(p, i, x - p->x[i], out);
 }

@@ -11,4 +11,8 @@
 /* Value, first and second derivative of p at x (out[0..2]). */
 void svbi_ppoly_eval(const svbi_ppoly* p, double x, double* out);
 
+/* The same at count points x[j]: value, first and second derivative at out[j], out[stride + j],
+ * out[2 stride + j]. */
+void svbi_ppoly_eval_many(const svbi_ppoly* p, const double* x, int count, double* out, long stride);
+
 #endif /* SVBI_SOLVER_TABLES_H */
