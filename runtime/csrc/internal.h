@@ -14,6 +14,7 @@
 #include <string.h>
 
 #include "band.h"
+#include "roots.h"
 #include "solver.h"
 #include "svbi_contact_rows.h"
 #include "svbi_topology.h"

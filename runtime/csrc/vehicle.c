@@ -198,7 +198,7 @@ void svbi_creep_update(const setup_t* S, state_t* X, const work_t* w) {
         xi = (wheel - rail) / v;
         if (X->P[c] > 0.0) {
           /* the law's powers of N are powers of its cube root (svbi.codegen.creep.split_creep_force): one cbrt */
-          casadi_real in_xi = xi, in_n = X->P[c], in_n3 = cbrt(X->P[c]), out_f = 0.0;
+          casadi_real in_xi = xi, in_n = X->P[c], in_n3 = svbi_cube_root(X->P[c]), out_f = 0.0;
           const casadi_real* arg[SVBI_CREEP_SPLIT_MAX_SZ_ARG];
           casadi_real* res[SVBI_CREEP_SPLIT_MAX_SZ_RES];
           arg[0] = &in_xi;
