@@ -530,22 +530,24 @@ class Recorder:
         if n < 2 or not self._filters():
             return raw[::every][:k].reshape(-1, tr.cars, tr.wheels).copy()  # no view of the full-rate array
         import scipy.signal as sig  # 1 s of imports (scipy.stats): only once the run is done
+        from svbi.runtime.zero_phase import compiled, sosfiltfilt_rows
 
         sos = sig.butter(FILTER_ORDER, fc, btype="low", fs=fs, output="sos")
         padlen = min(3 * (2 * len(sos) + 1), n - 1)
         rows = raw[::every][:k]
         out = np.empty_like(rows)
-        # a few contacts at a time: sosfiltfilt holds several full-rate copies of what it filters
-        # (3 GB for 100 cars over a 32 km viaduct at dt = 1e-3 s), each column is filtered alone;
-        # the blocks on two threads (scipy's sosfilt releases the GIL): the filter is the largest
-        # part of the work after the loop, and the columns are independent (bit-identical results)
+        # a few contacts at a time: the filter holds a full-rate copy of what it filters (SciPy's
+        # several: 3 GB for 100 cars over a 32 km viaduct at dt = 1e-3 s); the blocks on two threads
+        # (the compiled filter and scipy's sosfilt release the GIL): the filter is the largest part
+        # of the work after the loop, and the columns are independent (bit-identical results)
+        compiled()  # built (or found) once, before any thread asks for it
         ncol = raw.shape[1]
         threads = FILTER_THREADS if ncol > 1 else 1
         width = max(1, min(FILTER_BLOCK // n, -(-ncol // threads)))
 
         def block(j: int) -> None:
-            filtered = sig.sosfiltfilt(sos, raw[:, j : j + width], axis=0, padlen=padlen)
-            out[:, j : j + width] = filtered[::every][:k]
+            # sosfiltfilt(axis=0)[::every][:k], compiled where a compiler works (the same bits)
+            out[:, j : j + width] = sosfiltfilt_rows(sos, raw[:, j : j + width], padlen, every, k)
 
         starts = range(0, ncol, width)
         if threads > 1 and len(starts) > 1:
