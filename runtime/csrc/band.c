@@ -159,6 +159,21 @@ void svbi_gb_solve(const double* AB, int n, int bw, const int* ipiv, double* b) 
 #define SVBI_ALWAYS_INLINE inline
 #endif
 
+/* Column j of the LU: scale its km sub-diagonal entries by the reciprocal pivot r, then subtract
+ * its multiples from columns j + 1 .. ju (km a constant where it is inlined: the loops unroll). */
+static SVBI_ALWAYS_INLINE void eliminate(double* AB, int j, int ju, const int km, int kv, int ldab, double r) {
+  double* colj = AB + (long)j * ldab;
+  int i, jj;
+  for (i = 1; i <= km; ++i) colj[kv + i] *= r;
+  for (jj = j + 1; jj <= ju; ++jj) {
+    double* cc = AB + (long)jj * ldab;
+    double u = cc[kv + j - jj];
+    if (u != 0.0) {
+      for (i = 1; i <= km; ++i) cc[kv + j + i - jj] -= colj[kv + i] * u;
+    }
+  }
+}
+
 /* svbi_gb_factor that also stores the reciprocal of every pivot (rpiv: n) and scales the column
  * by it (one division per column instead of one per sub-diagonal entry). bw is a constant where
  * svbi_gb_factor_r inlines it (the interface's usual half-bandwidths): its loops then unroll. */
@@ -194,25 +209,10 @@ static SVBI_ALWAYS_INLINE int gb_factor_r(double* AB, int n, const int bw, int* 
     }
     r = 1.0 / colj[kv];
     rpiv[j] = r;
-    if (km == bw) { /* every column but the last bw: a constant trip count */
-      for (i = 1; i <= bw; ++i) colj[kv + i] *= r;
-      for (jj = j + 1; jj <= ju; ++jj) {
-        double* cc = AB + (long)jj * ldab;
-        double u = cc[kv + j - jj];
-        if (u != 0.0) {
-          for (i = 1; i <= bw; ++i) cc[kv + j + i - jj] -= colj[kv + i] * u;
-        }
-      }
-    } else {
-      for (i = 1; i <= km; ++i) colj[kv + i] *= r;
-      for (jj = j + 1; jj <= ju; ++jj) {
-        double* cc = AB + (long)jj * ldab;
-        double u = cc[kv + j - jj];
-        if (u != 0.0) {
-          for (i = 1; i <= km; ++i) cc[kv + j + i - jj] -= colj[kv + i] * u;
-        }
-      }
-    }
+    if (km == bw) /* every column but the last bw: a constant trip count */
+      eliminate(AB, j, ju, bw, kv, ldab, r);
+    else
+      eliminate(AB, j, ju, km, kv, ldab, r);
   }
   return SVBI_SOLVER_STATUS_OK;
 }

@@ -62,6 +62,30 @@ static inline void piece(const svbi_ppoly* p, int i, double s, double* out) {
     horner(c, s, k, out);
 }
 
+/* Where x falls: its interval, or -1 for the constant left end (x <= x[0]) and -2 for the right
+ * end (x >= x[n]; with no interval, x > x[0]). */
+static inline int where(const svbi_ppoly* p, double x) {
+  if (p->n == 0) return x > p->x[0] ? -2 : -1;
+  if (x <= p->x[0]) return -1;
+  if (x >= p->x[p->n]) return -2;
+  return interval_of(p, x);
+}
+
+/* Value, slope and curvature at x from where(p, x). */
+static inline void value_at(const svbi_ppoly* p, int i, double x, double* out) {
+  if (i >= 0) {
+    piece(p, i, x - p->x[i], out);
+  } else if (i == -1) {
+    out[0] = p->left0;
+    out[1] = p->left1;
+    out[2] = p->left2;
+  } else {
+    out[0] = p->right0;
+    out[1] = p->right1;
+    out[2] = p->right2;
+  }
+}
+
 /* svbi_ppoly_eval at count points, out[0..2][j] at out + j, out + stride + j, out + 2 stride + j. The
  * intervals of a block of points are found first and the pieces evaluated after, so that the
  * points' dependency chains (a division, a table load, Horner) overlap instead of following one
@@ -71,25 +95,10 @@ void svbi_ppoly_eval_many(const svbi_ppoly* p, const double* x, int count, doubl
   int idx[BLOCK], j, j0;
   for (j0 = 0; j0 < count; j0 += BLOCK) {
     int nb = count - j0 < BLOCK ? count - j0 : BLOCK;
-    for (j = 0; j < nb; ++j) {
-      double xj = x[j0 + j];
-      /* -1: the constant left end, -2: the right end (as svbi_ppoly_eval) */
-      idx[j] = p->n == 0 ? (xj > p->x[0] ? -2 : -1) : xj <= p->x[0] ? -1 : xj >= p->x[p->n] ? -2 : interval_of(p, xj);
-    }
+    for (j = 0; j < nb; ++j) idx[j] = where(p, x[j0 + j]);
     for (j = 0; j < nb; ++j) {
       double v[3];
-      int i = idx[j];
-      if (i >= 0) {
-        piece(p, i, x[j0 + j] - p->x[i], v);
-      } else if (i == -1) {
-        v[0] = p->left0;
-        v[1] = p->left1;
-        v[2] = p->left2;
-      } else {
-        v[0] = p->right0;
-        v[1] = p->right1;
-        v[2] = p->right2;
-      }
+      value_at(p, idx[j], x[j0 + j], v);
       out[j0 + j] = v[0];
       out[stride + j0 + j] = v[1];
       out[2 * stride + j0 + j] = v[2];
@@ -97,26 +106,4 @@ void svbi_ppoly_eval_many(const svbi_ppoly* p, const double* x, int count, doubl
   }
 }
 
-void svbi_ppoly_eval(const svbi_ppoly* p, double x, double* out) {
-  int i, n = p->n;
-  if (n == 0 || x <= p->x[0]) {
-    if (n == 0 && x > p->x[0]) {
-      out[0] = p->right0;
-      out[1] = p->right1;
-      out[2] = p->right2;
-    } else {
-      out[0] = p->left0;
-      out[1] = p->left1;
-      out[2] = p->left2;
-    }
-    return;
-  }
-  if (x >= p->x[n]) {
-    out[0] = p->right0;
-    out[1] = p->right1;
-    out[2] = p->right2;
-    return;
-  }
-  i = interval_of(p, x);
-  piece(p, i, x - p->x[i], out);
-}
+void svbi_ppoly_eval(const svbi_ppoly* p, double x, double* out) { value_at(p, where(p, x), x, out); }
