@@ -149,11 +149,19 @@ class Recorder:
         """What :meth:`dataset` will import: scipy.signal when the forces are filtered, xarray, and
         dask.array when dask is installed (xarray imports it itself when it builds a Dataset: its
         ``as_compatible_data`` checks every array against ``dask.array.Array``)."""
-        names = ["scipy.signal"] if self._filters() else []
+        names = ["scipy.signal"] if self._filters() and not self._design_cached() else []
         names.append("xarray")
         if importlib.util.find_spec("dask") is not None:
             names.append("dask.array")
         return names
+
+    def _design_cached(self) -> bool:
+        """Whether the force filter's design is in the cache and the compiled filter is built, so
+        that filtering imports no ``scipy.signal`` (``zero_phase.design``)."""
+        from svbi.runtime import zero_phase
+
+        cutoff, fs = self.model.settings.force_filter_hz, 1.0 / self.model.dt
+        return zero_phase.design_cached(FILTER_ORDER, cutoff, fs) and zero_phase.compiled()
 
     def _filters(self) -> bool:
         """Whether the contact forces get the low-pass filter (a cutoff below the Nyquist rate)."""
@@ -529,10 +537,9 @@ class Recorder:
         fc = m.settings.force_filter_hz
         if n < 2 or not self._filters():
             return raw[::every][:k].reshape(-1, tr.cars, tr.wheels).copy()  # no view of the full-rate array
-        import scipy.signal as sig  # 1 s of imports (scipy.stats): only once the run is done
-        from svbi.runtime.zero_phase import compiled, sosfiltfilt_rows
+        from svbi.runtime.zero_phase import compiled, design, sosfiltfilt_rows
 
-        sos = sig.butter(FILTER_ORDER, fc, btype="low", fs=fs, output="sos")
+        sos, zi = design(FILTER_ORDER, fc, fs)  # SciPy's butter, cached: no scipy.signal import
         padlen = min(3 * (2 * len(sos) + 1), n - 1)
         rows = raw[::every][:k]
         out = np.empty_like(rows)
@@ -547,7 +554,7 @@ class Recorder:
 
         def block(j: int) -> None:
             # sosfiltfilt(axis=0)[::every][:k], compiled where a compiler works (the same bits)
-            out[:, j : j + width] = sosfiltfilt_rows(sos, raw[:, j : j + width], padlen, every, k)
+            out[:, j : j + width] = sosfiltfilt_rows(sos, raw[:, j : j + width], padlen, every, k, zi)
 
         starts = range(0, ncol, width)
         if threads > 1 and len(starts) > 1:

@@ -52,3 +52,23 @@ def test_results_filter_falls_back_to_scipy_with_the_same_numbers(monkeypatch: p
     assert not zero_phase.compiled()
     fallback = zero_phase.sosfiltfilt_rows(sos, x, 27, 10, 200)
     np.testing.assert_allclose(compiled, fallback, rtol=0.0, atol=1e-13 * np.abs(fallback).max())
+
+
+def test_design_is_scipys_and_is_read_back_from_the_cache(tmp_path, monkeypatch: pytest.MonkeyPatch) -> None:
+    """The filter design a run reads from the cache is SciPy's butter and sosfilt_zi, bit for bit;
+    a damaged cache file is designed again."""
+    monkeypatch.setenv("SVBI_CACHE_DIR", str(tmp_path))
+    assert not zero_phase.design_cached(4, 20.0, 1e4)
+    sos, zi = zero_phase.design(4, 20.0, 1e4)
+    want = sig.butter(4, 20.0, btype="low", fs=1e4, output="sos")
+    np.testing.assert_array_equal(sos, want)
+    np.testing.assert_array_equal(zi, sig.sosfilt_zi(want))
+    assert zero_phase.design_cached(4, 20.0, 1e4)
+    again = zero_phase.design(4, 20.0, 1e4)  # from the file
+    np.testing.assert_array_equal(again[0], want)
+    np.testing.assert_array_equal(again[1], zi)
+    assert not zero_phase.design_cached(4, 25.0, 1e4)  # another cutoff: another entry
+    (stored,) = (tmp_path / "filters").glob("*.npz")
+    stored.write_bytes(b"not an npz")
+    np.testing.assert_array_equal(zero_phase.design(4, 20.0, 1e4)[0], want)
+    np.testing.assert_array_equal(np.load(stored)["sos"], want)  # written again
