@@ -88,7 +88,6 @@ typedef struct {
   /* vehicles and aux points */
   double* PVh;   /* cars x NV: Newmark history P - a0 u of the vehicle increment */
   double* QVh;   /* cars x NV */
-  double* dVh;   /* cars x NV: vehicle increment over the step */
   /* localized: the cars as lanes (vehicle.c, svbi_vehicle_predictors): u, P~, Q~, f, du as
    * [NV][vcp] and the wheels' W^T u~, W^T P, W^T Q and P_V as [NW][vcp], cars padded to VLANES */
   double* VL;
@@ -143,7 +142,7 @@ typedef struct {
   int* fw_ptr;   /* nfree + 1 */
   int* fw_r;     /* nfree x band_pf */
   double* fw_c;  /* nfree x band_pf */
-  /* vehicles: the non-zeros of V_K, V_M, V_C and V_kinv column by column (y = x^T A, vec_mat_nz) */
+  /* vehicles: the non-zeros of V_K, V_M, V_C and V_kinv column by column (y = x^T A, vehicle.c) */
   int* vnz_ptr;  /* 4 x (NV + 1) */
   int* vnz_idx;  /* 4 x NV x NV */
   double* vnz_val; /* 4 x NV x NV */
@@ -280,21 +279,6 @@ static inline void vec_mat(const double* A, const double* x, double* y) {
   }
 }
 
-/* y = x^T A over the non-zeros of A (matrix a of work_t vnz_*: 0 K, 1 M, 2 C, 3 K^-1, stored
- * column by column): every y[d] is the sum of vec_mat without its exact zeros, in the same order
- * over j (the same result), accumulated in a register. */
-static inline void vec_mat_nz(const work_t* w, int a, const double* x, double* y) {
-  int k, d;
-  const int* ptr = w->vnz_ptr + a * (NV + 1);
-  const int* idx = w->vnz_idx + a * NV * NV;
-  const double* val = w->vnz_val + a * NV * NV;
-  for (d = 0; d < NV; ++d) {
-    double s = 0.0;
-    for (k = ptr[d]; k < ptr[d + 1]; ++k) s += x[idx[k]] * val[k];
-    y[d] = s;
-  }
-}
-
 /* W_i^T x: the vertical motion of wheel i (column i of W_N^V, exact zeros dropped). */
 static inline double wheel(const setup_t* S, const double* x, int i) {
   int k;
@@ -306,8 +290,6 @@ static inline double wheel(const setup_t* S, const double* x, int i) {
 /* vehicle.c: the vehicles, the creep law and the aux-bridge row target. */
 void svbi_vehicle_increment_load(const setup_t* S, const double* u, const double* v, const double* a,
                                  double* Pt, double* Qt, double* PV, double* QV, double* f);
-void svbi_vehicle_increment_load_nz(const setup_t* S, const work_t* w, const double* u, const double* v,
-                                    const double* a, double* Pt, double* Qt, double* PV, double* QV, double* f);
 void svbi_creep_vehicle_load(const setup_t* S, const double* force, int k, double* f);
 void svbi_vehicle_predictors(const setup_t* S, const state_t* X, work_t* w);
 void svbi_vehicle_update(const setup_t* S, state_t* X, work_t* w);

@@ -77,7 +77,6 @@ static void carve(const setup_t* S, carver_t* c, work_t* w) {
   w->loaded = take_i(c, spans);
   w->PVh = take_d(c, S->cars * nv);
   w->QVh = take_d(c, S->cars * nv);
-  w->dVh = take_d(c, S->cars * nv);
   w->vcp = (S->cars + VLANES - 1) / VLANES * VLANES;
   w->VL = take_d(c, S->method == 0 && nv ? (5 * nv + 4L * S->nw) * w->vcp : 0);
   w->xV = take_d(c, S->cars * nv);
@@ -215,7 +214,7 @@ int svbi_solver_init(const setup_t* S, double* work, int* iwork) {
   for (k = 0; k < S->nfree; ++k) w.freeidx[S->free[k]] = k;
 #if !SVBI_MOVING_LOAD
   if (!S->moving_load) {
-    /* the non-zeros of the car's constant matrices, column by column (vec_mat_nz) */
+    /* the non-zeros of the car's constant matrices, column by column (vehicle.c, lanes_vec_mat) */
     const double* mats[4];
     int a, j, d;
     mats[0] = S->V_K;

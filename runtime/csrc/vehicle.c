@@ -24,26 +24,9 @@ void svbi_vehicle_increment_load(const setup_t* S, const double* u, const double
   for (d = 0; d < NV; ++d) f[d] = S->V_F[d] - sk[d] + sm[d] + sc[d];
 }
 
-/* svbi_vehicle_increment_load over the matrices' non-zeros (the same result). */
-void svbi_vehicle_increment_load_nz(const setup_t* S, const work_t* w, const double* u, const double* v,
-                                    const double* a, double* Pt, double* Qt, double* PV, double* QV, double* f) {
-  double sm[NV], sc[NV], sk[NV];
-  int d;
-  for (d = 0; d < NV; ++d) {
-    Pt[d] = S->a2 * v[d] + a[d];
-    Qt[d] = v[d];
-    PV[d] = S->a0 * u[d] + Pt[d];
-    QV[d] = S->a1 * u[d] + Qt[d];
-  }
-  vec_mat_nz(w, 0, u, sk);
-  vec_mat_nz(w, 1, Pt, sm);
-  vec_mat_nz(w, 2, Qt, sc);
-  for (d = 0; d < NV; ++d) f[d] = S->V_F[d] - sk[d] + sm[d] + sc[d];
-}
-
 /* y = x^T A over column d's non-zeros of A (work_t vnz_*, matrix a), for the cars as lanes (x, y
- * [NV][cp]): every lane's sum is vec_mat_nz's, in the same order (the same result), VLANES cars at
- * a time in registers. */
+ * [NV][cp]): every lane's sum is vec_mat's without its exact zeros, in the same order over the rows
+ * (the same result), VLANES cars at a time in registers. */
 static inline void lanes_vec_mat(const work_t* w, int a, const double* x, double* y, long cp) {
   const int* ptr = w->vnz_ptr + a * (NV + 1);
   const int* idx = w->vnz_idx + a * NV * NV;
@@ -67,8 +50,8 @@ static inline void lanes_vec_mat(const work_t* w, int a, const double* x, double
 /* The localized step's vehicle predictors, every car at once as a lane (work_t VL): the increment
  * load f = F - K^T u + M^T P~ + C^T Q~ (+ the creep forces of t_n on the wheel spins), the
  * predictor increment du~ = K^-T f, and for every wheel W^T (u + du~), W^T P and W^T Q. The sums of
- * svbi_vehicle_increment_load_nz, svbi_creep_vehicle_load and vec_mat_nz in their order (the same
- * result); P~, Q~ and du~ stay in VL for svbi_vehicle_update. */
+ * svbi_vehicle_increment_load and svbi_creep_vehicle_load in their order, less the exact zeros
+ * (the same result); P~, Q~ and du~ stay in VL for svbi_vehicle_update. */
 void svbi_vehicle_predictors(const setup_t* S, const state_t* X, work_t* w) {
   long cp = w->vcp, o = NV * cp, c;
   double *U = w->VL, *Pt = U + o, *Qt = Pt + o, *F = Qt + o, *DU = F + o;
