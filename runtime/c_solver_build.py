@@ -686,9 +686,9 @@ def simd_flags() -> tuple[str, ...]:
     ``SVBI_SIMD`` is not ``0``); else nothing.
 
     The loop is compiled on the machine that runs it, so it may use what the CPU has. Its lane loops
-    (four spans, four cars) then take one AVX2 instruction where SSE2 takes two: 10 % off the paper
-    step (benchmarks/bench_solver.py). Contraction stays off, so the results do not depend on the
-    instruction set (the exported solver, built for any target, gives the same numbers).
+    (four spans, four cars) then take one AVX2 instruction where SSE2 takes two: about 9 % off the
+    paper step (benchmarks/bench_solver.py). Contraction stays off, so the results do not depend on
+    the instruction set: a plain SSE2 build and the exported solver give the same bits here.
     """
     import platform
 

@@ -29,7 +29,9 @@ DEFAULT_SHARE = 0.5
 F64 = 8
 FILTER_COPIES = 3.0
 """Peak working arrays of the zero-phase force filter (``scipy.signal.sosfiltfilt``: padded input,
-forward and backward passes), in units of the force buffer: measured 3.00 for 1 to 40 wheels."""
+forward and backward passes), in units of the force buffer: measured 3.00 for 1 to 40 wheels. The
+compiled filter (``zero_phase``) holds one padded copy; SciPy's, which runs without a compiler,
+sets the bound."""
 TABLE_BYTES_PER_POINT = 120.0
 """Bytes per grid point of the stored rail-profile table: quintic coefficients and breaks, and the
 C loop's transposed copy (``c_steppers._ppoly_struct``)."""
