@@ -112,6 +112,9 @@ def sweep(
     """Run a study (a scenario over axes of its keys) on Dask: metrics per run in one store.
 
     Finished runs are kept in OUT.parts/; running the same command again resumes (docs/sweep.md)."""
+    import gc
+
+    gc.enable()  # the client runs as long as the study, on Dask's event loop (cli.main turned it off)
     from svbi.runtime.sweep import StudyError, load_study, run_sweep
 
     if workers is not None and workers < 1:
