@@ -15,16 +15,13 @@
 from __future__ import annotations
 
 import argparse
-import statistics
 import sys
-import time
-import warnings
 from pathlib import Path
 
 HERE = Path(__file__).resolve().parent
 sys.path.insert(0, str(HERE))
 
-from bench_solver import on_bridge, per_step_us  # noqa: E402
+from bench_solver import on_bridge, per_step_us, total_s  # noqa: E402
 from svbi.runtime.scenario import load_scenario, validate_scenario  # noqa: E402
 
 VIADUCT = HERE.parent / "examples" / "viaduct.toml"
@@ -43,26 +40,13 @@ def on_piers(spans: int, dt: float = 1e-3):
 
 
 def viaduct_table(repeats: int) -> None:
-    import svbi
-
     print("Viaduct example (examples/viaduct.toml), localized-dynamic, complete runs")
     print(f"{'backend':<8}{'loop s':>10}{'total s':>10}{'steps':>9}")
     loops = {}
     for backend, n in (("c", repeats), ("numpy", 1)):
         sc = load_scenario(VIADUCT, overrides={"solver.backend": backend})
-        walls, inner = [], []
-        for _ in range(n):
-            with warnings.catch_warnings():
-                warnings.simplefilter("ignore")
-                t0 = time.perf_counter()
-                ds = svbi.simulate(sc)
-                walls.append(time.perf_counter() - t0)
-            inner.append(float(ds.attrs["loop_time_s"]))
-        assert ds.attrs["backend"] == backend, ds.attrs["backend"]
-        loops[backend] = statistics.median(inner)
-        print(
-            f"{backend:<8}{loops[backend]:>10.2f}{statistics.median(walls):>10.2f}{int(ds.attrs['steps']):>9}"
-        )
+        wall, loops[backend], steps = total_s(sc, n, "loop_time_s", backend)
+        print(f"{backend:<8}{loops[backend]:>10.2f}{wall:>10.2f}{steps:>9}")
     print(f"ratio: C vs NumPy (loop) {loops['numpy'] / loops['c']:.0f}x")
 
 

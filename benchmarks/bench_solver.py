@@ -128,8 +128,11 @@ def per_step_us(scenario, backend: str, method: str, steps: int, warmup: int = 1
     return 1e6 * statistics.median(times) / steps
 
 
-def total_s(scenario, repeats: int = 3) -> tuple[float, float, int]:
-    """Median wall time of complete runs, and simulate's own loop-and-results time; steps."""
+def total_s(
+    scenario, repeats: int = 3, inner_attr: str = "wall_time_s", backend: str | None = None
+) -> tuple[float, float, int]:
+    """Median wall time of complete runs, and of simulate's own timer ``inner_attr`` (its
+    loop-and-results time by default); steps. With ``backend``, the runs must have run on it."""
     import svbi
 
     walls, inner = [], []
@@ -140,7 +143,8 @@ def total_s(scenario, repeats: int = 3) -> tuple[float, float, int]:
             t0 = time.perf_counter()
             ds = svbi.simulate(scenario)
             walls.append(time.perf_counter() - t0)
-        inner.append(float(ds.attrs["wall_time_s"]))
+        assert backend is None or ds.attrs["backend"] == backend, ds.attrs["backend"]
+        inner.append(float(ds.attrs[inner_attr]))
         steps = int(ds.attrs["steps"])
     return statistics.median(walls), statistics.median(inner), steps
 

@@ -17,8 +17,7 @@ from __future__ import annotations
 
 import ctypes
 import hashlib
-import os
-import tempfile
+import io
 from functools import cache
 from importlib import resources
 from pathlib import Path
@@ -57,12 +56,12 @@ def design(order: int, cutoff_hz: float, fs: float) -> tuple[np.ndarray, np.ndar
 
     sos = sig.butter(order, cutoff_hz, btype="low", fs=fs, output="sos")
     zi = sig.sosfilt_zi(sos)
+    from svbi.runtime.atomic import write_atomic
+
+    stored = io.BytesIO()
+    np.savez(stored, sos=sos, zi=zi)
     try:
-        path.parent.mkdir(parents=True, exist_ok=True)
-        fd, tmp = tempfile.mkstemp(dir=path.parent, suffix=".npz.tmp")
-        with os.fdopen(fd, "wb") as f:
-            np.savez(f, sos=sos, zi=zi)
-        os.replace(tmp, path)
+        write_atomic(path, lambda tmp: tmp.write_bytes(stored.getvalue()))
     except OSError:  # a read-only cache costs the import next time, nothing else
         pass
     return sos, zi

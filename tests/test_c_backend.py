@@ -390,24 +390,11 @@ def test_exported_solver_runs_lift_offs_and_landings_as_svbi_run(tmp_path):
     """localized-dynamic keeps the whole active set in C (lift-offs, flights, landings and their
     impact), so the standalone exported loop runs unilateral contact with no Python and writes the
     same numbers as `svbi run`."""
-    scenario = {
-        "title": "export with lift-offs: one car under a 3 g vertical record",
-        "bridge": dict(
-            spans=4,
-            span_length=32.0,
-            mass_per_length=22.4e3,
-            youngs_modulus=35.5e9,
-            area=8.63,
-            second_moment=6.58,
-            elements_per_span=8,
-        ),
-        "train": dict(vehicle="pioneer-2d", cars=1, speed_kmh=120.0, start_position=3.0),
-        "track": dict(irregularity="german-low", seed=3),
-        "earthquake": dict(vertical="synthetic", longitudinal="none", target_pga=29.43, arrival=0.0),
-        "contact": dict(normal="unilateral"),
-        "solver": dict(method="localized-dynamic", backend="c", time_step=1e-3, duration=4.0, output_every=5),
-    }
-    table, ref, _ = export_and_run(tmp_path, scenario)
+    data = scenario("localized-dynamic", "c", cars=1, spans=4, quake=False, every=5, duration=4.0).to_dict()
+    data["title"] = "export with lift-offs: one car under a 3 g vertical record"
+    data["train"].update(speed_kmh=120.0, start_position=3.0)
+    data["earthquake"] = dict(vertical="synthetic", longitudinal="none", target_pga=29.43, arrival=0.0)
+    table, ref, _ = export_and_run(tmp_path, data)
     assert ref.attrs["liftoffs"] >= 5 and ref.attrs["numpy_steps"] == 0
     assert len(table) == ref.sizes["time"]
     cols = [f"contact_force_{c}_{w}" for c in ref.car.values for w in ref.wheel.values]
