@@ -33,7 +33,6 @@ from collections.abc import Callable
 from typing import Any
 
 import numpy as np
-from scipy.interpolate import PPoly
 from svbi.codegen.plain_types import GRAVITY
 from svbi.runtime import c_solver_build
 from svbi.runtime.assembly import FlatTrack, GroundAtRest, Model, State
@@ -142,12 +141,6 @@ def _empty_ppoly() -> c_solver_build.PPoly:
     return c_solver_build.PPoly()
 
 
-def _as_ppoly(spline: Any) -> PPoly:
-    if isinstance(spline, PPoly):
-        return spline
-    return PPoly.from_spline(spline)
-
-
 def _ramp_table(ramp: Any) -> tuple[np.ndarray, np.ndarray] | None:
     """The onset ramp h(x) as one polynomial piece on [start, start + length], found by fitting its
     own ``weights`` (an exact polynomial: the fit is checked), or None if it is not a polynomial."""
@@ -191,6 +184,7 @@ class ExcitationInput:
     # ----------------------------------------------------------------------------------------------
     def _irregularity(self) -> None:
         from svbi.runtime.excitation.irregularity import NoIrregularity, SampledIrregularity
+        from svbi.runtime.excitation.piecewise import horner
 
         irr, e = self.model.irregularity, self.struct
         if isinstance(irr, FlatTrack | NoIrregularity):
@@ -199,22 +193,13 @@ class ExcitationInput:
         if isinstance(irr, SampledIrregularity):
             ramp = _ramp_table(irr.ramp)
             if ramp is not None:
-                pp = _as_ppoly(irr.spline)
-                x, c = np.asarray(pp.x), np.asarray(pp.c)
+                x, c = np.asarray(irr.spline.x), np.asarray(irr.spline.c)
                 keep = np.flatnonzero(np.diff(x) > 0)
                 if keep.size < x.size - 1:  # drop zero-length pieces (a copy: only when there are any)
                     x = np.concatenate([x[keep], [x[keep[-1] + 1]]])
                     c = c[:, keep]
-                lo = (
-                    float(irr.spline(irr.x_min)),
-                    float(irr.spline(irr.x_min, 1)),
-                    float(irr.spline(irr.x_min, 2)),
-                )
-                hi = (
-                    float(irr.spline(irr.x_max)),
-                    float(irr.spline(irr.x_max, 1)),
-                    float(irr.spline(irr.x_max, 2)),
-                )
+                ends = horner(irr.spline, np.array([irr.x_min, irr.x_max]))  # r, r', r'' at both
+                lo, hi = (tuple(float(v[k]) for v in ends) for k in (0, 1))
                 e.irr_base = _ppoly_struct(self.keep, x, c, lo, hi)
                 e.irr_onset = _ppoly_struct(self.keep, ramp[0], ramp[1], (0.0, 0.0, 0.0), (1.0, 0.0, 0.0))
                 e.irr_ramp = 1
@@ -264,12 +249,8 @@ class ExcitationInput:
 
     def _history(self, h: Any) -> c_solver_build.PPoly:
         """A processed record (``MotionHistory``) as the piecewise cubic of its integration."""
-        dt = h.dt
-        a0, a1 = h.accel[:-1], h.accel[1:]
-        jerk = (a1 - a0) / dt
-        c = np.stack([jerk / 6.0, a0 / 2.0, h.vel[:-1], h.disp[:-1]])
-        x = h.arrival + dt * np.arange(h.accel.size)
-        return _ppoly_struct(self.keep, x, c, (0.0, 0.0, 0.0), (float(h.disp[-1]), 0.0, 0.0))
+        table, after = h.table()
+        return _ppoly_struct(self.keep, table.x, table.c, (0.0, 0.0, 0.0), after)
 
     # ----------------------------------------------------------------------------------------------
     @property

@@ -19,7 +19,7 @@ import typer
 EXIT_INVALID = 2
 EXIT_DIVERGED = 3
 EXIT_WRITE = 4
-NETCDF_MODULES = ("h5netcdf", "xarray.backends.h5netcdf_", "dask.distributed")
+NETCDF_MODULES = ("netCDF4", "xarray.backends.netCDF4_", "dask.distributed")
 """What ``results.write_netcdf`` imports: loaded while the loop runs (``simulate(import_ahead=...)``).
 ``dask.distributed`` (0.25 s): xarray's writer asks whether a distributed scheduler is active
 (``xarray.backends.locks.get_dask_scheduler``) by importing it whenever dask is installed."""

@@ -24,6 +24,7 @@ Kernel objects hold their own argument and work buffers: they are not thread-saf
 from __future__ import annotations
 
 import ctypes
+import functools
 import hashlib
 import json
 import os
@@ -116,8 +117,14 @@ def compiler_command() -> list[str]:
 
 
 def _compiler_identity(cc: list[str]) -> str:
+    return _compiler_version(tuple(cc))
+
+
+@functools.lru_cache(maxsize=8)
+def _compiler_version(cc: tuple[str, ...]) -> str:
     # The version text goes into the cache key, so upgrading the compiler rebuilds. A compiler
-    # that cannot even report its version is caught when it fails to compile.
+    # that cannot even report its version is caught when it fails to compile. Asked once per
+    # process: a run loads two libraries (the loop and the force filter).
     try:
         done = subprocess.run([*cc, "--version"], capture_output=True, text=True, timeout=30, check=False)
     except (OSError, subprocess.SubprocessError):

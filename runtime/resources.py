@@ -35,14 +35,12 @@ sets the bound."""
 TABLE_BYTES_PER_POINT = 120.0
 """Bytes per grid point of the stored rail-profile table: quintic coefficients and breaks, and the
 C loop's transposed copy (``c_steppers._ppoly_struct``)."""
-TABULATION_BYTES_PER_POINT = 400.0
-"""Transient bytes per grid point while the table is made (exact r, r', r'' at the grid, the banded
-quintic spline system, the coefficients): measured 370-395 at 2e5 points, beside the spectral chunk."""
-SPECTRAL_BYTES_PER_FREQUENCY = 250.0
-"""Bytes per frequency of the spectral sample (amplitudes, phases, complex coefficients, blocks)."""
-SPECTRAL_CHUNK = 1 << 22
-"""Complex elements of one chunk of the spectral sum (``excitation.irregularity``: its ``_CHUNK``):
-per point of a chunk, the (points x frequency blocks) products alive at once."""
+TABULATION_BYTES_PER_POINT = 30.0
+"""Transient bytes per grid point while the table is made, beside the stored table (the nodes'
+carrier and the quintic's temporaries): 23 measured (``tracemalloc``, 1.5e4 to 3.2e6 points)."""
+FFT_BYTES_PER_SAMPLE = 50.0
+"""Transient bytes per sample of the table's inverse FFT (``SpectralIrregularity.table_nodes``:
+three complex rows of the period's length K): 46-52 measured for K = 5e4 to 6.6e6."""
 GROUND_BYTES_PER_SAMPLE = 400.0
 """Bytes per record sample and component once processed (acceleration, velocity, displacement,
 filter copies, cubic table). Generous: records are short next to the other arrays."""
@@ -204,8 +202,8 @@ def _uniform_ground(scenario: Scenario) -> bool:
 
 def _irregularity_bytes(scenario: Scenario, train: object, duration: float, steps: int) -> tuple[int, int]:
     """Stored and transient bytes of the table of ``simulate._irregularity``: a grid of
-    ``wavelength_min / 50`` over the distance the train travels, evaluated by the blocked spectral sum
-    of ``SpectralIrregularity.evaluate_unramped`` (N frequencies as ``n_low`` x ``n_high`` blocks)."""
+    ``wavelength_min / 50`` over the distance the train travels, its nodes from one inverse FFT of
+    the N frequencies over a period (``SpectralIrregularity.table_nodes``)."""
     spec = scenario.track
     if spec.irregularity == "none":
         return 0, 0
@@ -226,11 +224,11 @@ def _irregularity_bytes(scenario: Scenario, train: object, duration: float, step
     length = max(speed * duration, 1.0)
     # N: the smallest power of two >= 1024 whose period (about N wavelength_min) covers the length
     n = max(1024, 2 ** math.ceil(math.log2(max(length / spec.wavelength_min, 1.0))))
-    n_low = 1 << max(0, math.ceil(math.log2(n) / 2))
-    n_high = -(-n // n_low)
-    chunk = min(points, max(1, SPECTRAL_CHUNK // (3 * n_high)))
-    spectral = n * SPECTRAL_BYTES_PER_FREQUENCY + chunk * 16 * (4 * n_high + n_low)
-    return int(points * TABLE_BYTES_PER_POINT), int(points * TABULATION_BYTES_PER_POINT + spectral)
+    # K: the FFT's length, one period 2π/ΔΩ at spacing dx (table_nodes rounds it up a little)
+    d_omega = 2.0 * math.pi * (1.0 / spec.wavelength_min - 1.0 / spec.wavelength_max) / n
+    k = 1.05 * max(n, 2.0 * math.pi / d_omega / dx)
+    transient = points * TABULATION_BYTES_PER_POINT + k * FFT_BYTES_PER_SAMPLE
+    return int(points * TABLE_BYTES_PER_POINT), int(transient)
 
 
 def _ground_bytes(scenario: Scenario, duration: float) -> int:

@@ -350,6 +350,10 @@ def _peak_rss_mb() -> float:
     return resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024.0  # Linux: kB
 
 
+EMPTY_VARIABLES = "svbi_empty_variables"
+"""A part's attribute: the variables of length 0 it holds, as JSON ``{name: [dims, dtype]}``."""
+
+
 def write_part(ds: xr.Dataset, path: Path) -> Path:
     """A run's metrics as a small NetCDF-3 file, atomically (SciPy writes and reads these 10x faster
     than HDF5, which counts when a store assembles thousands of them). NetCDF-3 has no 64-bit
@@ -361,6 +365,14 @@ def write_part(ds: xr.Dataset, path: Path) -> Path:
     out.attrs = {k: (v.item() if isinstance(v, np.generic) else v) for k, v in out.attrs.items()}
     # serialised in memory, then written as plain bytes: inside a Dask worker, xarray's file writes
     # take a cluster-wide lock through the scheduler, which cost 0.4 s a run on this machine
+    # Variables of length 0 (the joints of a single span) are named in an attribute instead of
+    # written: SciPy lays them out in a way the netCDF-C library, xarray's reader when netCDF4 is
+    # installed, refuses ("unknown file format"). _read_part puts them back.
+    empty = [d for d, size in out.sizes.items() if size == 0]
+    if empty:
+        gone = {n: [list(v.dims), v.dtype.str] for n, v in out.variables.items() if set(v.dims) & set(empty)}
+        out = out.drop_dims(empty)
+        out.attrs[EMPTY_VARIABLES] = json.dumps(gone, sort_keys=True)
     data = bytes(out.to_netcdf(engine="scipy", format="NETCDF3_64BIT"))
     return write_atomic(path, lambda tmp: tmp.write_bytes(data))
 
@@ -568,12 +580,20 @@ def assemble(study: Study, out: Path) -> xr.Dataset:
 
 def _read_part(path: Path) -> xr.Dataset | None:
     """A run's part, or None when it cannot be read (then it is removed, and the next sweep runs
-    the run again). The engine is guessed from the file (parts of older versions are NetCDF-4)."""
+    the run again). The reader follows the file's signature: NetCDF-3 parts are SciPy's (the
+    netCDF-C library refuses some of them as an "unknown file format"), NetCDF-4 parts are older
+    versions'."""
     import xarray as xr
 
     try:
-        with xr.open_dataset(path) as p:
-            return p.load()
+        with path.open("rb") as f:
+            engine = "scipy" if f.read(3) == b"CDF" else "h5netcdf"
+        with xr.open_dataset(path, engine=engine) as p:
+            ds = p.load()
+        for name, (dims, dtype) in json.loads(ds.attrs.pop(EMPTY_VARIABLES, "{}")).items():
+            shape = tuple(ds.sizes.get(d, 0) for d in dims)
+            ds[name] = (tuple(dims), np.empty(shape, dtype=np.dtype(dtype)))
+        return ds
     except Exception:  # any reader failure: the part is not usable
         path.unlink(missing_ok=True)
         return None

@@ -32,7 +32,7 @@ from typing import Literal, Protocol
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
-from scipy.interpolate import CubicSpline, PPoly
+from svbi.runtime.excitation.piecewise import Pieces, PiecewisePolynomial, horner
 
 Level = Literal["low", "high"]
 Component = Literal["vertical", "alignment"]
@@ -340,7 +340,7 @@ class SpectralIrregularity:
 
 def quintic_hermite(
     x: NDArray[np.float64], f: NDArray[np.float64], f1: NDArray[np.float64], f2: NDArray[np.float64]
-) -> PPoly:
+) -> PiecewisePolynomial:
     """The piecewise quintic with value f, slope f1 and curvature f2 at every break x (C2).
 
     ``scipy.interpolate.BPoly.from_derivatives`` builds the same polynomial but loops over the
@@ -363,31 +363,7 @@ def quintic_hermite(
     coef[3] = 0.5 * k0
     coef[4] = g0
     coef[5] = f0
-    return PPoly.construct_fast(coef, np.ascontiguousarray(x, dtype=float), extrapolate=True)
-
-
-def horner(pp: PPoly, x: NDArray[np.float64]) -> Triple:
-    """Value, first and second derivative of a piecewise polynomial at x (inside its breaks).
-
-    The piece is the one with ``x_i <= x < x_{i+1}`` (the last one at the right end); each value is
-    Horner's rule in ``s = x - x_i`` on the coefficients ``c[m, i]`` of ``s^(k - m)`` and on their
-    derivatives, the same arithmetic as the C loop's ``ppoly_eval``.
-    """
-    breaks, c = pp.x, pp.c
-    k, n = c.shape[0] - 1, c.shape[1]
-    i = np.clip(np.searchsorted(breaks, x, side="right") - 1, 0, n - 1)
-    s = x - breaks[i]
-    v0 = np.zeros_like(s)
-    v1 = np.zeros_like(s)
-    v2 = np.zeros_like(s)
-    for m in range(k + 1):
-        cm = c[m, i]
-        v0 = v0 * s + cm
-        if m < k:
-            v1 = v1 * s + (k - m) * cm
-        if m < k - 1:
-            v2 = v2 * s + ((k - m) * (k - m - 1)) * cm
-    return v0, v1, v2
+    return PiecewisePolynomial(np.ascontiguousarray(x, dtype=float), coef)
 
 
 @dataclass(frozen=True, eq=False)
@@ -401,7 +377,7 @@ class SampledIrregularity:
 
     x_min: float
     x_max: float
-    spline: object  # a scipy PPoly/BSpline: callable with a ``nu`` derivative order
+    spline: Pieces  # the quintic table or a scipy CubicSpline
     ramp: OnsetRamp = field(default_factory=OnsetRamp)
     source: str = "profile"
 
@@ -417,10 +393,7 @@ class SampledIrregularity:
                 f"outside the profile's range [{self.x_min:.3f}, {self.x_max:.3f}] m"
             )
         xc = np.clip(xa, self.x_min, self.x_max)
-        if isinstance(self.spline, PPoly):
-            base = horner(self.spline, xc)
-        else:
-            base = (self.spline(xc), self.spline(xc, 1), self.spline(xc, 2))  # type: ignore[operator]
+        base = horner(self.spline, xc)
         base = tuple(np.where(active, b, 0.0) for b in base)
         return self.ramp.apply(xa, base)  # type: ignore[arg-type]
 
@@ -431,6 +404,8 @@ class SampledIrregularity:
         Blank lines and lines starting with ``#`` are skipped; commas are accepted as separators.
         Errors name the file and the line.
         """
+        from scipy.interpolate import CubicSpline
+
         xs, rs = read_profile(path)
         spline = CubicSpline(xs, rs, bc_type="not-a-knot")
         return cls(
@@ -505,6 +480,8 @@ def measured_profile(path: str | Path) -> SampledIrregularity:
     The ramp's step is put 1 m before the first point, so h = 1 wherever the profile is defined;
     a wheel outside [x_min, x_max] is an error (the scenario checks the wheels' path beforehand).
     """
+    from scipy.interpolate import CubicSpline
+
     xs, rs = read_profile_cached(path)
     return SampledIrregularity(
         x_min=float(xs[0]),

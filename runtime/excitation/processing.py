@@ -50,7 +50,7 @@ from functools import cached_property
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
-from scipy.interpolate import PPoly
+from svbi.runtime.excitation.piecewise import PiecewisePolynomial
 from svbi.runtime.excitation.records import Record
 
 Triple = tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]]
@@ -170,16 +170,16 @@ class MotionHistory:
         c = np.stack([jerk / 6.0, a0 / 2.0, self.vel[:-1], self.disp[:-1]])
         return self.arrival + self.dt * np.arange(self.accel.size), c
 
-    def table(self) -> tuple[PPoly, Triple]:
+    def table(self) -> tuple[PiecewisePolynomial, Triple]:
         """The displacement as a piecewise cubic in simulation time (what the C loop evaluates).
 
         Breaks ``arrival + i dt``; on piece i, ``q = disp_i + vel_i s + accel_i s²/2 + jerk_i s³/6``
         with ``s = t - (arrival + i dt)``, i.e. ``scipy.interpolate.PPoly`` coefficients
-        ``[jerk/6, accel/2, vel, disp]``. Returns the PPoly and the constant ``(q, q', q'')`` after
+        ``[jerk/6, accel/2, vel, disp]``. Returns the table and the constant ``(q, q', q'')`` after
         the record (before it, all are 0).
         """
         x, c = self._pieces
-        return PPoly(c, x, extrapolate=False), (float(self.disp[-1]), 0.0, 0.0)
+        return PiecewisePolynomial(x, c), (float(self.disp[-1]), 0.0, 0.0)
 
     def evaluate(self, t: ArrayLike) -> Triple:
         """q, q', q'' (m, m/s, m/s²) at simulation times t (any shape).
