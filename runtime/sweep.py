@@ -367,7 +367,7 @@ def write_part(ds: xr.Dataset, path: Path) -> Path:
     # take a cluster-wide lock through the scheduler, which cost 0.4 s a run on this machine
     # Variables of length 0 (the joints of a single span) are named in an attribute instead of
     # written: SciPy lays them out in a way the netCDF-C library, xarray's reader when netCDF4 is
-    # installed, refuses ("unknown file format"). _read_part puts them back.
+    # installed, refuses ("unknown file format"). assemble puts them back in the store.
     empty = [d for d, size in out.sizes.items() if size == 0]
     if empty:
         gone = {n: [list(v.dims), v.dtype.str] for n, v in out.variables.items() if set(v.dims) & set(empty)}
@@ -510,10 +510,12 @@ def assemble(study: Study, out: Path) -> xr.Dataset:
     parts: list[xr.Dataset] = []
     status, message = [], []
     timings = {k: [] for k in RUN_TIMINGS}
+    empty: dict[str, list[str]] = {}  # variables of length 0 in the parts (write_part): name -> dims
     for r in study.runs:
         path = part_path(out, r)
         ds = _read_part(path) if _finished(path) else None
         if ds is not None:
+            empty.update({k: v[0] for k, v in json.loads(ds.attrs.get(EMPTY_VARIABLES, "{}")).items()})
             status.append(str(ds.attrs.get("status", STATUS_FAILED)))
             message.append(str(ds.attrs.get("message", "")))
             for k in RUN_TIMINGS:
@@ -550,6 +552,10 @@ def assemble(study: Study, out: Path) -> xr.Dataset:
         if values.dtype.kind in "iub":
             values = values.astype(float)
         data_vars[name] = ([*dims, *rest], values.reshape(*shape, *values.shape[1:]), da.attrs)
+    for name, vdims in empty.items():  # in no part with a length: length 0 in the store too
+        if name not in data_vars and name not in vdims:  # (a dimension's own coordinate is not kept)
+            empty_shape = tuple(stacked.sizes.get(d, 0) for d in vdims)
+            data_vars[name] = ([*dims, *vdims], np.full((*shape, *empty_shape), np.nan))
     data_vars["status"] = (dims, np.array(status, dtype=object).reshape(shape))
     data_vars["message"] = (dims, np.array(message, dtype=object).reshape(shape))
     for k, v in timings.items():
@@ -589,11 +595,7 @@ def _read_part(path: Path) -> xr.Dataset | None:
         with path.open("rb") as f:
             engine = "scipy" if f.read(3) == b"CDF" else "h5netcdf"
         with xr.open_dataset(path, engine=engine) as p:
-            ds = p.load()
-        for name, (dims, dtype) in json.loads(ds.attrs.pop(EMPTY_VARIABLES, "{}")).items():
-            shape = tuple(ds.sizes.get(d, 0) for d in dims)
-            ds[name] = (tuple(dims), np.empty(shape, dtype=np.dtype(dtype)))
-        return ds
+            return p.load()
     except Exception:  # any reader failure: the part is not usable
         path.unlink(missing_ok=True)
         return None
