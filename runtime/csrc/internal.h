@@ -132,13 +132,14 @@ typedef struct {
   double* TA;
   double* qb;    /* 2 x ns x pad: q' and q^ of every span */
   double* RF;    /* nfree x pad: free-DOF right-hand sides of the correction (localized) */
-  double* dinv;  /* nfree: reciprocal diagonal of the factor on the free DOFs */
+  double* dinv2; /* nfree: 1 / L(j, j)^2, L the factor on the free DOFs (factor_solve: K^ = U D^2 U^T) */
   int* freeidx;  /* nd: index among the free DOFs, -1 for a support DOF */
   int* lidx;     /* spans: index among the loaded spans, -1 if unloaded */
   int* lspan;    /* spans: the loaded spans */
   /* localized: the non-zeros of the factor on the free DOFs (the band is 40 % zeros: axial and
-   * bending DOFs do not couple), row j's L(j, j - r) for r descending (forward sweep) and column j's
-   * L(j + r, j) for r ascending (backward sweep): the order of svbi_band_solve_blocked's updates */
+   * bending DOFs do not couple) as the unit triangle U = L D^-1 (D = diag L), row j's
+   * U(j, j - r) = L(j, j - r) / L(j - r, j - r) for r descending (forward sweep) and column j's
+   * U(j + r, j) = L(j + r, j) / L(j, j) for r ascending (backward sweep) */
   int* fw_ptr;   /* nfree + 1 */
   int* fw_r;     /* nfree x band_pf */
   double* fw_c;  /* nfree x band_pf */

@@ -7,15 +7,16 @@
 #include "internal.h"
 
 /* Solve L L^T X = B in place for m right-hand sides (m a multiple of LW) held row after row: row j
- * at b + row(j) m, row(j) = rows[j] (or j without rows). Row form over the factor's non-zeros
- * (work_t fw_*, bk_*): every row is read, updated in registers LW lanes at a time and stored once,
- * with the subtractions in the order of svbi_band_solve_blocked (the same result, bit for bit). */
+ * at b + row(j) m, row(j) = rows[j] (or j without rows). With U = L D^-1 (unit lower, D = diag L),
+ * L L^T = U D^2 U^T: U z = b forward, then U^T x = D^-2 z backward (work_t fw_*, bk_*, dinv2), so
+ * that a row's chain to the next is one multiply and one subtraction, with no scaling on it (the
+ * sweeps are latency-bound: each row waits for the one before). Row form over the factor's
+ * non-zeros: every row is read, updated in registers LW lanes at a time and stored once. */
 static void factor_solve(const setup_t* S, const work_t* w, double* b, const int* rows, long m) {
   int j, k, l, n = S->nfree;
   long c;
   for (j = 0; j < n; ++j) {
     double* restrict bj = b + (long)(rows ? rows[j] : j) * m;
-    double di = w->dinv[j];
     int k0 = w->fw_ptr[j], k1 = w->fw_ptr[j + 1];
     for (c = 0; c < m; c += LW) {
       double t[LW];
@@ -26,23 +27,23 @@ static void factor_solve(const setup_t* S, const work_t* w, double* b, const int
         double v = w->fw_c[k];
         for (l = 0; l < LW; ++l) t[l] -= v * br[l];
       }
-      for (l = 0; l < LW; ++l) bj[c + l] = t[l] * di;
+      for (l = 0; l < LW; ++l) bj[c + l] = t[l];
     }
   }
   for (j = n - 1; j >= 0; --j) {
     double* restrict bj = b + (long)(rows ? rows[j] : j) * m;
-    double di = w->dinv[j];
+    double d = w->dinv2[j];
     int k0 = w->bk_ptr[j], k1 = w->bk_ptr[j + 1];
     for (c = 0; c < m; c += LW) {
       double t[LW];
-      for (l = 0; l < LW; ++l) t[l] = bj[c + l];
+      for (l = 0; l < LW; ++l) t[l] = bj[c + l] * d;
       for (k = k0; k < k1; ++k) {
         int r = j + w->bk_r[k];
         const double* br = b + (long)(rows ? rows[r] : r) * m + c;
         double v = w->bk_c[k];
         for (l = 0; l < LW; ++l) t[l] -= v * br[l];
       }
-      for (l = 0; l < LW; ++l) bj[c + l] = t[l] * di;
+      for (l = 0; l < LW; ++l) bj[c + l] = t[l];
     }
   }
 }

@@ -122,7 +122,7 @@ static void carve(const setup_t* S, carver_t* c, work_t* w) {
       w->QB = take_d(c, padded * nd);
     }
   }
-  w->dinv = take_d(c, S->nfree);
+  w->dinv2 = take_d(c, S->nfree);
   w->freeidx = take_i(c, nd);
   w->lidx = take_i(c, spans);
   w->lspan = take_i(c, spans);
@@ -296,17 +296,21 @@ int svbi_solver_init(const setup_t* S, double* work, int* iwork) {
     memcpy(w.Lff, S->Khat_ff_band, sizeof(double) * (size_t)S->nfree * (size_t)(S->band_pf + 1));
     status = svbi_band_cholesky(w.Lff, S->nfree, S->band_pf);
     if (status) return status;
-    for (k = 0; k < S->nfree; ++k) w.dinv[k] = 1.0 / w.Lff[(long)k * (S->band_pf + 1)];
     {
-      /* the factor's non-zeros, row by row and column by column (work_t) */
+      /* the factor's non-zeros as the unit triangle U = L D^-1, row by row and column by column
+       * (work_t); the diagonal as 1 / L(j, j)^2 */
       int r, p = S->band_pf, n = S->nfree, nf = 0, nb = 0;
+      for (k = 0; k < n; ++k) {
+        double d = w.Lff[(long)k * (p + 1)];
+        w.dinv2[k] = 1.0 / (d * d);
+      }
       for (k = 0; k < n; ++k) {
         w.fw_ptr[k] = nf;
         for (r = k < p ? k : p; r >= 1; --r) {
           double v = w.Lff[(long)(k - r) * (p + 1) + r];
           if (v != 0.0) {
             w.fw_r[nf] = r;
-            w.fw_c[nf++] = v;
+            w.fw_c[nf++] = v / w.Lff[(long)(k - r) * (p + 1)];
           }
         }
         w.bk_ptr[k] = nb;
@@ -314,7 +318,7 @@ int svbi_solver_init(const setup_t* S, double* work, int* iwork) {
           double v = w.Lff[(long)k * (p + 1) + r];
           if (v != 0.0) {
             w.bk_r[nb] = r;
-            w.bk_c[nb++] = v;
+            w.bk_c[nb++] = v / w.Lff[(long)k * (p + 1)];
           }
         }
       }
