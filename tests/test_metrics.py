@@ -14,6 +14,7 @@ from __future__ import annotations
 
 import math
 import subprocess
+import sys
 import warnings
 from pathlib import Path
 
@@ -106,6 +107,34 @@ def test_deck_filter_keeps_5_hz_and_removes_200_hz():
     m = compute_metrics(synthetic_results(acc, np.full(t.size, 1e5), t))
     assert m.attrs["deck_acceleration_cutoff_hz"] < 100
     assert float(m.peak_deck_acceleration[0]) == pytest.approx(1.0, abs=2e-3)
+
+
+def test_deck_filter_is_scipys_and_imports_no_scipy_signal_once_designed(tmp_path: Path):
+    """The EN 1990 deck filter runs through the compiled zero-phase filter with SciPy's cached
+    design: SciPy's ``sosfiltfilt`` bit for bit (odd padding over ten periods of the cutoff), and a
+    fresh process whose filter design is cached does not import ``scipy.signal`` (0.38 s, with
+    ``scipy.stats``: a sweep worker's first run paid it)."""
+    import scipy.signal as sig
+    from svbi.runtime import zero_phase
+    from svbi.runtime.metrics import FILTER_ORDER, lowpass
+
+    if not zero_phase.compiled():
+        pytest.skip("no working C compiler: the metrics filter is SciPy's own")
+    rng = np.random.default_rng(3)
+    fs, fc = 1000.0, 37.5
+    acc = rng.normal(size=(3001, 3))
+    sos = sig.butter(FILTER_ORDER, fc, btype="low", fs=fs, output="sos")
+    padlen = min(max(3 * (2 * len(sos) + 1), int(10 * fs / fc)), acc.shape[0] - 1)
+    np.testing.assert_array_equal(lowpass(acc, fc, fs), sig.sosfiltfilt(sos, acc, axis=0, padlen=padlen))
+    np.testing.assert_array_equal(lowpass(acc[:, 1], fc, fs), sig.sosfiltfilt(sos, acc[:, 1], padlen=padlen))
+    probe = (
+        "import sys, numpy as np\n"
+        "from svbi.runtime.metrics import lowpass\n"
+        f"lowpass(np.ones((3001, 2)), {fc!r}, {fs!r})\n"
+        "print('scipy.signal' in sys.modules)\n"
+    )
+    done = subprocess.run([sys.executable, "-c", probe], capture_output=True, text=True, check=True)
+    assert done.stdout.strip().splitlines()[-1] == "False", done.stderr
 
 
 def test_unloading_ratio_and_minimum_force():
