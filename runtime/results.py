@@ -35,11 +35,23 @@ FILTER_THREADS = max(1, int(os.environ.get("SVBI_FILTER_THREADS", min(2, os.cpu_
 ``SVBI_FILTER_THREADS`` (a sweep's workers share the cores: ``sweep.worker_environment``)."""
 
 
-NETCDF_ENGINE = "netcdf4"
-"""xarray's writer for results files: the netCDF-C library (``netCDF4``). It builds the paper
-example's 42 MB image in about 0.04 s, where h5netcdf, whose per-variable bookkeeping runs in Python
-through h5py, takes about 0.12 s (0.17 s on a process's first write). Both write the same NetCDF-4
-(HDF5) format; readers may use either engine."""
+NETCDF_ENGINES = ("netcdf4", "h5netcdf")
+"""xarray's writers for results files, in order of preference: the netCDF-C library (``netCDF4``)
+builds the paper example's 42 MB image in about 0.04 s, where h5netcdf, whose per-variable
+bookkeeping runs in Python through h5py, takes about 0.12 s (0.17 s on a process's first write).
+Both write the same NetCDF-4 (HDF5) format; readers may use either engine. h5netcdf writes when
+netCDF4 cannot be imported."""
+
+
+def netcdf_engine() -> str:
+    """The first writer of :data:`NETCDF_ENGINES` that imports."""
+    for engine, module in zip(NETCDF_ENGINES, ("netCDF4", "h5netcdf"), strict=True):
+        try:
+            importlib.import_module(module)
+        except ImportError:
+            continue
+        return engine
+    raise ImportError("no NetCDF-4 writer: install netCDF4 or h5netcdf")
 
 
 class ImportAhead:
@@ -48,14 +60,18 @@ class ImportAhead:
     ``scipy.signal`` (the force filter), xarray (the Dataset) and the NetCDF writer take about a
     second to import, with nothing to do with the loop. A compiled loop runs in C through ctypes,
     which releases the GIL, so on a second core these imports overlap it instead of following it
-    (``simulate`` starts this just before a compiled loop). :meth:`join` waits for the thread and
-    re-raises its exception, if any, in the caller's thread; call it before using the modules. The
-    imports are the ordinary ones (``importlib.import_module``): Python's per-module import locks
-    make a later ``import`` of the same module in the main thread wait for the background one.
+    (``simulate`` starts this just before a compiled loop). ``optional`` modules (the writer's) are
+    a head start only: their import errors are not reported, so that a writer that cannot load
+    does not lose the run's results (``write_netcdf`` falls back to h5netcdf). :meth:`join` waits
+    for the thread and re-raises its exception, if any, in the caller's thread; call it before using
+    the modules. The imports are the ordinary ones (``importlib.import_module``): Python's
+    per-module import locks make a later ``import`` of the same module in the main thread wait for
+    the background one.
     """
 
-    def __init__(self, names: Iterable[str]) -> None:
+    def __init__(self, names: Iterable[str], optional: Iterable[str] = ()) -> None:
         self.names = tuple(names)
+        self.optional = tuple(optional)
         self._error: BaseException | None = None
         self._thread = threading.Thread(target=self._run, name="svbi-import-ahead", daemon=True)
         self._thread.start()
@@ -66,6 +82,12 @@ class ImportAhead:
                 importlib.import_module(name)
         except BaseException as exc:  # noqa: BLE001 - handed to the caller's thread by join()
             self._error = exc
+            return
+        for name in self.optional:  # a head start only: whoever needs it imports it again
+            try:
+                importlib.import_module(name)
+            except Exception:  # noqa: BLE001, S112 - e.g. a broken writer, which has a fallback
+                continue
 
     def join(self) -> None:
         """Wait until every module is imported; raise here what the background import raised."""
@@ -587,15 +609,17 @@ def write_netcdf(ds: xr.Dataset, path: str | Path) -> Path:
     itself crashed the process. On any error the previous file at ``path`` is untouched.
     """
 
+    engine = netcdf_engine()
+
     def write(tmp: Path) -> None:
         out = ds.copy()
         for name in ("support_component", "end"):
             if name in out.coords:
                 out.coords[name] = out.coords[name].astype(str)
         try:
-            image = out.to_netcdf(engine=NETCDF_ENGINE)
-        except ValueError:  # an xarray that writes netCDF4 only to a path (HDF5 handles short writes)
-            out.to_netcdf(tmp, engine=NETCDF_ENGINE)
+            image = out.to_netcdf(engine=engine)
+        except ValueError:  # an xarray that writes this engine only to a path (HDF5: short writes)
+            out.to_netcdf(tmp, engine=engine)
             return
         with open(tmp, "wb") as f:
             f.write(image)

@@ -338,7 +338,7 @@ def simulate(
     t_end_loop = t_loop
     try:
         if run_loop is not None:  # a compiled loop: whole chunks of steps per call, GIL released
-            ahead = ImportAhead([*recorder.modules_after_loop(), *import_ahead])
+            ahead = ImportAhead(recorder.modules_after_loop(), optional=import_ahead)
             run_loop(recorder, guard, bar)
         for n in range(s.steps if run_loop is None else 0):
             st = stepper.step(n)

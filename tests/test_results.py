@@ -83,6 +83,30 @@ def test_import_ahead_reraises_in_the_caller(tmp_path: Path, monkeypatch, body, 
     ahead.join()  # raised once: a second join has nothing left to report
 
 
+def test_a_writer_that_cannot_load_loses_no_run(tmp_path: Path, monkeypatch) -> None:
+    """The writer's modules are imported ahead as a head start only: a broken netCDF4 neither fails
+    the run after its loop nor the write, which falls back to h5netcdf (the same NetCDF-4 file)."""
+    import xarray as xr
+    from svbi.runtime.simulate import simulate
+
+    (tmp_path / "svbi_broken_writer.py").write_text("raise ImportError('broken writer')\n")
+    monkeypatch.syspath_prepend(str(tmp_path))
+    monkeypatch.delitem(sys.modules, "svbi_broken_writer", raising=False)
+    ahead = ImportAhead(["json"], optional=["svbi_broken_writer", "textwrap"])
+    ahead.join()  # nothing to report: the optional import's error is dropped
+    c_run = {
+        **SCENARIO,
+        "solver": {**SCENARIO["solver"], "backend": "c", "duration": 0.3},
+        "contact": {"creep": False},
+    }
+    ds = simulate(validate_scenario(c_run), import_ahead=("svbi_broken_writer",))
+    monkeypatch.setitem(sys.modules, "netCDF4", None)  # `import netCDF4` raises ImportError
+    assert results.netcdf_engine() == "h5netcdf"
+    path = results.write_netcdf(ds, tmp_path / "run.nc")
+    with xr.open_dataset(path, engine="h5netcdf") as back:
+        np.testing.assert_array_equal(back["contact_force"].values, ds["contact_force"].values)
+
+
 def test_modules_after_loop_follow_the_filter_setting(tmp_path: Path, monkeypatch) -> None:
     from svbi.runtime import zero_phase
 
