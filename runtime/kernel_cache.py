@@ -116,12 +116,8 @@ def compiler_command() -> list[str]:
     return shlex.split(os.environ.get("CC") or "cc")
 
 
-def _compiler_identity(cc: list[str]) -> str:
-    return _compiler_version(tuple(cc))
-
-
 @functools.lru_cache(maxsize=8)
-def _compiler_version(cc: tuple[str, ...]) -> str:
+def _compiler_identity(cc: tuple[str, ...]) -> str:
     # The version text goes into the cache key, so upgrading the compiler rebuilds. A compiler
     # that cannot even report its version is caught when it fails to compile. Asked once per
     # process: a run loads two libraries (the loop and the force filter).
@@ -246,7 +242,7 @@ def build_library(
     """
     cc = compiler_command()
     h = hashlib.sha256()
-    for part in (shlex.join(cc), _compiler_identity(cc), shlex.join(flags), name):
+    for part in (shlex.join(cc), _compiler_identity(tuple(cc)), shlex.join(flags), name):
         h.update(part.encode() + b"\0")
     for filename, data in sorted(sources.items()):
         h.update(filename.encode() + b"\0" + hashlib.sha256(data).digest())

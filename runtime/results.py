@@ -35,17 +35,17 @@ FILTER_THREADS = max(1, int(os.environ.get("SVBI_FILTER_THREADS", min(2, os.cpu_
 ``SVBI_FILTER_THREADS`` (a sweep's workers share the cores: ``sweep.worker_environment``)."""
 
 
-NETCDF_ENGINES = ("netcdf4", "h5netcdf")
-"""xarray's writers for results files, in order of preference: the netCDF-C library (``netCDF4``)
-builds the paper example's 42 MB image in about 0.04 s, where h5netcdf, whose per-variable
-bookkeeping runs in Python through h5py, takes about 0.12 s (0.17 s on a process's first write).
-Both write the same NetCDF-4 (HDF5) format; readers may use either engine. h5netcdf writes when
-netCDF4 cannot be imported."""
+NETCDF_WRITERS = (("netcdf4", "netCDF4"), ("h5netcdf", "h5netcdf"))
+"""xarray's writers for results files (engine, module), in order of preference: the netCDF-C library
+(``netCDF4``) builds the paper example's 42 MB image in about 0.04 s, where h5netcdf, whose
+per-variable bookkeeping runs in Python through h5py, takes about 0.12 s (0.17 s on a process's
+first write). Both write the same NetCDF-4 (HDF5) format; readers may use either engine. h5netcdf
+writes when netCDF4 cannot be imported."""
 
 
 def netcdf_engine() -> str:
-    """The first writer of :data:`NETCDF_ENGINES` that imports."""
-    for engine, module in zip(NETCDF_ENGINES, ("netCDF4", "h5netcdf"), strict=True):
+    """The engine of the first writer of :data:`NETCDF_WRITERS` that imports."""
+    for engine, module in NETCDF_WRITERS:
         try:
             importlib.import_module(module)
         except ImportError:

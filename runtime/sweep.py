@@ -351,7 +351,7 @@ def _peak_rss_mb() -> float:
 
 
 EMPTY_VARIABLES = "svbi_empty_variables"
-"""A part's attribute: the variables of length 0 it holds, as JSON ``{name: [dims, dtype]}``."""
+"""A part's attribute: the variables of length 0 it leaves out, as JSON ``{name: [dims]}``."""
 
 
 def write_part(ds: xr.Dataset, path: Path) -> Path:
@@ -363,16 +363,16 @@ def write_part(ds: xr.Dataset, path: Path) -> Path:
         if da.dtype.kind in "iub":
             out[name] = da.astype(float)
     out.attrs = {k: (v.item() if isinstance(v, np.generic) else v) for k, v in out.attrs.items()}
-    # serialised in memory, then written as plain bytes: inside a Dask worker, xarray's file writes
-    # take a cluster-wide lock through the scheduler, which cost 0.4 s a run on this machine
     # Variables of length 0 (the joints of a single span) are named in an attribute instead of
     # written: SciPy lays them out in a way the netCDF-C library, xarray's reader when netCDF4 is
     # installed, refuses ("unknown file format"). assemble puts them back in the store.
     empty = [d for d, size in out.sizes.items() if size == 0]
     if empty:
-        gone = {n: [list(v.dims), v.dtype.str] for n, v in out.variables.items() if set(v.dims) & set(empty)}
+        gone = {n: list(v.dims) for n, v in out.variables.items() if set(v.dims) & set(empty)}
         out = out.drop_dims(empty)
         out.attrs[EMPTY_VARIABLES] = json.dumps(gone, sort_keys=True)
+    # serialised in memory, then written as plain bytes: inside a Dask worker, xarray's file writes
+    # take a cluster-wide lock through the scheduler, which cost 0.4 s a run on this machine
     data = bytes(out.to_netcdf(engine="scipy", format="NETCDF3_64BIT"))
     return write_atomic(path, lambda tmp: tmp.write_bytes(data))
 
@@ -515,7 +515,7 @@ def assemble(study: Study, out: Path) -> xr.Dataset:
         path = part_path(out, r)
         ds = _read_part(path) if _finished(path) else None
         if ds is not None:
-            empty.update({k: v[0] for k, v in json.loads(ds.attrs.get(EMPTY_VARIABLES, "{}")).items()})
+            empty.update(json.loads(ds.attrs.get(EMPTY_VARIABLES, "{}")))
             status.append(str(ds.attrs.get("status", STATUS_FAILED)))
             message.append(str(ds.attrs.get("message", "")))
             for k in RUN_TIMINGS:
