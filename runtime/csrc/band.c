@@ -153,12 +153,6 @@ void svbi_gb_solve(const double* AB, int n, int bw, const int* ipiv, double* b) 
   }
 }
 
-#if defined(__GNUC__)
-#define SVBI_ALWAYS_INLINE __attribute__((always_inline)) inline
-#else
-#define SVBI_ALWAYS_INLINE inline
-#endif
-
 /* Column j of the LU: scale its km sub-diagonal entries by the reciprocal pivot r, then subtract
  * its multiples from columns j + 1 .. ju (km a constant where it is inlined: the loops unroll). */
 static SVBI_ALWAYS_INLINE void eliminate(double* AB, int j, int ju, const int km, int kv, int ldab, double r) {

@@ -16,6 +16,13 @@
 
 #include "svbi_solver_types.h"
 
+/* where a routine is a template over constant sizes: inlined, so that its loops unroll */
+#if defined(__GNUC__)
+#define SVBI_ALWAYS_INLINE __attribute__((always_inline)) inline
+#else
+#define SVBI_ALWAYS_INLINE inline
+#endif
+
 #define SW 4 /* spans per block of the localized bridge state ([block][DOF][SW], padded with zeros) */
 
 /* Lower band Cholesky in place. Returns SVBI_SOLVER_STATUS_NOT_SPD on a non-positive pivot. */

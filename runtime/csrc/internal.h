@@ -34,6 +34,10 @@
 /* lanes of the localized bridge state: spans padded to a multiple of LW ([DOF][spans]); four
  * doubles fill one AVX2 register (c_solver_build.simd_flags), two SSE2 registers */
 #define LW 4
+/* the span solves (localized.c, factor_solve): FS_G groups of LW lanes side by side, the factor's
+ * half-bandwidth at most FS_PMAX (the frame's is 3 in reverse Cuthill-McKee order, 5 at most) */
+#define FS_G 3
+#define FS_PMAX 6
 #define VLANES 4 /* cars per chunk of the localized vehicles' lane layout (as LW) */
 
 typedef svbi_solver_setup setup_t;
@@ -136,20 +140,16 @@ typedef struct {
   int* freeidx;  /* nd: index among the free DOFs, -1 for a support DOF */
   int* lidx;     /* spans: index among the loaded spans, -1 if unloaded */
   int* lspan;    /* spans: the loaded spans */
-  /* localized: the non-zeros of the factor on the free DOFs (the band is 40 % zeros: axial and
-   * bending DOFs do not couple) as the unit triangle U = L D^-1 (D = diag L), row j's
-   * U(j, j - r) = L(j, j - r) / L(j - r, j - r) for r descending (forward sweep) and column j's
-   * U(j + r, j) = L(j + r, j) / L(j, j) for r ascending (backward sweep) */
-  int* fw_ptr;   /* nfree + 1 */
-  int* fw_r;     /* nfree x band_pf */
-  double* fw_c;  /* nfree x band_pf */
+  /* localized: the factor on the free DOFs as the unit triangle U = L D^-1 (D = diag L), dense in
+   * its band (zeros where nothing couples, or beyond the matrix): row j's U(j, j - r) at
+   * fw_d[j band_pf + r - 1] (forward sweep), column j's U(j + r, j) at bk_d[j band_pf + r - 1]
+   * (backward sweep) */
+  double* fw_d;  /* nfree x band_pf */
+  double* bk_d;  /* nfree x band_pf */
   /* vehicles: the non-zeros of V_K, V_M, V_C and V_kinv column by column (y = x^T A, vehicle.c) */
   int* vnz_ptr;  /* 4 x (NV + 1) */
   int* vnz_idx;  /* 4 x NV x NV */
   double* vnz_val; /* 4 x NV x NV */
-  int* bk_ptr;   /* nfree + 1 */
-  int* bk_r;     /* nfree x band_pf */
-  double* bk_c;  /* nfree x band_pf */
   double* creepc; /* NW x CREEP_NC: coefficients of the creep law of every wheel */
   double* DG;    /* ns: scale of the support rows */
   double* ab;    /* (ns + nc) x NE: attachments' B entries */

@@ -8,43 +8,62 @@
 
 /* Solve L L^T X = B in place for m right-hand sides (m a multiple of LW) held row after row: row j
  * at b + row(j) m, row(j) = rows[j] (or j without rows). With U = L D^-1 (unit lower, D = diag L),
- * L L^T = U D^2 U^T: U z = b forward, then U^T x = D^-2 z backward (work_t fw_*, bk_*, dinv2), so
- * that a row's chain to the next is one multiply and one subtraction, with no scaling on it (the
- * sweeps are latency-bound: each row waits for the one before). Row form over the factor's
- * non-zeros: every row is read, updated in registers LW lanes at a time and stored once. */
-static void factor_solve(const setup_t* S, const work_t* w, double* b, const int* rows, long m) {
-  int j, k, l, n = S->nfree;
-  long c;
+ * L L^T = U D^2 U^T: U z = b forward, then U^T x = D^-2 z backward (work_t fw_d, bk_d, dinv2). The
+ * sweeps are latency-bound (each row waits for the one before), so the last P rows' results stay
+ * in registers (a window sliding down, then up), G groups of LW lanes side by side (independent
+ * chains), and a row's chain to the next is one multiply and one subtraction: the nearest row is
+ * subtracted last, and no scaling by the diagonal is on it. P and G are constants where
+ * window_solve is inlined, so that its loops unroll and its arrays live in registers. */
+static SVBI_ALWAYS_INLINE void window_solve(const work_t* w, double* b, const int* rows, long m, long c, int n,
+                                            const int P, const int G) {
+  double x[FS_PMAX][FS_G * LW], t[FS_G * LW];
+  int j, r, l;
+  for (r = 0; r < P; ++r)
+    for (l = 0; l < G * LW; ++l) x[r][l] = 0.0;
   for (j = 0; j < n; ++j) {
-    double* restrict bj = b + (long)(rows ? rows[j] : j) * m;
-    int k0 = w->fw_ptr[j], k1 = w->fw_ptr[j + 1];
-    for (c = 0; c < m; c += LW) {
-      double t[LW];
-      for (l = 0; l < LW; ++l) t[l] = bj[c + l];
-      for (k = k0; k < k1; ++k) {
-        int r = j - w->fw_r[k];
-        const double* br = b + (long)(rows ? rows[r] : r) * m + c;
-        double v = w->fw_c[k];
-        for (l = 0; l < LW; ++l) t[l] -= v * br[l];
-      }
-      for (l = 0; l < LW; ++l) bj[c + l] = t[l];
-    }
+    double* restrict bj = b + (long)(rows ? rows[j] : j) * m + c;
+    const double* u = w->fw_d + (long)j * P;
+    for (l = 0; l < G * LW; ++l) t[l] = bj[l];
+    for (r = P; r >= 1; --r)
+      for (l = 0; l < G * LW; ++l) t[l] -= u[r - 1] * x[r - 1][l];
+    for (l = 0; l < G * LW; ++l) bj[l] = t[l];
+    for (r = P - 1; r >= 1; --r)
+      for (l = 0; l < G * LW; ++l) x[r][l] = x[r - 1][l];
+    for (l = 0; l < G * LW; ++l) x[0][l] = t[l];
   }
+  for (r = 0; r < P; ++r)
+    for (l = 0; l < G * LW; ++l) x[r][l] = 0.0;
   for (j = n - 1; j >= 0; --j) {
-    double* restrict bj = b + (long)(rows ? rows[j] : j) * m;
+    double* restrict bj = b + (long)(rows ? rows[j] : j) * m + c;
+    const double* u = w->bk_d + (long)j * P;
     double d = w->dinv2[j];
-    int k0 = w->bk_ptr[j], k1 = w->bk_ptr[j + 1];
-    for (c = 0; c < m; c += LW) {
-      double t[LW];
-      for (l = 0; l < LW; ++l) t[l] = bj[c + l] * d;
-      for (k = k0; k < k1; ++k) {
-        int r = j + w->bk_r[k];
-        const double* br = b + (long)(rows ? rows[r] : r) * m + c;
-        double v = w->bk_c[k];
-        for (l = 0; l < LW; ++l) t[l] -= v * br[l];
-      }
-      for (l = 0; l < LW; ++l) bj[c + l] = t[l];
-    }
+    for (l = 0; l < G * LW; ++l) t[l] = bj[l] * d;
+    for (r = P; r >= 1; --r)
+      for (l = 0; l < G * LW; ++l) t[l] -= u[r - 1] * x[r - 1][l];
+    for (l = 0; l < G * LW; ++l) bj[l] = t[l];
+    for (r = P - 1; r >= 1; --r)
+      for (l = 0; l < G * LW; ++l) x[r][l] = x[r - 1][l];
+    for (l = 0; l < G * LW; ++l) x[0][l] = t[l];
+  }
+}
+
+/* window_solve over all m lanes, FS_G groups of LW at a time, for the factor's half-bandwidth p
+ * (the frame's 3 in reverse Cuthill-McKee order; up to FS_PMAX). */
+static SVBI_ALWAYS_INLINE void window_lanes(const work_t* w, double* b, const int* rows, long m, int n, const int P) {
+  long c = 0;
+  for (; c + FS_G * LW <= m; c += FS_G * LW) window_solve(w, b, rows, m, c, n, P, FS_G);
+  if (m - c == 2 * LW) window_solve(w, b, rows, m, c, n, P, 2);
+  else if (m - c == LW) window_solve(w, b, rows, m, c, n, P, 1);
+}
+
+static void factor_solve(const setup_t* S, const work_t* w, double* b, const int* rows, long m) {
+  switch (S->band_pf) {
+    case 1: window_lanes(w, b, rows, m, S->nfree, 1); return;
+    case 2: window_lanes(w, b, rows, m, S->nfree, 2); return;
+    case 3: window_lanes(w, b, rows, m, S->nfree, 3); return;
+    case 4: window_lanes(w, b, rows, m, S->nfree, 4); return;
+    case 5: window_lanes(w, b, rows, m, S->nfree, 5); return;
+    default: window_lanes(w, b, rows, m, S->nfree, 6); return;
   }
 }
 

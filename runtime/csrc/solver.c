@@ -129,12 +129,8 @@ static void carve(const setup_t* S, carver_t* c, work_t* w) {
   {
     int blocked = S->method == 0 && !S->general;
     long nz = blocked ? (long)S->nfree * S->band_pf : 0;
-    w->fw_ptr = take_i(c, blocked ? S->nfree + 1 : 0);
-    w->fw_r = take_i(c, nz);
-    w->fw_c = take_d(c, nz);
-    w->bk_ptr = take_i(c, blocked ? S->nfree + 1 : 0);
-    w->bk_r = take_i(c, nz);
-    w->bk_c = take_d(c, nz);
+    w->fw_d = take_d(c, nz);
+    w->bk_d = take_d(c, nz);
   }
   w->creepc = take_d(c, nv ? S->nw * SVBI_CREEP_NC : 0);
   w->vnz_ptr = take_i(c, 4 * (nv + 1));
@@ -297,33 +293,20 @@ int svbi_solver_init(const setup_t* S, double* work, int* iwork) {
     status = svbi_band_cholesky(w.Lff, S->nfree, S->band_pf);
     if (status) return status;
     {
-      /* the factor's non-zeros as the unit triangle U = L D^-1, row by row and column by column
-       * (work_t); the diagonal as 1 / L(j, j)^2 */
-      int r, p = S->band_pf, n = S->nfree, nf = 0, nb = 0;
+      /* the factor as the unit triangle U = L D^-1, dense in its band, row by row and column by
+       * column (work_t); the diagonal as 1 / L(j, j)^2 */
+      int r, p = S->band_pf, n = S->nfree;
+      if (p > FS_PMAX) return ST_BANDWIDTH;
       for (k = 0; k < n; ++k) {
         double d = w.Lff[(long)k * (p + 1)];
         w.dinv2[k] = 1.0 / (d * d);
       }
       for (k = 0; k < n; ++k) {
-        w.fw_ptr[k] = nf;
-        for (r = k < p ? k : p; r >= 1; --r) {
-          double v = w.Lff[(long)(k - r) * (p + 1) + r];
-          if (v != 0.0) {
-            w.fw_r[nf] = r;
-            w.fw_c[nf++] = v / w.Lff[(long)(k - r) * (p + 1)];
-          }
-        }
-        w.bk_ptr[k] = nb;
-        for (r = 1; r <= p && k + r < n; ++r) {
-          double v = w.Lff[(long)k * (p + 1) + r];
-          if (v != 0.0) {
-            w.bk_r[nb] = r;
-            w.bk_c[nb++] = v / w.Lff[(long)k * (p + 1)];
-          }
+        for (r = 1; r <= p; ++r) {
+          w.fw_d[(long)k * p + r - 1] = k >= r ? w.Lff[(long)(k - r) * (p + 1) + r] / w.Lff[(long)(k - r) * (p + 1)] : 0.0;
+          w.bk_d[(long)k * p + r - 1] = k + r < n ? w.Lff[(long)k * (p + 1) + r] / w.Lff[(long)k * (p + 1)] : 0.0;
         }
       }
-      w.fw_ptr[n] = nf;
-      w.bk_ptr[n] = nb;
     }
   }
   return ST_OK;
