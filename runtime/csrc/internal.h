@@ -38,6 +38,18 @@
  * half-bandwidth at most FS_PMAX (the frame's is 3 in reverse Cuthill-McKee order, 5 at most) */
 #define FS_G 3
 #define FS_PMAX 6
+/* VW doubles as one value: the register of the lane loops that keep their values in registers (a
+ * GNU C vector, the width of the target's registers; the build flags already ask for a
+ * GCC-compatible compiler). VEC(p) is the VW doubles at p, read or written as one (vec_u: no
+ * alignment assumed, may alias the doubles). */
+#if defined(__AVX__)
+#define VW 4
+#else
+#define VW 2
+#endif
+typedef double vec_t __attribute__((vector_size(VW * sizeof(double))));
+typedef double vec_u __attribute__((vector_size(VW * sizeof(double)), aligned(sizeof(double)), may_alias));
+#define VEC(p) (*(vec_u*)(p))
 #define VLANES 4 /* cars per chunk of the localized vehicles' lane layout (as LW) */
 
 typedef svbi_solver_setup setup_t;

@@ -16,34 +16,36 @@
  * window_solve is inlined, so that its loops unroll and its arrays live in registers. */
 static SVBI_ALWAYS_INLINE void window_solve(const work_t* w, double* b, const int* rows, long m, long c, int n,
                                             const int P, const int G) {
-  double x[FS_PMAX][FS_G * LW], t[FS_G * LW];
-  int j, r, l;
+  enum { K = FS_G * LW / VW };
+  const int k1 = G * LW / VW; /* registers per row */
+  vec_t x[FS_PMAX][K], t[K];
+  int j, r, k;
   for (r = 0; r < P; ++r)
-    for (l = 0; l < G * LW; ++l) x[r][l] = 0.0;
+    for (k = 0; k < k1; ++k) x[r][k] = (vec_t){0.0};
   for (j = 0; j < n; ++j) {
     double* restrict bj = b + (long)(rows ? rows[j] : j) * m + c;
     const double* u = w->fw_d + (long)j * P;
-    for (l = 0; l < G * LW; ++l) t[l] = bj[l];
+    for (k = 0; k < k1; ++k) t[k] = VEC(bj + k * VW);
     for (r = P; r >= 1; --r)
-      for (l = 0; l < G * LW; ++l) t[l] -= u[r - 1] * x[r - 1][l];
-    for (l = 0; l < G * LW; ++l) bj[l] = t[l];
+      for (k = 0; k < k1; ++k) t[k] -= u[r - 1] * x[r - 1][k];
+    for (k = 0; k < k1; ++k) VEC(bj + k * VW) = t[k];
     for (r = P - 1; r >= 1; --r)
-      for (l = 0; l < G * LW; ++l) x[r][l] = x[r - 1][l];
-    for (l = 0; l < G * LW; ++l) x[0][l] = t[l];
+      for (k = 0; k < k1; ++k) x[r][k] = x[r - 1][k];
+    for (k = 0; k < k1; ++k) x[0][k] = t[k];
   }
   for (r = 0; r < P; ++r)
-    for (l = 0; l < G * LW; ++l) x[r][l] = 0.0;
+    for (k = 0; k < k1; ++k) x[r][k] = (vec_t){0.0};
   for (j = n - 1; j >= 0; --j) {
     double* restrict bj = b + (long)(rows ? rows[j] : j) * m + c;
     const double* u = w->bk_d + (long)j * P;
     double d = w->dinv2[j];
-    for (l = 0; l < G * LW; ++l) t[l] = bj[l] * d;
+    for (k = 0; k < k1; ++k) t[k] = VEC(bj + k * VW) * d;
     for (r = P; r >= 1; --r)
-      for (l = 0; l < G * LW; ++l) t[l] -= u[r - 1] * x[r - 1][l];
-    for (l = 0; l < G * LW; ++l) bj[l] = t[l];
+      for (k = 0; k < k1; ++k) t[k] -= u[r - 1] * x[r - 1][k];
+    for (k = 0; k < k1; ++k) VEC(bj + k * VW) = t[k];
     for (r = P - 1; r >= 1; --r)
-      for (l = 0; l < G * LW; ++l) x[r][l] = x[r - 1][l];
-    for (l = 0; l < G * LW; ++l) x[0][l] = t[l];
+      for (k = 0; k < k1; ++k) x[r][k] = x[r - 1][k];
+    for (k = 0; k < k1; ++k) x[0][k] = t[k];
   }
 }
 
