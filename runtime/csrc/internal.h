@@ -51,6 +51,7 @@ typedef double vec_t __attribute__((vector_size(VW * sizeof(double))));
 typedef double vec_u __attribute__((vector_size(VW * sizeof(double)), aligned(sizeof(double)), may_alias));
 #define VEC(p) (*(vec_u*)(p))
 #define VLANES 4 /* cars per chunk of the localized vehicles' lane layout (as LW) */
+#define CAR_KMAX (3 * VLANES / VW) /* registers of three chunks (vehicle.c) */
 
 typedef svbi_solver_setup setup_t;
 typedef svbi_solver_state state_t;

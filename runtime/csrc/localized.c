@@ -70,36 +70,38 @@ static void factor_solve(const setup_t* S, const work_t* w, double* b, const int
 }
 
 /* Row k (span DOF row) of the predictor's right-hand side f_f - K^_fs q^, f = M P + C Q + C T q',
- * for lanes c .. c + W of every span (W <= 2 LW, a constant where it is inlined), accumulated in
- * registers in the order of the sums (exact zeros skipped: C T is half empty, K^_fs nearly all;
+ * for lanes c .. c + W of every span (W <= 3 LW, a constant where it is inlined), accumulated in
+ * registers (vec_t) in the order of the sums (exact zeros skipped: C T is half empty, K^_fs nearly all;
  * M and C share one pattern, C = alpha M + beta K: one pass over it). */
-static inline void rhs_lanes(const setup_t* S, const work_t* w, const double* q1, const double* qh, int k,
-                             int row, long m, long c, const int W, double* restrict f) {
+static SVBI_ALWAYS_INLINE void rhs_lanes(const setup_t* S, const work_t* w, const double* q1, const double* qh,
+                                         int k, int row, long m, long c, const int W, double* restrict f) {
+  enum { KMAX = 3 * LW / VW };
+  const int K = W / VW; /* registers */
   int i, j, l, ns = S->ns, i0 = S->MC_ptr[row], i1 = S->MC_ptr[row + 1];
   const double* ct = S->CT + row * ns;
   const double* kf = S->Khat_fs + k * ns;
-  double a[2 * LW];
-  for (l = 0; l < W; ++l) a[l] = 0.0;
+  vec_t a[KMAX];
+  for (l = 0; l < K; ++l) a[l] = (vec_t){0.0};
   for (j = 0; j < ns; ++j) {
     const double* q = q1 + j * m + c;
     double v = ct[j];
     if (v == 0.0) continue;
-    for (l = 0; l < W; ++l) a[l] += v * q[l];
+    for (l = 0; l < K; ++l) a[l] += v * VEC(q + l * VW);
   }
   for (i = i0; i < i1; ++i) {
     double vm = S->MC_m[i], vc = S->MC_c[i];
     long o = (long)S->MC_idx[i] * m + c;
     const double* p = w->PB + o;
     const double* q = w->QB + o;
-    for (l = 0; l < W; ++l) a[l] += vm * p[l] + vc * q[l];
+    for (l = 0; l < K; ++l) a[l] += vm * VEC(p + l * VW) + vc * VEC(q + l * VW);
   }
   for (j = 0; j < ns; ++j) {
     const double* q = qh + j * m + c;
     double v = kf[j];
     if (v == 0.0) continue;
-    for (l = 0; l < W; ++l) a[l] -= v * q[l];
+    for (l = 0; l < K; ++l) a[l] -= v * VEC(q + l * VW);
   }
-  for (l = 0; l < W; ++l) f[c + l] = a[l];
+  for (l = 0; l < K; ++l) VEC(f + c + l * VW) = a[l];
 }
 
 /* Localized: u = S f + R q^ for every span at once: the free DOFs solve K^_ff u_f = f_f - K^_fs q^
@@ -119,9 +121,11 @@ static void localized_predictor(const setup_t* S, work_t* w, const double* creep
   for (k = 0; k < S->nfree; ++k) {
     int row = S->free[k];
     double* restrict f = w->bu + (long)row * m;
-    /* four lanes (two registers) at a time, then two: fewer passes over the row's description */
-    for (c = 0; c + 2 * LW <= m; c += 2 * LW) rhs_lanes(S, w, q1, qh, k, row, m, c, 2 * LW, f);
-    for (; c < m; c += LW) rhs_lanes(S, w, q1, qh, k, row, m, c, LW, f);
+    /* three groups of LW lanes at a time (as the solves), then the rest: fewer passes over the
+     * row's description */
+    for (c = 0; c + 3 * LW <= m; c += 3 * LW) rhs_lanes(S, w, q1, qh, k, row, m, c, 3 * LW, f);
+    if (m - c == 2 * LW) rhs_lanes(S, w, q1, qh, k, row, m, c, 2 * LW, f);
+    else if (m - c == LW) rhs_lanes(S, w, q1, qh, k, row, m, c, LW, f);
   }
 #if !SVBI_MOVING_LOAD
   if (creep) {

@@ -26,24 +26,54 @@ void svbi_vehicle_increment_load(const setup_t* S, const double* u, const double
 
 /* y = x^T A over column d's non-zeros of A (work_t vnz_*, matrix a), for the cars as lanes (x, y
  * [NV][cp]): every lane's sum is vec_mat's without its exact zeros, in the same order over the rows
- * (the same result), VLANES cars at a time in registers. */
-static inline void lanes_vec_mat(const work_t* w, int a, const double* x, double* y, long cp) {
+ * (the same result), for lanes c .. c + K VW in K registers (K a constant where it is inlined). */
+static SVBI_ALWAYS_INLINE void vec_mat_chunk(const work_t* w, int a, const double* x, double* y, long cp, long c,
+                                             const int K) {
   const int* ptr = w->vnz_ptr + a * (NV + 1);
   const int* idx = w->vnz_idx + a * NV * NV;
   const double* val = w->vnz_val + a * NV * NV;
   int d, k, l;
-  long c;
   for (d = 0; d < NV; ++d) {
-    for (c = 0; c < cp; c += VLANES) {
-      double s[VLANES];
-      for (l = 0; l < VLANES; ++l) s[l] = 0.0;
-      for (k = ptr[d]; k < ptr[d + 1]; ++k) {
-        const double* xr = x + (long)idx[k] * cp + c;
-        double v = val[k];
-        for (l = 0; l < VLANES; ++l) s[l] += xr[l] * v;
-      }
-      for (l = 0; l < VLANES; ++l) y[(long)d * cp + c + l] = s[l];
+    vec_t s[CAR_KMAX];
+    for (l = 0; l < K; ++l) s[l] = (vec_t){0.0};
+    for (k = ptr[d]; k < ptr[d + 1]; ++k) {
+      const double* xr = x + (long)idx[k] * cp + c;
+      double v = val[k];
+      for (l = 0; l < K; ++l) s[l] += VEC(xr + l * VW) * v;
     }
+    for (l = 0; l < K; ++l) VEC(y + (long)d * cp + c + l * VW) = s[l];
+  }
+}
+
+/* vec_mat_chunk over all the cars, three chunks of VLANES at a time (fewer passes over A). */
+static void lanes_vec_mat(const work_t* w, int a, const double* x, double* y, long cp) {
+  long c = 0;
+  for (; c + 3 * VLANES <= cp; c += 3 * VLANES) vec_mat_chunk(w, a, x, y, cp, c, 3 * VLANES / VW);
+  if (cp - c == 2 * VLANES) vec_mat_chunk(w, a, x, y, cp, c, 2 * VLANES / VW);
+  else if (cp - c == VLANES) vec_mat_chunk(w, a, x, y, cp, c, VLANES / VW);
+}
+
+/* For wheel i, lanes c .. c + K VW: W^T (u + du~), W^T P and W^T Q (P = a0 u + P~, Q = a1 u + Q~). */
+static SVBI_ALWAYS_INLINE void wheel_chunk(const setup_t* S, const double* U, const double* Pt, const double* Qt,
+                                           const double* DU, double* WT, double* WP, double* WQ, int i, long cp,
+                                           long c, const int K) {
+  vec_t st[CAR_KMAX], sp[CAR_KMAX], sq[CAR_KMAX];
+  int j, l;
+  for (l = 0; l < K; ++l) st[l] = sp[l] = sq[l] = (vec_t){0.0};
+  for (j = S->VW_ptr[i]; j < S->VW_ptr[i + 1]; ++j) {
+    long r = (long)S->VW_idx[j] * cp + c;
+    double v = S->VW_val[j];
+    for (l = 0; l < K; ++l) {
+      vec_t u = VEC(U + r + l * VW);
+      st[l] += (u + VEC(DU + r + l * VW)) * v;
+      sp[l] += (S->a0 * u + VEC(Pt + r + l * VW)) * v;
+      sq[l] += (S->a1 * u + VEC(Qt + r + l * VW)) * v;
+    }
+  }
+  for (l = 0; l < K; ++l) {
+    VEC(WT + i * cp + c + l * VW) = st[l];
+    VEC(WP + i * cp + c + l * VW) = sp[l];
+    VEC(WQ + i * cp + c + l * VW) = sq[l];
   }
 }
 
@@ -56,7 +86,7 @@ void svbi_vehicle_predictors(const setup_t* S, const state_t* X, work_t* w) {
   long cp = w->vcp, o = NV * cp, c;
   double *U = w->VL, *Pt = U + o, *Qt = Pt + o, *F = Qt + o, *DU = F + o;
   double *WT = DU + o, *WP = WT + NW * cp, *WQ = WP + NW * cp;
-  int k, d, i, j, l;
+  int k, d, i, j;
   for (d = 0; d < NV; ++d) {
     for (k = 0; k < S->cars; ++k) {
       double u = X->uV[(long)k * NV + d], v = X->vV[(long)k * NV + d], a = X->aV[(long)k * NV + d];
@@ -87,24 +117,9 @@ void svbi_vehicle_predictors(const setup_t* S, const state_t* X, work_t* w) {
   }
   lanes_vec_mat(w, 3, F, DU, cp); /* du~ = K^-T f */
   for (i = 0; i < NW; ++i) {
-    for (c = 0; c < cp; c += VLANES) {
-      double st[VLANES], sp[VLANES], sq[VLANES];
-      for (l = 0; l < VLANES; ++l) st[l] = sp[l] = sq[l] = 0.0;
-      for (j = S->VW_ptr[i]; j < S->VW_ptr[i + 1]; ++j) {
-        long r = (long)S->VW_idx[j] * cp + c;
-        double v = S->VW_val[j];
-        for (l = 0; l < VLANES; ++l) {
-          st[l] += (U[r + l] + DU[r + l]) * v;
-          sp[l] += (S->a0 * U[r + l] + Pt[r + l]) * v;
-          sq[l] += (S->a1 * U[r + l] + Qt[r + l]) * v;
-        }
-      }
-      for (l = 0; l < VLANES; ++l) {
-        WT[i * cp + c + l] = st[l];
-        WP[i * cp + c + l] = sp[l];
-        WQ[i * cp + c + l] = sq[l];
-      }
-    }
+    for (c = 0; c + 3 * VLANES <= cp; c += 3 * VLANES) wheel_chunk(S, U, Pt, Qt, DU, WT, WP, WQ, i, cp, c, 3 * VLANES / VW);
+    if (cp - c == 2 * VLANES) wheel_chunk(S, U, Pt, Qt, DU, WT, WP, WQ, i, cp, c, 2 * VLANES / VW);
+    else if (cp - c == VLANES) wheel_chunk(S, U, Pt, Qt, DU, WT, WP, WQ, i, cp, c, VLANES / VW);
   }
 }
 
@@ -114,20 +129,16 @@ void svbi_vehicle_update(const setup_t* S, state_t* X, work_t* w) {
   long cp = w->vcp, o = NV * cp, c;
   double *U = w->VL, *Pt = U + o, *Qt = Pt + o, *DU = Qt + 2 * o;
   double* LP = DU + o + 3L * NW * cp;
-  int k, d, i, l;
+  int k, d, i;
   for (i = 0; i < NW; ++i) {
     for (k = 0; k < S->cars; ++k) LP[i * cp + k] = X->PV[k * NW + i];
     for (; k < cp; ++k) LP[i * cp + k] = 0.0;
   }
   for (d = 0; d < NV; ++d) {
-    for (c = 0; c < cp; c += VLANES) {
-      double s[VLANES];
-      for (l = 0; l < VLANES; ++l) s[l] = 0.0;
-      for (i = 0; i < NW; ++i) {
-        double v = S->V_A[d * NW + i];
-        for (l = 0; l < VLANES; ++l) s[l] += LP[i * cp + c + l] * v;
-      }
-      for (l = 0; l < VLANES; ++l) DU[d * cp + c + l] += s[l];
+    for (c = 0; c < cp; c += VW) {
+      vec_t s = {0.0};
+      for (i = 0; i < NW; ++i) s += VEC(LP + i * cp + c) * S->V_A[d * NW + i];
+      VEC(DU + d * cp + c) += s;
     }
   }
   for (k = 0; k < S->cars; ++k) {
