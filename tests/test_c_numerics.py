@@ -271,6 +271,77 @@ def test_reciprocal_pivot_lu_matches_scipy(n: int, bw: int) -> None:
     np.testing.assert_allclose(x, np.linalg.solve(a, b), rtol=1e-14 * cond, atol=1e-14 * cond)
 
 
+def doolittle_reciprocal(a: np.ndarray, bw: int) -> tuple[np.ndarray, np.ndarray]:
+    """LU without row swaps in band.c's operations, one IEEE operation at a time: each column's
+    multipliers are its entries times the reciprocal pivot, and every entry of the trailing band
+    loses multiplier x pivot-row entry once per column. Returns (L U packed, reciprocal pivots)."""
+    lu, n = a.copy(), a.shape[0]
+    rpiv = np.zeros(n)
+    for j in range(n):
+        rpiv[j] = 1.0 / lu[j, j]
+        rows = slice(j + 1, min(n, j + bw + 1))
+        lu[rows, j] = lu[rows, j] * rpiv[j]
+        lu[rows, rows] -= np.outer(lu[rows, j], lu[j, rows])  # each entry: one product, one difference
+    return lu, rpiv
+
+
+def substitute_reciprocal(lu: np.ndarray, rpiv: np.ndarray, bw: int, b: np.ndarray) -> np.ndarray:
+    """The solve with doolittle_reciprocal's factor, every row's terms subtracted farthest first."""
+    n, x = len(b), [float(v) for v in b]
+    for j in range(n):
+        for i in range(min(bw, j), 0, -1):
+            x[j] -= float(lu[j, j - i]) * x[j - i]
+    for j in range(n - 1, -1, -1):
+        for i in range(min(bw, n - 1 - j), 0, -1):
+            x[j] -= float(lu[j, j + i]) * x[j + i]
+        x[j] *= float(rpiv[j])
+    return np.array(x)
+
+
+@pytest.mark.parametrize(("n", "bw"), [(1, 1), (7, 1), (40, 5), (30, 8)])
+def test_reciprocal_pivot_lu_without_swaps_is_the_textbook_elimination(n: int, bw: int) -> None:
+    """A diagonally dominant band (the localized interface's usual case) is factored on the
+    diagonal (band.c, diagonal_columns) and solved row by row (gb_solve_diagonal): bit for bit the
+    elimination of doolittle_reciprocal, and SciPy's solution to round-off."""
+    rng = np.random.default_rng(5 * n + bw)
+    a = general_band(rng, n, bw)
+    a[np.arange(n), np.arange(n)] = 2.0 * bw + 1.0 + rng.uniform(0.0, 1.0, n)
+    ab = lapack_band(a, bw)
+    piv, rpiv = np.zeros(n, dtype=np.int32), np.zeros(n)
+    assert library().svbi_gb_factor_r(dp(ab), n, bw, ip(piv), dp(rpiv)) == c_solver_build.STATUS_OK
+    np.testing.assert_array_equal(piv, np.arange(n))
+    lu, ref_rpiv = doolittle_reciprocal(a, bw)
+    np.testing.assert_array_equal(rpiv, ref_rpiv)
+    np.testing.assert_array_equal(ab, lapack_band(lu, bw))
+    b = rng.standard_normal(n)
+    x = b.copy()
+    library().svbi_gb_solve_r(dp(ab), n, bw, ip(piv), dp(rpiv), dp(x))
+    np.testing.assert_array_equal(x, substitute_reciprocal(lu, ref_rpiv, bw, b))
+    np.testing.assert_allclose(x, np.linalg.solve(a, b), rtol=1e-13, atol=1e-14)
+
+
+@pytest.mark.parametrize("bw", [2, 5])
+def test_reciprocal_pivot_lu_swaps_from_the_first_column_that_needs_it(bw: int) -> None:
+    """Diagonally dominant in its first half, not in its second: the diagonal columns hand over to
+    partial pivoting where the first swap is due, with the pivots of svbi_gb_factor."""
+    n = 40
+    rng = np.random.default_rng(bw)
+    a = general_band(rng, n, bw)
+    a[np.arange(n // 2), np.arange(n // 2)] = 2.0 * bw + 1.0
+    ab, ref = lapack_band(a, bw), lapack_band(a, bw)
+    piv, rpiv, ref_piv = np.zeros(n, dtype=np.int32), np.zeros(n), np.zeros(n, dtype=np.int32)
+    assert library().svbi_gb_factor_r(dp(ab), n, bw, ip(piv), dp(rpiv)) == c_solver_build.STATUS_OK
+    assert library().svbi_gb_factor(dp(ref), n, bw, ip(ref_piv)) == c_solver_build.STATUS_OK
+    np.testing.assert_array_equal(piv, ref_piv)
+    first_swap = int(np.flatnonzero(piv != np.arange(n))[0])
+    assert n // 2 - bw <= first_swap  # the dominant half kept its diagonal
+    b = rng.standard_normal(n)
+    x = b.copy()
+    library().svbi_gb_solve_r(dp(ab), n, bw, ip(piv), dp(rpiv), dp(x))
+    cond = np.linalg.cond(a)
+    np.testing.assert_allclose(x, np.linalg.solve(a, b), rtol=1e-14 * cond, atol=1e-14 * cond)
+
+
 def test_reciprocal_pivot_lu_reports_a_singular_matrix() -> None:
     a = general_band(np.random.default_rng(3), 8, 2)
     a[:, 4] = 0.0

@@ -7,6 +7,8 @@
 
 #include "band.h"
 
+#define GB_FAST_BW 8 /* the half-bandwidths up to which the interface routines are unrolled */
+
 /* Lower band Cholesky in place: element (i, j), i >= j, at L[j * (p + 1) + (i - j)]. */
 int svbi_band_cholesky(double* L, int n, int p) {
   int j, r, k;
@@ -168,13 +170,41 @@ static SVBI_ALWAYS_INLINE void eliminate(double* AB, int j, int ju, const int km
   }
 }
 
+/* The first columns of svbi_gb_factor_r while partial pivoting keeps every pivot on the diagonal
+ * (no entry below it larger in magnitude): columns of fixed width, the multipliers held in
+ * registers, no branch on the data. The same operations as the general loop (an update by an exact
+ * zero included, which leaves the entry as it is); returns the first column it left to that loop
+ * (one that needs a row swap, or one of the last bw). bw is a constant <= GB_FAST_BW. */
+static SVBI_ALWAYS_INLINE int diagonal_columns(double* AB, int n, const int bw, int* ipiv, double* rpiv) {
+  const int kv = 2 * bw, ldab = 3 * bw + 1;
+  int j, i, jj;
+  for (j = 0; j < n - bw; ++j) {
+    double* colj = AB + (long)j * ldab;
+    double d = colj[kv], ad = fabs(d), r, l[GB_FAST_BW];
+    int keep = d != 0.0;
+    for (i = 1; i <= bw; ++i) keep &= !(fabs(colj[kv + i]) > ad);
+    if (!keep) break;
+    ipiv[j] = j;
+    r = 1.0 / d;
+    rpiv[j] = r;
+    for (i = 1; i <= bw; ++i) colj[kv + i] = l[i - 1] = colj[kv + i] * r;
+    for (jj = 1; jj <= bw; ++jj) {
+      double* cc = AB + (long)(j + jj) * ldab;
+      double u = cc[kv - jj];
+      for (i = 1; i <= bw; ++i) cc[kv - jj + i] -= l[i - 1] * u;
+    }
+  }
+  return j;
+}
+
 /* svbi_gb_factor that also stores the reciprocal of every pivot (rpiv: n) and scales the column
- * by it (one division per column instead of one per sub-diagonal entry). bw is a constant where
+ * by it (one division per column instead of one per sub-diagonal entry), from column j0 on (the
+ * columns before it factored by diagonal_columns, no row swapped). bw is a constant where
  * svbi_gb_factor_r inlines it (the interface's usual half-bandwidths): its loops then unroll. */
-static SVBI_ALWAYS_INLINE int gb_factor_r(double* AB, int n, const int bw, int* ipiv, double* rpiv) {
+static SVBI_ALWAYS_INLINE int gb_factor_r(double* AB, int n, const int bw, int* ipiv, double* rpiv, int j0) {
   const int ku = bw, kv = 2 * bw, ldab = 3 * bw + 1;
-  int j, i, jp, ju = 0, km, jj;
-  for (j = 0; j < n; ++j) {
+  int j, i, jp, ju = j0 > 0 ? (j0 - 1 + ku < n - 1 ? j0 - 1 + ku : n - 1) : 0, km, jj;
+  for (j = j0; j < n; ++j) {
     double* colj = AB + (long)j * ldab;
     double pmax, r;
     km = bw < n - 1 - j ? bw : n - 1 - j;
@@ -211,17 +241,51 @@ static SVBI_ALWAYS_INLINE int gb_factor_r(double* AB, int n, const int bw, int* 
   return SVBI_SOLVER_STATUS_OK;
 }
 
+#define GB_FACTOR_CASE(B) \
+  case B: return gb_factor_r(AB, n, B, ipiv, rpiv, diagonal_columns(AB, n, B, ipiv, rpiv))
+
 int svbi_gb_factor_r(double* AB, int n, int bw, int* ipiv, double* rpiv) {
   switch (bw) {
-    case 1: return gb_factor_r(AB, n, 1, ipiv, rpiv);
-    case 2: return gb_factor_r(AB, n, 2, ipiv, rpiv);
-    case 3: return gb_factor_r(AB, n, 3, ipiv, rpiv);
-    case 4: return gb_factor_r(AB, n, 4, ipiv, rpiv);
-    case 5: return gb_factor_r(AB, n, 5, ipiv, rpiv);
-    case 6: return gb_factor_r(AB, n, 6, ipiv, rpiv);
-    case 7: return gb_factor_r(AB, n, 7, ipiv, rpiv);
-    case 8: return gb_factor_r(AB, n, 8, ipiv, rpiv);
-    default: return gb_factor_r(AB, n, bw, ipiv, rpiv);
+    GB_FACTOR_CASE(1);
+    GB_FACTOR_CASE(2);
+    GB_FACTOR_CASE(3);
+    GB_FACTOR_CASE(4);
+    GB_FACTOR_CASE(5);
+    GB_FACTOR_CASE(6);
+    GB_FACTOR_CASE(7);
+    GB_FACTOR_CASE(8);
+    default: return gb_factor_r(AB, n, bw, ipiv, rpiv, 0);
+  }
+}
+
+/* The solve with a factor of svbi_gb_factor_r in which no row was swapped: row by row, the last bw
+ * unknowns in registers, so that an unknown's chain to the next is one multiply and one subtraction
+ * (and the reciprocal pivot backward). A row's terms are subtracted farthest first, as the column
+ * sweeps of gb_solve_r subtract them: the same operations (U's fill above its bw-th
+ * superdiagonal, zero without swaps, left out). */
+static SVBI_ALWAYS_INLINE void gb_solve_diagonal(const double* AB, int n, const int bw, const double* rpiv,
+                                                 double* b) {
+  const int kv = 2 * bw, ldab = 3 * bw + 1;
+  double x[GB_FAST_BW];
+  int j, i;
+  for (i = 0; i < bw; ++i) x[i] = 0.0;
+  for (j = 0; j < n; ++j) { /* x[i - 1]: the unknown j - i */
+    double t = b[j];
+    for (i = bw; i >= 1; --i)
+      if (j - i >= 0) t -= AB[kv + i + (long)(j - i) * ldab] * x[i - 1];
+    b[j] = t;
+    for (i = bw - 1; i >= 1; --i) x[i] = x[i - 1];
+    x[0] = t;
+  }
+  for (i = 0; i < bw; ++i) x[i] = 0.0;
+  for (j = n - 1; j >= 0; --j) { /* x[i - 1]: the unknown j + i */
+    double t = b[j];
+    for (i = bw; i >= 1; --i)
+      if (j + i < n) t -= AB[kv - i + (long)(j + i) * ldab] * x[i - 1];
+    t *= rpiv[j];
+    b[j] = t;
+    for (i = bw - 1; i >= 1; --i) x[i] = x[i - 1];
+    x[0] = t;
   }
 }
 
@@ -257,16 +321,26 @@ static SVBI_ALWAYS_INLINE void gb_solve_r(const double* AB, int n, const int bw,
   }
 }
 
+#define GB_SOLVE_CASE(B)                           \
+  case B:                                          \
+    if (swapped)                                   \
+      gb_solve_r(AB, n, B, ipiv, rpiv, b);         \
+    else                                           \
+      gb_solve_diagonal(AB, n, B, rpiv, b);        \
+    return
+
 void svbi_gb_solve_r(const double* AB, int n, int bw, const int* ipiv, const double* rpiv, double* b) {
+  int j, swapped = 0;
+  for (j = 0; j < n; ++j) swapped |= ipiv[j] != j;
   switch (bw) {
-    case 1: gb_solve_r(AB, n, 1, ipiv, rpiv, b); return;
-    case 2: gb_solve_r(AB, n, 2, ipiv, rpiv, b); return;
-    case 3: gb_solve_r(AB, n, 3, ipiv, rpiv, b); return;
-    case 4: gb_solve_r(AB, n, 4, ipiv, rpiv, b); return;
-    case 5: gb_solve_r(AB, n, 5, ipiv, rpiv, b); return;
-    case 6: gb_solve_r(AB, n, 6, ipiv, rpiv, b); return;
-    case 7: gb_solve_r(AB, n, 7, ipiv, rpiv, b); return;
-    case 8: gb_solve_r(AB, n, 8, ipiv, rpiv, b); return;
+    GB_SOLVE_CASE(1);
+    GB_SOLVE_CASE(2);
+    GB_SOLVE_CASE(3);
+    GB_SOLVE_CASE(4);
+    GB_SOLVE_CASE(5);
+    GB_SOLVE_CASE(6);
+    GB_SOLVE_CASE(7);
+    GB_SOLVE_CASE(8);
     default: gb_solve_r(AB, n, bw, ipiv, rpiv, b);
   }
 }
