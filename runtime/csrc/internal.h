@@ -151,6 +151,8 @@ typedef struct {
   double* RF;    /* nfree x pad: free-DOF right-hand sides of the correction (localized) */
   double* dinv2; /* nfree: 1 / L(j, j)^2, L the factor on the free DOFs (factor_solve: K^ = U D^2 U^T) */
   int* freeidx;  /* nd: index among the free DOFs, -1 for a support DOF */
+  int* rr_ptr;   /* ns + 1: the support rows' DOFs where M, C or K is non-zero (record.c) */
+  int* rr_idx;   /* ns x nd */
   int* lidx;     /* spans: index among the loaded spans, -1 if unloaded */
   int* lspan;    /* spans: the loaded spans */
   /* localized: the factor on the free DOFs as the unit triangle U = L D^-1 (D = diag L), dense in

@@ -11,9 +11,11 @@ static void worst_of(double* worst, double g) {
 }
 
 /* svbi.runtime.reactions.support_reactions: what the span's equation of motion leaves over at each
- * support DOF, R = [M a + C (v - T q') + K u]_s + [N P]_s (beyond the dead load, added in Python). */
+ * support DOF, R = [M a + C (v - T q') + K u]_s + [N P]_s (beyond the dead load, added in Python),
+ * over the DOFs where a support row of M, C or K is non-zero (work_t rr_*; the terms left out are
+ * exact zeros). */
 static void support_reactions(const setup_t* S, const state_t* X, outputs_t* O, const work_t* w, long row) {
-  int s, j, d, i, nd = S->nd, ns = S->ns, NS = S->spans * S->ns;
+  int s, j, d, i, k, nd = S->nd, ns = S->ns, NS = S->spans * S->ns;
   const double* Mr = S->react_rows;
   const double* Cr = S->react_rows + (long)ns * nd;
   const double* Kr = S->react_rows + 2L * ns * nd;
@@ -21,21 +23,23 @@ static void support_reactions(const setup_t* S, const state_t* X, outputs_t* O, 
     const double* q1 = w->qs + NS + (long)s * ns;
     for (j = 0; j < ns; ++j) {
       double r = 0.0;
-      for (d = 0; d < nd; ++d)
+      for (k = w->rr_ptr[j]; k < w->rr_ptr[j + 1]; ++k) {
+        d = w->rr_idx[k];
         r += Mr[j * nd + d] * BR(w->ba, s, d) + Cr[j * nd + d] * BR(w->bv, s, d) + Kr[j * nd + d] * BR(w->bu, s, d);
+      }
       for (i = 0; i < ns; ++i) r -= S->CT[S->sup[j] * ns + i] * q1[i];
       O->support_reaction[row * NS + s * ns + j] = r;
     }
   }
   for (i = 0; i < S->nc; ++i) {
-    int c = i, k; /* index order: the sum of the NumPy side (np.add.at) */
+    int c = i, q; /* index order: the sum of the NumPy side (np.add.at) */
     const double* N0;
     if (!w->con[c]) continue;
     N0 = w->crow + (long)c * ROW_COLS + COL_N0;
-    for (k = 0; k < NNZ_N0; ++k) {
-      int dof = w->cfirst[c] + nz_N0[k];
+    for (q = 0; q < NNZ_N0; ++q) {
+      int dof = w->cfirst[c] + nz_N0[q];
       for (j = 0; j < ns; ++j)
-        if (S->sup[j] == dof) O->support_reaction[row * NS + w->cspan[c] * ns + j] += N0[nz_N0[k]] * X->P[c];
+        if (S->sup[j] == dof) O->support_reaction[row * NS + w->cspan[c] * ns + j] += N0[nz_N0[q]] * X->P[c];
     }
   }
 }

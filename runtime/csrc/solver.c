@@ -124,6 +124,8 @@ static void carve(const setup_t* S, carver_t* c, work_t* w) {
   }
   w->dinv2 = take_d(c, S->nfree);
   w->freeidx = take_i(c, nd);
+  w->rr_ptr = take_i(c, S->general ? 0 : S->ns + 1);
+  w->rr_idx = take_i(c, S->general ? 0 : (long)S->ns * nd);
   w->lidx = take_i(c, spans);
   w->lspan = take_i(c, spans);
   {
@@ -208,6 +210,17 @@ int svbi_solver_init(const setup_t* S, double* work, int* iwork) {
   int k, status;
   for (k = 0; k < S->nd; ++k) w.freeidx[k] = -1;
   for (k = 0; k < S->nfree; ++k) w.freeidx[S->free[k]] = k;
+  if (!S->general) { /* the support rows' non-zeros (record.c, support_reactions) */
+    int j, d, n = 0, nd = S->nd, ns = S->ns;
+    for (j = 0; j < ns; ++j) {
+      w.rr_ptr[j] = n;
+      for (d = 0; d < nd; ++d) {
+        long o = (long)j * nd + d, a = (long)ns * nd;
+        if (S->react_rows[o] != 0.0 || S->react_rows[a + o] != 0.0 || S->react_rows[2 * a + o] != 0.0) w.rr_idx[n++] = d;
+      }
+    }
+    w.rr_ptr[ns] = n;
+  }
 #if !SVBI_MOVING_LOAD
   if (!S->moving_load) {
     /* the non-zeros of the car's constant matrices, column by column (vehicle.c, lanes_vec_mat) */
