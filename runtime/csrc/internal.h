@@ -51,6 +51,7 @@ typedef double vec_t __attribute__((vector_size(VW * sizeof(double))));
 typedef double vec_u __attribute__((vector_size(VW * sizeof(double)), aligned(sizeof(double)), may_alias));
 #define VEC(p) (*(vec_u*)(p))
 #define VLANES 4 /* cars per chunk of the localized vehicles' lane layout (as LW) */
+#define SC_NNZ_MAX 8 /* contact-row non-zeros up to which the interface uses work_t SC */
 #define CAR_KMAX (3 * VLANES / VW) /* registers of three chunks (vehicle.c) */
 
 typedef svbi_solver_setup setup_t;
@@ -151,6 +152,13 @@ typedef struct {
   double* RF;    /* nfree x pad: free-DOF right-hand sides of the correction (localized) */
   double* dinv2; /* nfree: 1 / L(j, j)^2, L the factor on the free DOFs (factor_solve: K^ = U D^2 U^T) */
   int* freeidx;  /* nd: index among the free DOFs, -1 for a support DOF */
+  /* the span compliance S at the contact rows' DOFs (localized.c, interface_solve): node by node
+   * the DOFs where N0 and W_hat may be non-zero (their common pattern, the same at both nodes of an
+   * element), transposed, SC[p * ncd + q] = S(dof(q), dof(p)), so that an element's NNZ_N0 DOFs
+   * are neighbours. Used when the pattern allows (sc_h: DOFs kept per node, else 0) */
+  double* SC;    /* ncd x ncd, ncd = sc_h nd / (NE / 2) */
+  int sc_h;
+  int ncd;
   int* rr_ptr;   /* ns + 1: the support rows' DOFs where M, C or K is non-zero (record.c) */
   int* rr_idx;   /* ns x nd */
   int* lidx;     /* spans: index among the loaded spans, -1 if unloaded */

@@ -200,17 +200,10 @@ int svbi_interface_finish(const setup_t* S, work_t* w, int n, int bw, const int*
 }
 
 #if !SVBI_MOVING_LOAD
-/* (F* + F_B) P = rhs, banded in track order (w->cpos), for the interface of this step; an inactive
- * (airborne) wheel's row is P_i = 0, a landing wheel's the position-level g_{n+1} = 0 (N0 in place
- * of W_hat; svbi.runtime.localized._active_set_solve). */
-static int interface_solve(const setup_t* S, work_t* w, int bw, const int* active, const int* landing, double* P) {
-  int k, i, j, s, nc = S->nc, nd = S->nd, status;
-  if (S->general) return svbi_general_interface(S, w, active, landing, P);
-  svbi_gb_zero(w->band, nc, bw);
-  for (k = 0; k < S->cars; ++k)
-    for (i = 0; i < NW; ++i)
-      for (j = 0; j < NW; ++j)
-        svbi_gb_add(w->band, bw, w->cpos[k * NW + i], w->cpos[k * NW + j], S->V_Fstar[i * NW + j]);
+/* F_B of the contacts on each span, pair by pair: W_hat_i S N0_j^T (a landing wheel's row: N0_i),
+ * added to the interface band (svbi_row_S_N0). */
+static void span_pairs(const setup_t* S, work_t* w, int bw, const int* landing) {
+  int s, nd = S->nd;
   for (s = 0; s < S->spans; ++s) {
     int m1, m2;
     for (m1 = w->sstart[s]; m1 < w->sstart[s + 1]; ++m1) {
@@ -227,6 +220,56 @@ static int interface_solve(const setup_t* S, work_t* w, int bw, const int* activ
       }
     }
   }
+}
+
+/* span_pairs through work_t SC: the same products and sums (W_hat_i's entries times the sums over
+ * N0_j's), an element's entries side by side in registers. */
+static void sc_pairs(const setup_t* S, work_t* w, int bw, const int* landing) {
+  enum { NK = NNZ_N0 / VW };
+  int s, m1, m2, a, b, v, ncd = w->ncd, h = w->sc_h;
+  for (s = 0; s < S->spans; ++s) {
+    for (m1 = w->sstart[s]; m1 < w->sstart[s + 1]; ++m1) {
+      int ci = w->slist[m1], pi = w->cpos[ci];
+      const double* X = w->crow + (long)ci * ROW_COLS + (landing && landing[ci] ? COL_N0 : COL_W_HAT);
+      const double* SCi = w->SC + (long)(w->cfirst[ci] / (NE / 2)) * h;
+      double xc[SC_NNZ_MAX];
+      vec_t xv[NK];
+      for (a = 0; a < NNZ_N0; ++a) xc[a] = X[nz_N0[a]];
+      for (v = 0; v < NK; ++v) xv[v] = VEC(xc + v * VW);
+      for (m2 = w->sstart[s]; m2 < w->sstart[s + 1]; ++m2) {
+        int cj = w->slist[m2];
+        const double* N0 = w->crow + (long)cj * ROW_COLS + COL_N0;
+        const double* r = SCi + (long)(w->cfirst[cj] / (NE / 2)) * h * ncd;
+        vec_t t[NK];
+        double p[SC_NNZ_MAX], fij = 0.0;
+        for (v = 0; v < NK; ++v) t[v] = (vec_t){0.0};
+        for (b = 0; b < NNZ_N0; ++b) {
+          double n = N0[nz_N0[b]];
+          for (v = 0; v < NK; ++v) t[v] += VEC(r + (long)b * ncd + v * VW) * n;
+        }
+        for (v = 0; v < NK; ++v) VEC(p + v * VW) = xv[v] * t[v];
+        for (a = 0; a < NNZ_N0; ++a) fij += p[a];
+        svbi_gb_add(w->band, bw, pi, w->cpos[cj], fij);
+      }
+    }
+  }
+}
+
+/* (F* + F_B) P = rhs, banded in track order (w->cpos), for the interface of this step; an inactive
+ * (airborne) wheel's row is P_i = 0, a landing wheel's the position-level g_{n+1} = 0 (N0 in place
+ * of W_hat; svbi.runtime.localized._active_set_solve). */
+static int interface_solve(const setup_t* S, work_t* w, int bw, const int* active, const int* landing, double* P) {
+  int k, i, j, nc = S->nc, status;
+  if (S->general) return svbi_general_interface(S, w, active, landing, P);
+  svbi_gb_zero(w->band, nc, bw);
+  for (k = 0; k < S->cars; ++k)
+    for (i = 0; i < NW; ++i)
+      for (j = 0; j < NW; ++j)
+        svbi_gb_add(w->band, bw, w->cpos[k * NW + i], w->cpos[k * NW + j], S->V_Fstar[i * NW + j]);
+  if (w->sc_h)
+    sc_pairs(S, w, bw, landing);
+  else
+    span_pairs(S, w, bw, landing);
   status = svbi_interface_finish(S, w, nc, bw, active, landing);
   if (status) return status;
   for (i = 0; i < nc; ++i) P[i] = w->bsol[w->cpos[i]];

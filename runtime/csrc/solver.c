@@ -47,6 +47,22 @@ static int* take_i(carver_t* c, long n) {
   return p;
 }
 
+/* work_t sc_h: the DOFs per node of SC, where N0 and W_hat share their non-zeros, NNZ_N0 / 2 at
+ * each node of an element in the same place, in whole registers (localized, plain spans); else 0. */
+static int sc_dofs_per_node(const setup_t* S) {
+#if SVBI_MOVING_LOAD
+  (void)S;
+  return 0;
+#else
+  int a, h = NNZ_N0 / 2;
+  int same = S->method == 0 && !S->general && S->nd % (NE / 2) == 0 && NNZ_N0 == NNZ_W_HAT && NNZ_N0 % 2 == 0 &&
+             NNZ_N0 % VW == 0 && NNZ_N0 <= SC_NNZ_MAX;
+  for (a = 0; same && a < NNZ_N0; ++a) same = nz_N0[a] == nz_W_hat[a];
+  for (a = 0; same && a < h; ++a) same = nz_N0[a] < NE / 2 && nz_N0[a + h] == nz_N0[a] + NE / 2;
+  return same ? h : 0;
+#endif
+}
+
 static void carve(const setup_t* S, carver_t* c, work_t* w) {
   long nc = S->nc, nd = S->nd, spans = S->spans, NS = (long)S->spans * S->ns, NSL = n_slots(S);
   long subs = n_subs(S);
@@ -124,6 +140,9 @@ static void carve(const setup_t* S, carver_t* c, work_t* w) {
   }
   w->dinv2 = take_d(c, S->nfree);
   w->freeidx = take_i(c, nd);
+  w->sc_h = sc_dofs_per_node(S);
+  w->ncd = w->sc_h * (S->nd / (NE / 2));
+  w->SC = take_d(c, (long)w->ncd * w->ncd);
   w->rr_ptr = take_i(c, S->general ? 0 : S->ns + 1);
   w->rr_idx = take_i(c, S->general ? 0 : (long)S->ns * nd);
   w->lidx = take_i(c, spans);
@@ -210,6 +229,12 @@ int svbi_solver_init(const setup_t* S, double* work, int* iwork) {
   int k, status;
   for (k = 0; k < S->nd; ++k) w.freeidx[k] = -1;
   for (k = 0; k < S->nfree; ++k) w.freeidx[S->free[k]] = k;
+  if (w.sc_h) { /* work_t SC */
+    int a, b, h = w.sc_h, nd = S->nd;
+    for (a = 0; a < w.ncd; ++a)
+      for (b = 0; b < w.ncd; ++b)
+        w.SC[(long)a * w.ncd + b] = S->S[(long)((b / h) * (NE / 2) + nz_N0[b % h]) * nd + (a / h) * (NE / 2) + nz_N0[a % h]];
+  }
   if (!S->general) { /* the support rows' non-zeros (record.c, support_reactions) */
     int j, d, n = 0, nd = S->nd, ns = S->ns;
     for (j = 0; j < ns; ++j) {
