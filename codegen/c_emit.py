@@ -30,6 +30,7 @@ from __future__ import annotations
 import json
 import math
 import os
+import re
 import shutil
 import tempfile
 from dataclasses import asdict, dataclass
@@ -176,6 +177,19 @@ def build_context(model: ModelSpec, options: EmitOptions, functions: list[ca.Fun
     }
 
 
+_CASADI_HELPER = re.compile(r"^casadi_real (casadi_\w+)\(", re.MULTILINE)
+
+
+def _internal_helpers(source: str) -> str:
+    """CasADi's scalar helpers (``casadi_sq``, ``casadi_fabs``, ``casadi_sign``) as ``static inline``.
+
+    CasADi defines them as global functions. In a shared library a global function may be
+    interposed, so the compiler calls it through the PLT instead of inlining it: the creep law took
+    three such calls per wheel and step. Each kernel file keeps its own copy, as before.
+    """
+    return _CASADI_HELPER.sub(r"static inline casadi_real \1(", source)
+
+
 def _casadi_sources(model: ModelSpec, options: EmitOptions, functions: list[ca.Function]) -> dict[str, str]:
     c = model.c_name
     cg = ca.CodeGenerator(
@@ -195,7 +209,7 @@ def _casadi_sources(model: ModelSpec, options: EmitOptions, functions: list[ca.F
     with tempfile.TemporaryDirectory(prefix="svbi-cg-") as tmp:
         cg.generate(tmp + os.sep)
         return {
-            f"{c}_kernels.c": Path(tmp, f"{c}_kernels.c").read_text(encoding="utf-8"),
+            f"{c}_kernels.c": _internal_helpers(Path(tmp, f"{c}_kernels.c").read_text(encoding="utf-8")),
             f"{c}_kernels.h": Path(tmp, f"{c}_kernels.h").read_text(encoding="utf-8"),
         }
 

@@ -312,6 +312,23 @@ def test_loop_source_builds_with_the_strict_warning_set(spec, tmp_path):
     assert done.returncode == 0, done.stderr
 
 
+def test_loop_library_exports_its_interface_and_hides_the_rest():
+    """The loop library's entry points are the three of solver.h; svbi's internal functions
+    (internal.h) and CasADi's scalar helpers are hidden or file-local, so that their calls are
+    direct and can be inlined (codegen/c_emit.py, _internal_helpers)."""
+    library = c_solver_build.load_loop(c_solver_build.LoopSpec("pioneer-2d", 14, 4))._library
+    for name in ("svbi_solver_workspace", "svbi_solver_init", "svbi_solver_run"):
+        assert hasattr(library, name), name
+    for name in (
+        "svbi_place",
+        "svbi_gb_factor_r",
+        "svbi_cube_root",
+        "svbi_creep_update",
+        "svbi_creep_split_cg_sq",
+    ):
+        assert not hasattr(library, name), name
+
+
 def test_builtin_loop_imports_neither_jinja2_nor_casadi():
     """A built-in model's loop is the static C plus committed glue: building and loading it
     imports no template engine and no CasADi (svbi.runtime.c_glue is for generation only)."""

@@ -98,9 +98,9 @@ extern "C" {
   #endif
 #endif
 
-casadi_real casadi_sq(casadi_real x) { return x*x;}
+static inline casadi_real casadi_sq(casadi_real x) { return x*x;}
 
-casadi_real casadi_fabs(casadi_real x) {
+static inline casadi_real casadi_fabs(casadi_real x) {
 /* Pre-c99 compatibility */
 #if __STDC_VERSION__ < 199901L
   return x>0 ? x : -x;
@@ -109,7 +109,7 @@ casadi_real casadi_fabs(casadi_real x) {
 #endif
 }
 
-casadi_real casadi_sign(casadi_real x) { return x<0 ? -1 : x>0 ? 1 : x;}
+static inline casadi_real casadi_sign(casadi_real x) { return x<0 ? -1 : x>0 ? 1 : x;}
 
 /* Configuration this file was compiled with */
 CASADI_SYMBOL_EXPORT void svbi_frame2d_cg_casadi_version(int* major, int* minor, int* patch) {

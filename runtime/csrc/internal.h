@@ -13,9 +13,16 @@
 #include <math.h>
 #include <string.h>
 
+#include "solver.h" /* the library's interface: declared before the pragma below, so it stays visible */
+
+/* Everything else the sources share is internal to the library: hidden, so that its calls are direct
+ * (no PLT) and may be inlined within a file. */
+#if defined(__GNUC__)
+#pragma GCC visibility push(hidden)
+#endif
+
 #include "band.h"
 #include "roots.h"
-#include "solver.h"
 #include "svbi_contact_rows.h"
 #include "svbi_topology.h"
 #include "tables.h"
@@ -325,6 +332,10 @@ void svbi_creep_update(const setup_t* S, state_t* X, const work_t* w);
 void svbi_creep_bridge_load(const setup_t* S, const double* force, work_t* w);
 double svbi_row_target(const setup_t* S, const work_t* w, int i, double Pg, double Qg);
 double svbi_rail_height(const setup_t* S, const work_t* w, int c);
+#endif
+
+#if defined(__GNUC__)
+#pragma GCC visibility pop
 #endif
 
 #endif /* SVBI_SOLVER_INTERNAL_H */
