@@ -170,6 +170,16 @@ static void localized_correct(const setup_t* S, work_t* w, const double* force) 
     }
   }
   factor_solve(S, w, w->RF, 0, ml);
+  if (w->lspan[nl - 1] - w->lspan[0] == nl - 1) { /* the loaded spans side by side (one train) */
+    int s0 = w->lspan[0];
+    for (k = 0; k < nf; ++k) {
+      double* u = w->bu + (long)S->free[k] * m + s0;
+      const double* r = w->RF + (long)k * ml;
+      for (i = 0; i + VW <= nl; i += VW) VEC(u + i) -= VEC(r + i);
+      for (; i < nl; ++i) u[i] -= r[i];
+    }
+    return;
+  }
   for (k = 0; k < nf; ++k) {
     double* u = w->bu + (long)S->free[k] * m;
     const double* r = w->RF + (long)k * ml;
