@@ -64,8 +64,7 @@ def library() -> ctypes.CDLL:
     lib.svbi_dense_solve.argtypes = [DP, ctypes.c_int, DP]
     lib.svbi_gb_factor.argtypes = [DP, ctypes.c_int, ctypes.c_int, IP]
     lib.svbi_gb_solve.argtypes = [DP, ctypes.c_int, ctypes.c_int, IP, DP]
-    lib.svbi_gb_factor_r.argtypes = [DP, ctypes.c_int, ctypes.c_int, IP, DP]
-    lib.svbi_gb_solve_r.argtypes = [DP, ctypes.c_int, ctypes.c_int, IP, DP, DP]
+    lib.svbi_gb_factor_solve_r.argtypes = [DP, ctypes.c_int, ctypes.c_int, IP, DP, DP]
     lib.svbi_ppoly_eval.argtypes = [ctypes.POINTER(c_solver_build.PPoly), ctypes.c_double, DP]
     lib.svbi_ppoly_eval_many.argtypes = [
         ctypes.POINTER(c_solver_build.PPoly),
@@ -82,7 +81,6 @@ def library() -> ctypes.CDLL:
         "svbi_band_solve_blocked",
         "svbi_dense_solve",
         "svbi_gb_solve",
-        "svbi_gb_solve_r",
     ):
         lib[name].restype = None
     lib.svbi_ppoly_eval.restype = None
@@ -241,7 +239,8 @@ def test_banded_lu_reports_a_singular_matrix() -> None:
     assert library().svbi_gb_factor(dp(ab), 8, 2, ip(piv)) == c_solver_build.STATUS_SINGULAR
 
 
-# the reciprocal-pivot variant of the localized interface (svbi_gb_factor_r / svbi_gb_solve_r)
+# the reciprocal-pivot variant of the localized interface, factor and solve in one pass
+# (svbi_gb_factor_solve_r)
 
 
 @pytest.mark.parametrize(("n", "bw"), [(1, 0), (6, 1), (40, 5), (33, 7)])
@@ -252,15 +251,16 @@ def test_reciprocal_pivot_lu_matches_scipy(n: int, bw: int) -> None:
         a[0, 0] = 0.7
     ab = lapack_band(a, bw)
     piv, rpiv = np.zeros(n, dtype=np.int32), np.zeros(n)
-    assert library().svbi_gb_factor_r(dp(ab), n, bw, ip(piv), dp(rpiv)) == c_solver_build.STATUS_OK
+    b = rng.standard_normal(n)
+    x = b.copy()
+    assert (
+        library().svbi_gb_factor_solve_r(dp(ab), n, bw, ip(piv), dp(rpiv), dp(x)) == c_solver_build.STATUS_OK
+    )
     ref, ref_piv = lapack_band(a, bw), np.zeros(n, dtype=np.int32)
     assert library().svbi_gb_factor(dp(ref), n, bw, ip(ref_piv)) == c_solver_build.STATUS_OK
     np.testing.assert_array_equal(piv, ref_piv)  # the same pivoting
     if n > 1:
         assert np.any(piv != np.arange(n))  # it did pivot
-    b = rng.standard_normal(n)
-    x = b.copy()
-    library().svbi_gb_solve_r(dp(ab), n, bw, ip(piv), dp(rpiv), dp(x))
     scipy_ab = np.zeros((2 * bw + 1, n))
     for c in range(n):
         for r in range(max(0, c - bw), min(n, c + bw + 1)):
@@ -298,24 +298,26 @@ def substitute_reciprocal(lu: np.ndarray, rpiv: np.ndarray, bw: int, b: np.ndarr
     return np.array(x)
 
 
-@pytest.mark.parametrize(("n", "bw"), [(1, 1), (7, 1), (40, 5), (30, 8)])
+@pytest.mark.parametrize(("n", "bw"), [(1, 1), (7, 1), (40, 5), (30, 8), (12, 9)])
 def test_reciprocal_pivot_lu_without_swaps_is_the_textbook_elimination(n: int, bw: int) -> None:
     """A diagonally dominant band (the localized interface's usual case) is factored on the
-    diagonal (band.c, diagonal_columns) and solved row by row (gb_solve_diagonal): bit for bit the
-    elimination of doolittle_reciprocal, and SciPy's solution to round-off."""
+    diagonal (band.c, diagonal_columns, the forward substitution along) and solved backward row by
+    row (backward_rows): bit for bit the elimination of doolittle_reciprocal, and NumPy's solution
+    to round-off."""
     rng = np.random.default_rng(5 * n + bw)
     a = general_band(rng, n, bw)
     a[np.arange(n), np.arange(n)] = 2.0 * bw + 1.0 + rng.uniform(0.0, 1.0, n)
     ab = lapack_band(a, bw)
     piv, rpiv = np.zeros(n, dtype=np.int32), np.zeros(n)
-    assert library().svbi_gb_factor_r(dp(ab), n, bw, ip(piv), dp(rpiv)) == c_solver_build.STATUS_OK
+    b = rng.standard_normal(n)
+    x = b.copy()
+    assert (
+        library().svbi_gb_factor_solve_r(dp(ab), n, bw, ip(piv), dp(rpiv), dp(x)) == c_solver_build.STATUS_OK
+    )
     np.testing.assert_array_equal(piv, np.arange(n))
     lu, ref_rpiv = doolittle_reciprocal(a, bw)
     np.testing.assert_array_equal(rpiv, ref_rpiv)
     np.testing.assert_array_equal(ab, lapack_band(lu, bw))
-    b = rng.standard_normal(n)
-    x = b.copy()
-    library().svbi_gb_solve_r(dp(ab), n, bw, ip(piv), dp(rpiv), dp(x))
     np.testing.assert_array_equal(x, substitute_reciprocal(lu, ref_rpiv, bw, b))
     np.testing.assert_allclose(x, np.linalg.solve(a, b), rtol=1e-13, atol=1e-14)
 
@@ -330,14 +332,15 @@ def test_reciprocal_pivot_lu_swaps_from_the_first_column_that_needs_it(bw: int) 
     a[np.arange(n // 2), np.arange(n // 2)] = 2.0 * bw + 1.0
     ab, ref = lapack_band(a, bw), lapack_band(a, bw)
     piv, rpiv, ref_piv = np.zeros(n, dtype=np.int32), np.zeros(n), np.zeros(n, dtype=np.int32)
-    assert library().svbi_gb_factor_r(dp(ab), n, bw, ip(piv), dp(rpiv)) == c_solver_build.STATUS_OK
+    b = rng.standard_normal(n)
+    x = b.copy()
+    assert (
+        library().svbi_gb_factor_solve_r(dp(ab), n, bw, ip(piv), dp(rpiv), dp(x)) == c_solver_build.STATUS_OK
+    )
     assert library().svbi_gb_factor(dp(ref), n, bw, ip(ref_piv)) == c_solver_build.STATUS_OK
     np.testing.assert_array_equal(piv, ref_piv)
     first_swap = int(np.flatnonzero(piv != np.arange(n))[0])
     assert n // 2 - bw <= first_swap  # the dominant half kept its diagonal
-    b = rng.standard_normal(n)
-    x = b.copy()
-    library().svbi_gb_solve_r(dp(ab), n, bw, ip(piv), dp(rpiv), dp(x))
     cond = np.linalg.cond(a)
     np.testing.assert_allclose(x, np.linalg.solve(a, b), rtol=1e-14 * cond, atol=1e-14 * cond)
 
@@ -346,8 +349,11 @@ def test_reciprocal_pivot_lu_reports_a_singular_matrix() -> None:
     a = general_band(np.random.default_rng(3), 8, 2)
     a[:, 4] = 0.0
     ab = lapack_band(a, 2)
-    piv, rpiv = np.zeros(8, dtype=np.int32), np.zeros(8)
-    assert library().svbi_gb_factor_r(dp(ab), 8, 2, ip(piv), dp(rpiv)) == c_solver_build.STATUS_SINGULAR
+    piv, rpiv, x = np.zeros(8, dtype=np.int32), np.zeros(8), np.ones(8)
+    assert (
+        library().svbi_gb_factor_solve_r(dp(ab), 8, 2, ip(piv), dp(rpiv), dp(x))
+        == c_solver_build.STATUS_SINGULAR
+    )
 
 
 # --------------------------------------------------------------------------------------------------

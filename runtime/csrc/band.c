@@ -170,17 +170,22 @@ static SVBI_ALWAYS_INLINE void eliminate(double* AB, int j, int ju, const int km
   }
 }
 
-/* The first columns of svbi_gb_factor_r while partial pivoting keeps every pivot on the diagonal
- * (no entry below it larger in magnitude): columns of fixed width, the multipliers held in
- * registers, no branch on the data. The same operations as the general loop (an update by an exact
- * zero included, which leaves the entry as it is); returns the first column it left to that loop
- * (one that needs a row swap, or one of the last bw). bw is a constant <= GB_FAST_BW. */
-static SVBI_ALWAYS_INLINE int diagonal_columns(double* AB, int n, const int bw, int* ipiv, double* rpiv) {
+/* The first columns of gb_factor_r while partial pivoting keeps every pivot on the diagonal
+ * (no entry below it larger in magnitude): columns of fixed width, the multipliers and the next
+ * pivot held in registers (the pivots are a chain: division, multiplier, update, next pivot), no
+ * branch on the data. The same operations as the general loop (an update by an exact zero
+ * included, which leaves the entry as it is). With b, the forward substitution goes along
+ * (b[j + i] -= l_i b[j]: forward_columns' operations, off the pivots' chain). Returns the first column
+ * it left to the general loop (one that needs a row swap, or one of the last bw). bw is a
+ * constant, 1 .. GB_FAST_BW. */
+static SVBI_ALWAYS_INLINE int diagonal_columns(double* AB, int n, const int bw, int* ipiv, double* rpiv, double* b) {
   const int kv = 2 * bw, ldab = 3 * bw + 1;
   int j, i, jj;
+  double d = n > bw ? AB[kv] : 0.0; /* the pivot A(j, j) */
   for (j = 0; j < n - bw; ++j) {
     double* colj = AB + (long)j * ldab;
-    double d = colj[kv], ad = fabs(d), r, l[GB_FAST_BW];
+    double* c1 = colj + ldab;
+    double ad = fabs(d), r, u, l[GB_FAST_BW];
     int keep = d != 0.0;
     for (i = 1; i <= bw; ++i) keep &= !(fabs(colj[kv + i]) > ad);
     if (!keep) break;
@@ -188,11 +193,17 @@ static SVBI_ALWAYS_INLINE int diagonal_columns(double* AB, int n, const int bw, 
     r = 1.0 / d;
     rpiv[j] = r;
     for (i = 1; i <= bw; ++i) colj[kv + i] = l[i - 1] = colj[kv + i] * r;
-    for (jj = 1; jj <= bw; ++jj) {
+    u = c1[kv - 1]; /* column j + 1: the next pivot first */
+    d = c1[kv] - l[0] * u;
+    c1[kv] = d;
+    for (i = 2; i <= bw; ++i) c1[kv - 1 + i] -= l[i - 1] * u;
+    for (jj = 2; jj <= bw; ++jj) {
       double* cc = AB + (long)(j + jj) * ldab;
-      double u = cc[kv - jj];
+      u = cc[kv - jj];
       for (i = 1; i <= bw; ++i) cc[kv - jj + i] -= l[i - 1] * u;
     }
+    if (b)
+      for (i = 1; i <= bw; ++i) b[j + i] -= l[i - 1] * b[j];
   }
   return j;
 }
@@ -200,7 +211,7 @@ static SVBI_ALWAYS_INLINE int diagonal_columns(double* AB, int n, const int bw, 
 /* svbi_gb_factor that also stores the reciprocal of every pivot (rpiv: n) and scales the column
  * by it (one division per column instead of one per sub-diagonal entry), from column j0 on (the
  * columns before it factored by diagonal_columns, no row swapped). bw is a constant where
- * svbi_gb_factor_r inlines it (the interface's usual half-bandwidths): its loops then unroll. */
+ * svbi_gb_factor_solve_r inlines it (the interface's usual half-bandwidths): its loops then unroll. */
 static SVBI_ALWAYS_INLINE int gb_factor_r(double* AB, int n, const int bw, int* ipiv, double* rpiv, int j0) {
   const int ku = bw, kv = 2 * bw, ldab = 3 * bw + 1;
   int j, i, jp, ju = j0 > 0 ? (j0 - 1 + ku < n - 1 ? j0 - 1 + ku : n - 1) : 0, km, jj;
@@ -241,60 +252,12 @@ static SVBI_ALWAYS_INLINE int gb_factor_r(double* AB, int n, const int bw, int* 
   return SVBI_SOLVER_STATUS_OK;
 }
 
-#define GB_FACTOR_CASE(B) \
-  case B: return gb_factor_r(AB, n, B, ipiv, rpiv, diagonal_columns(AB, n, B, ipiv, rpiv))
-
-int svbi_gb_factor_r(double* AB, int n, int bw, int* ipiv, double* rpiv) {
-  switch (bw) {
-    GB_FACTOR_CASE(1);
-    GB_FACTOR_CASE(2);
-    GB_FACTOR_CASE(3);
-    GB_FACTOR_CASE(4);
-    GB_FACTOR_CASE(5);
-    GB_FACTOR_CASE(6);
-    GB_FACTOR_CASE(7);
-    GB_FACTOR_CASE(8);
-    default: return gb_factor_r(AB, n, bw, ipiv, rpiv, 0);
-  }
-}
-
-/* The solve with a factor of svbi_gb_factor_r in which no row was swapped: row by row, the last bw
- * unknowns in registers, so that an unknown's chain to the next is one multiply and one subtraction
- * (and the reciprocal pivot backward). A row's terms are subtracted farthest first, as the column
- * sweeps of gb_solve_r subtract them: the same operations (U's fill above its bw-th
- * superdiagonal, zero without swaps, left out). */
-static SVBI_ALWAYS_INLINE void gb_solve_diagonal(const double* AB, int n, const int bw, const double* rpiv,
-                                                 double* b) {
-  const int kv = 2 * bw, ldab = 3 * bw + 1;
-  double x[GB_FAST_BW];
-  int j, i;
-  for (i = 0; i < bw; ++i) x[i] = 0.0;
-  for (j = 0; j < n; ++j) { /* x[i - 1]: the unknown j - i */
-    double t = b[j];
-    for (i = bw; i >= 1; --i)
-      if (j - i >= 0) t -= AB[kv + i + (long)(j - i) * ldab] * x[i - 1];
-    b[j] = t;
-    for (i = bw - 1; i >= 1; --i) x[i] = x[i - 1];
-    x[0] = t;
-  }
-  for (i = 0; i < bw; ++i) x[i] = 0.0;
-  for (j = n - 1; j >= 0; --j) { /* x[i - 1]: the unknown j + i */
-    double t = b[j];
-    for (i = bw; i >= 1; --i)
-      if (j + i < n) t -= AB[kv - i + (long)(j + i) * ldab] * x[i - 1];
-    t *= rpiv[j];
-    b[j] = t;
-    for (i = bw - 1; i >= 1; --i) x[i] = x[i - 1];
-    x[0] = t;
-  }
-}
-
-/* The solve with svbi_gb_factor_r's factor: multiplications by the reciprocal pivots. */
-static SVBI_ALWAYS_INLINE void gb_solve_r(const double* AB, int n, const int bw, const int* ipiv, const double* rpiv,
-                                          double* b) {
+/* The forward substitution (row swaps and L) of gb_factor_r's factor, from column j0 on. */
+static SVBI_ALWAYS_INLINE void forward_columns(const double* AB, int n, const int bw, const int* ipiv, double* b,
+                                               int j0) {
   const int kv = 2 * bw, ldab = 3 * bw + 1;
   int j, i;
-  for (j = 0; j < n - 1; ++j) {
+  for (j = j0; j < n - 1; ++j) {
     const double* colj = AB + (long)j * ldab;
     int lm = bw < n - 1 - j ? bw : n - 1 - j;
     int l = ipiv[j];
@@ -310,6 +273,13 @@ static SVBI_ALWAYS_INLINE void gb_solve_r(const double* AB, int n, const int bw,
     else
       for (i = 1; i <= lm; ++i) b[j + i] -= colj[kv + i] * x;
   }
+}
+
+/* The backward substitution with U (its fill up to 2 bw above the diagonal), column by column. */
+static SVBI_ALWAYS_INLINE void backward_columns(const double* AB, int n, const int bw, const double* rpiv,
+                                                double* b) {
+  const int kv = 2 * bw, ldab = 3 * bw + 1;
+  int j, i;
   for (j = n - 1; j >= 0; --j) {
     const double* colj = AB + (long)j * ldab;
     double x = b[j] * rpiv[j];
@@ -321,27 +291,77 @@ static SVBI_ALWAYS_INLINE void gb_solve_r(const double* AB, int n, const int bw,
   }
 }
 
-#define GB_SOLVE_CASE(B)                           \
-  case B:                                          \
-    if (swapped)                                   \
-      gb_solve_r(AB, n, B, ipiv, rpiv, b);         \
-    else                                           \
-      gb_solve_diagonal(AB, n, B, rpiv, b);        \
-    return
+/* The forward substitution of a factor in which no row was swapped, row by row, the last bw
+ * unknowns in registers: an unknown's chain to the next is one multiply and one subtraction. A
+ * row's terms are subtracted farthest first, as forward_columns subtracts them: the same
+ * operations. */
+static SVBI_ALWAYS_INLINE void forward_rows(const double* AB, int n, const int bw, double* b) {
+  const int kv = 2 * bw, ldab = 3 * bw + 1;
+  double x[GB_FAST_BW];
+  int j, i;
+  for (i = 0; i < bw; ++i) x[i] = 0.0;
+  for (j = 0; j < n; ++j) { /* x[i - 1]: the unknown j - i */
+    double t = b[j];
+    for (i = bw; i >= 1; --i)
+      if (j - i >= 0) t -= AB[kv + i + (long)(j - i) * ldab] * x[i - 1];
+    b[j] = t;
+    for (i = bw - 1; i >= 1; --i) x[i] = x[i - 1];
+    x[0] = t;
+  }
+}
 
-void svbi_gb_solve_r(const double* AB, int n, int bw, const int* ipiv, const double* rpiv, double* b) {
+/* backward_columns for a factor in which no row was swapped, row by row as forward_rows (U's fill
+ * above its bw-th superdiagonal, zero without swaps, left out): the same operations. */
+static SVBI_ALWAYS_INLINE void backward_rows(const double* AB, int n, const int bw, const double* rpiv, double* b) {
+  const int kv = 2 * bw, ldab = 3 * bw + 1;
+  double x[GB_FAST_BW];
+  int j, i;
+  for (i = 0; i < bw; ++i) x[i] = 0.0;
+  for (j = n - 1; j >= 0; --j) { /* x[i - 1]: the unknown j + i */
+    double t = b[j];
+    for (i = bw; i >= 1; --i)
+      if (j + i < n) t -= AB[kv - i + (long)(j + i) * ldab] * x[i - 1];
+    t *= rpiv[j];
+    b[j] = t;
+    for (i = bw - 1; i >= 1; --i) x[i] = x[i - 1];
+    x[0] = t;
+  }
+}
+
+static int swapped_rows(const int* ipiv, int n) {
   int j, swapped = 0;
   for (j = 0; j < n; ++j) swapped |= ipiv[j] != j;
+  return swapped;
+}
+
+/* The banded LU with partial pivoting and reciprocal pivots (rpiv: n), and the solve with it, in
+ * one pass: the forward substitution of the diagonal columns goes along with their factorization
+ * (diagonal_columns), the rest follows; the backward substitution row by row where no row was
+ * swapped. fast: bw is a constant 1 .. GB_FAST_BW. */
+static SVBI_ALWAYS_INLINE int gb_factor_solve_r(double* AB, int n, const int bw, int* ipiv, double* rpiv, double* b,
+                                                const int fast) {
+  int j0 = fast ? diagonal_columns(AB, n, bw, ipiv, rpiv, b) : 0;
+  int status = gb_factor_r(AB, n, bw, ipiv, rpiv, j0);
+  if (status) return status;
+  forward_columns(AB, n, bw, ipiv, b, j0);
+  if (fast && !swapped_rows(ipiv, n))
+    backward_rows(AB, n, bw, rpiv, b);
+  else
+    backward_columns(AB, n, bw, rpiv, b);
+  return SVBI_SOLVER_STATUS_OK;
+}
+
+int svbi_gb_factor_solve_r(double* AB, int n, int bw, int* ipiv, double* rpiv, double* b) {
   switch (bw) {
-    GB_SOLVE_CASE(1);
-    GB_SOLVE_CASE(2);
-    GB_SOLVE_CASE(3);
-    GB_SOLVE_CASE(4);
-    GB_SOLVE_CASE(5);
-    GB_SOLVE_CASE(6);
-    GB_SOLVE_CASE(7);
-    GB_SOLVE_CASE(8);
-    default: gb_solve_r(AB, n, bw, ipiv, rpiv, b);
+    case 1: return gb_factor_solve_r(AB, n, 1, ipiv, rpiv, b, 1);
+    case 2: return gb_factor_solve_r(AB, n, 2, ipiv, rpiv, b, 1);
+    case 3: return gb_factor_solve_r(AB, n, 3, ipiv, rpiv, b, 1);
+    case 4: return gb_factor_solve_r(AB, n, 4, ipiv, rpiv, b, 1);
+    case 5: return gb_factor_solve_r(AB, n, 5, ipiv, rpiv, b, 1);
+    case 6: return gb_factor_solve_r(AB, n, 6, ipiv, rpiv, b, 1);
+    case 7: return gb_factor_solve_r(AB, n, 7, ipiv, rpiv, b, 1);
+    case 8: return gb_factor_solve_r(AB, n, 8, ipiv, rpiv, b, 1);
+    default: return gb_factor_solve_r(AB, n, bw, ipiv, rpiv, b, 0);
   }
 }
 

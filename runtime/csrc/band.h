@@ -44,9 +44,9 @@ void svbi_dense_solve(const double* L, int n, double* b);
 int svbi_gb_factor(double* AB, int n, int bw, int* ipiv);
 void svbi_gb_solve(const double* AB, int n, int bw, const int* ipiv, double* b);
 
-/* The same with the reciprocal pivots stored (rpiv: n): multiplications instead of divisions. */
-int svbi_gb_factor_r(double* AB, int n, int bw, int* ipiv, double* rpiv);
-void svbi_gb_solve_r(const double* AB, int n, int bw, const int* ipiv, const double* rpiv, double* b);
+/* The same factor with the reciprocal pivots stored (rpiv: n; multiplications instead of
+ * divisions), and the solve of b in place, in one pass (the localized interface). */
+int svbi_gb_factor_solve_r(double* AB, int n, int bw, int* ipiv, double* rpiv, double* b);
 
 /* Clear a general band matrix, add v to its element (r, c). */
 static inline void svbi_gb_zero(double* AB, int n, int bw) {

@@ -203,10 +203,8 @@ int svbi_interface_finish(const setup_t* S, work_t* w, int n, int bw, const int*
       }
     }
   }
-  status = svbi_gb_factor_r(w->band, n, bw, w->piv, w->rpiv);
-  if (status) return status;
-  svbi_gb_solve_r(w->band, n, bw, w->piv, w->rpiv, w->bsol);
-  return ST_OK;
+  status = svbi_gb_factor_solve_r(w->band, n, bw, w->piv, w->rpiv, w->bsol);
+  return status ? status : ST_OK;
 }
 
 #if !SVBI_MOVING_LOAD
