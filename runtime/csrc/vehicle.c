@@ -222,25 +222,6 @@ void svbi_creep_bridge_load(const setup_t* S, const double* force, work_t* w) {
   }
 }
 
-/* The aux-bridge row target h_B of contact i (on the bridge: the discrete row; off: the ground). */
-double svbi_row_target(const setup_t* S, const work_t* w, int i, double Pg, double Qg) {
-  int nc = S->nc, k;
-  const double* row = w->crow + (long)i * ROW_COLS;
-  double r = w->rail[i], r1 = w->rail[nc + i], r2 = w->rail[2 * nc + i];
-  if (w->con[i]) {
-    int s = w->cspan[i], f = w->cfirst[i];
-    double sp = 0.0, sq = 0.0;
-    for (k = 0; k < NNZ_C_P_UE; ++k) sp += row[COL_C_P_UE + nz_c_P_ue[k]] * BR(w->PB, s, f + nz_c_P_ue[k]);
-    for (k = 0; k < NNZ_C_Q_UE; ++k) sq += row[COL_C_Q_UE + nz_c_Q_ue[k]] * BR(w->QB, s, f + nz_c_Q_ue[k]);
-    return row[COL_C_P_UG] * Pg + row[COL_C_Q_UG] * Qg + sp + sq + row[COL_C_R] * r +
-           row[COL_C_R_X] * r1 + row[COL_C_R_XX] * r2;
-  } else {
-    double v = w->v;
-    double q = w->under[i], q1 = w->under[nc + i], q2 = w->under[2 * nc + i];
-    double track2 = w->a == 0.0 ? v * v * r2 : v * v * r2 + w->a * r1; /* Z'' = q'' + v^2 r'' + a r' */
-    return S->p_P * Pg + S->p_Q * Qg + S->p_q2 * (q2 + track2) + S->p_q1 * (q1 + v * r1) + S->p_q * (q + r);
-  }
-}
 #else
 typedef int svbi_no_vehicle; /* ISO C wants a declaration in every translation unit */
 #endif
