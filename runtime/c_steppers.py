@@ -539,11 +539,8 @@ class CStepper:
         S.sup, S.free = self._arr(sup, np.int32), self._arr(free, np.int32)
         S.sup_vertical = self._arr(b.support_vertical.astype(np.int32), np.int32)
         S.sup_x = self._arr(b.support_x[0] - 0.0)
-        for name, mat in (("M", b.M), ("C", b.C)):
-            ptr, idx, val = _csr(mat)
-            setattr(S, f"{name}_ptr", self._arr(ptr, np.int32))
-            setattr(S, f"{name}_idx", self._arr(idx, np.int32))
-            setattr(S, f"{name}_val", self._arr(val))
+        ptr, idx, val = _csr(b.C)  # the damping rows of the plastic impact (impact.c)
+        S.C_ptr, S.C_idx, S.C_val = self._arr(ptr, np.int32), self._arr(idx, np.int32), self._arr(val)
         union = (b.M != 0) | (b.C != 0)
         ptr, idx, _ = _csr(union.astype(float))
         rows = np.repeat(np.arange(b.ndof), np.diff(ptr))

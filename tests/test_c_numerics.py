@@ -60,6 +60,8 @@ def library() -> ctypes.CDLL:
     lib.svbi_band_cholesky.argtypes = [DP, ctypes.c_int, ctypes.c_int]
     lib.svbi_band_solve.argtypes = [DP, ctypes.c_int, ctypes.c_int, DP]
     lib.svbi_band_solve_blocked.argtypes = [DP, DP, ctypes.c_int, ctypes.c_int, DP, ctypes.c_long]
+    lib.svbi_band_unit_factor.argtypes = [DP, ctypes.c_int, ctypes.c_int, DP, DP, DP]
+    lib.svbi_band_solve_lanes.argtypes = [DP, DP, DP, ctypes.c_int, ctypes.c_int, DP, IP, ctypes.c_long]
     lib.svbi_dense_cholesky.argtypes = [DP, ctypes.c_int]
     lib.svbi_dense_solve.argtypes = [DP, ctypes.c_int, DP]
     lib.svbi_gb_factor.argtypes = [DP, ctypes.c_int, ctypes.c_int, IP]
@@ -79,6 +81,8 @@ def library() -> ctypes.CDLL:
     for name in (
         "svbi_band_solve",
         "svbi_band_solve_blocked",
+        "svbi_band_unit_factor",
+        "svbi_band_solve_lanes",
         "svbi_dense_solve",
         "svbi_gb_solve",
     ):
@@ -175,6 +179,36 @@ def test_band_solve_blocked_solves_every_right_hand_side(nblk: int) -> None:
     library().svbi_band_solve_blocked(dp(factor), dp(dinv), n, p, dp(x), nblk)
     expected = scipy.linalg.cho_solve_banded((scipy.linalg.cholesky_banded(ab, lower=True), True), b)
     np.testing.assert_allclose(x, expected, rtol=1e-12, atol=1e-13)
+
+
+LW = 4  # lanes per group of svbi_band_solve_lanes (runtime/csrc/band.h)
+
+
+@pytest.mark.parametrize(
+    ("p", "m", "permuted"), [(1, 4, False), (3, 12, True), (3, 20, False), (5, 8, True), (6, 36, True)]
+)
+def test_band_solve_lanes_solves_every_lane(p: int, m: int, permuted: bool) -> None:
+    """The span solves of both methods (svbi_band_unit_factor, then svbi_band_solve_lanes: the last
+    rows in registers, three groups of LW lanes at a time and the rest): every lane one solve, rows
+    placed through ``rows`` (the localized predictor's free DOFs) or in order (no rows), against SciPy."""
+    rng = np.random.default_rng(10 * p + m)
+    n = 48
+    a = spd_band(rng, n, p)
+    ab = lower_band(a, p)
+    factor = np.array(ab.T, order="C")
+    assert library().svbi_band_cholesky(dp(factor), n, p) == c_solver_build.STATUS_OK
+    fw, bk, dinv2 = np.zeros(n * p), np.zeros(n * p), np.zeros(n)
+    library().svbi_band_unit_factor(dp(factor), n, p, dp(fw), dp(bk), dp(dinv2))
+    rows = (rng.permutation(n + 3)[:n] if permuted else np.arange(n)).astype(np.int32)
+    b = rng.standard_normal((n, m))
+    x = rng.standard_normal((n + 3, m))  # unused rows stay as they are
+    x[rows] = b
+    before = x.copy()
+    library().svbi_band_solve_lanes(dp(fw), dp(bk), dp(dinv2), n, p, dp(x), ip(rows) if permuted else None, m)
+    expected = scipy.linalg.cho_solve_banded((scipy.linalg.cholesky_banded(ab, lower=True), True), b)
+    np.testing.assert_allclose(x[rows], expected, rtol=1e-12, atol=1e-13)
+    untouched = np.setdiff1d(np.arange(n + 3), rows)
+    np.testing.assert_array_equal(x[untouched], before[untouched])
 
 
 def test_band_cholesky_reports_a_matrix_that_is_not_positive_definite() -> None:

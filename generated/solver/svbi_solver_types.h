@@ -101,9 +101,6 @@ typedef struct {
   const int* sup_vertical; /* ns: 1 for a vertical support, 0 for the longitudinal one */
   const double* sup_x; /* ns: position of every support in its span (0 or L) */
   const int* free; /* nfree: span DOFs that are not support DOFs */
-  const int* M_ptr; /* nd + 1: CSR row pointers of the span mass matrix */
-  const int* M_idx; /* CSR column indices */
-  const double* M_val; /* CSR values */
   const int* C_ptr; /* nd + 1: CSR row pointers of the span damping matrix */
   const int* C_idx; /* CSR column indices */
   const double* C_val; /* CSR values */

@@ -85,6 +85,83 @@ void svbi_band_solve_blocked(const double* L, const double* dinv, int n, int p, 
       for (l = 0; l < SW; ++l) bj[k * SW + l] *= di;
   }
 }
+/* Solve L L^T X = B in place for m right-hand sides (m a multiple of LW) held row after row: row j
+ * at b + row(j) m, row(j) = rows[j] (or j without rows). With U = L D^-1 (unit lower, D = diag L),
+ * L L^T = U D^2 U^T: U z = b forward, then U^T x = D^-2 z backward (fw, bk, dinv2). The
+ * sweeps are latency-bound (each row waits for the one before), so the last P rows' results stay
+ * in registers (a window sliding down, then up), G groups of LW lanes side by side (independent
+ * chains), and a row's chain to the next is one multiply and one subtraction: the nearest row is
+ * subtracted last, and no scaling by the diagonal is on it. P and G are constants where
+ * window_solve is inlined, so that its loops unroll and its arrays live in registers. */
+static SVBI_ALWAYS_INLINE void window_solve(const double* fw, const double* bk, const double* dinv2, double* b,
+                                            const int* rows, long m, long c, int n, const int P, const int G) {
+  enum { K = FS_G * LW / VW };
+  const int k1 = G * LW / VW; /* registers per row */
+  vec_t x[FS_PMAX][K], t[K];
+  int j, r, k;
+  for (r = 0; r < P; ++r)
+    for (k = 0; k < k1; ++k) x[r][k] = (vec_t){0.0};
+  for (j = 0; j < n; ++j) {
+    double* restrict bj = b + (long)(rows ? rows[j] : j) * m + c;
+    const double* u = fw + (long)j * P;
+    for (k = 0; k < k1; ++k) t[k] = VEC(bj + k * VW);
+    for (r = P; r >= 1; --r)
+      for (k = 0; k < k1; ++k) t[k] -= u[r - 1] * x[r - 1][k];
+    for (k = 0; k < k1; ++k) VEC(bj + k * VW) = t[k];
+    for (r = P - 1; r >= 1; --r)
+      for (k = 0; k < k1; ++k) x[r][k] = x[r - 1][k];
+    for (k = 0; k < k1; ++k) x[0][k] = t[k];
+  }
+  for (r = 0; r < P; ++r)
+    for (k = 0; k < k1; ++k) x[r][k] = (vec_t){0.0};
+  for (j = n - 1; j >= 0; --j) {
+    double* restrict bj = b + (long)(rows ? rows[j] : j) * m + c;
+    const double* u = bk + (long)j * P;
+    double d = dinv2[j];
+    for (k = 0; k < k1; ++k) t[k] = VEC(bj + k * VW) * d;
+    for (r = P; r >= 1; --r)
+      for (k = 0; k < k1; ++k) t[k] -= u[r - 1] * x[r - 1][k];
+    for (k = 0; k < k1; ++k) VEC(bj + k * VW) = t[k];
+    for (r = P - 1; r >= 1; --r)
+      for (k = 0; k < k1; ++k) x[r][k] = x[r - 1][k];
+    for (k = 0; k < k1; ++k) x[0][k] = t[k];
+  }
+}
+
+/* window_solve over all m lanes, FS_G groups of LW at a time, for the factor's half-bandwidth p
+ * (the frame's 3 in reverse Cuthill-McKee order; up to FS_PMAX). */
+static SVBI_ALWAYS_INLINE void window_lanes(const double* fw, const double* bk, const double* dinv2, double* b,
+                                            const int* rows, long m, int n, const int P) {
+  long c = 0;
+  for (; c + FS_G * LW <= m; c += FS_G * LW) window_solve(fw, bk, dinv2, b, rows, m, c, n, P, FS_G);
+  if (m - c == 2 * LW) window_solve(fw, bk, dinv2, b, rows, m, c, n, P, 2);
+  else if (m - c == LW) window_solve(fw, bk, dinv2, b, rows, m, c, n, P, 1);
+}
+
+void svbi_band_solve_lanes(const double* fw, const double* bk, const double* dinv2, int n, int p, double* b,
+                           const int* rows, long m) {
+  switch (p) {
+    case 1: window_lanes(fw, bk, dinv2, b, rows, m, n, 1); return;
+    case 2: window_lanes(fw, bk, dinv2, b, rows, m, n, 2); return;
+    case 3: window_lanes(fw, bk, dinv2, b, rows, m, n, 3); return;
+    case 4: window_lanes(fw, bk, dinv2, b, rows, m, n, 4); return;
+    case 5: window_lanes(fw, bk, dinv2, b, rows, m, n, 5); return;
+    default: window_lanes(fw, bk, dinv2, b, rows, m, n, 6); return;
+  }
+}
+
+void svbi_band_unit_factor(const double* L, int n, int p, double* fw, double* bk, double* dinv2) {
+  int k, r;
+  for (k = 0; k < n; ++k) {
+    double d = L[(long)k * (p + 1)];
+    dinv2[k] = 1.0 / (d * d);
+    for (r = 1; r <= p; ++r) {
+      fw[(long)k * p + r - 1] = k >= r ? L[(long)(k - r) * (p + 1) + r] / L[(long)(k - r) * (p + 1)] : 0.0;
+      bk[(long)k * p + r - 1] = k + r < n ? L[(long)k * (p + 1) + r] / L[(long)k * (p + 1)] : 0.0;
+    }
+  }
+}
+
 /* General band matrix in LAPACK layout: A(r, c) at AB[(kv + r - c) + c * ldab], kv = kl + ku,
  * ldab = 2 kl + ku + 1. LU with partial pivoting (dgbtf2) and the solve (dgbtrs), kl = ku = bw. */
 int svbi_gb_factor(double* AB, int n, int bw, int* ipiv) {
@@ -362,16 +439,6 @@ int svbi_gb_factor_solve_r(double* AB, int n, int bw, int* ipiv, double* rpiv, d
     case 7: return gb_factor_solve_r(AB, n, 7, ipiv, rpiv, b, 1);
     case 8: return gb_factor_solve_r(AB, n, 8, ipiv, rpiv, b, 1);
     default: return gb_factor_solve_r(AB, n, bw, ipiv, rpiv, b, 0);
-  }
-}
-
-/* y += A x for a CSR matrix. */
-void svbi_csr_add(const int* ptr, const int* idx, const double* val, int n, const double* x, double* y) {
-  int i, k;
-  for (i = 0; i < n; ++i) {
-    double s = 0.0;
-    for (k = ptr[i]; k < ptr[i + 1]; ++k) s += val[k] * x[idx[k]];
-    y[i] += s;
   }
 }
 

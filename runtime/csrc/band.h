@@ -23,6 +23,25 @@
 #define SVBI_ALWAYS_INLINE inline
 #endif
 
+/* lanes of the localized bridge state: spans padded to a multiple of LW ([DOF][spans]); four
+ * doubles fill one AVX2 register (c_solver_build.simd_flags), two SSE2 registers */
+#define LW 4
+/* the lane solves (svbi_band_solve_lanes): FS_G groups of LW lanes side by side, the factor's
+ * half-bandwidth at most FS_PMAX (a frame span's is 3 in reverse Cuthill-McKee order, 5 at most) */
+#define FS_G 3
+#define FS_PMAX 6
+/* VW doubles as one value: the register of the lane loops that keep their values in registers (a
+ * GNU C vector, the width of the target's registers; the build flags already ask for a
+ * GCC-compatible compiler). VEC(p) is the VW doubles at p, read or written as one (vec_u: no
+ * alignment assumed, may alias the doubles). */
+#if defined(__AVX__)
+#define VW 4
+#else
+#define VW 2
+#endif
+typedef double vec_t __attribute__((vector_size(VW * sizeof(double))));
+typedef double vec_u __attribute__((vector_size(VW * sizeof(double)), aligned(sizeof(double)), may_alias));
+#define VEC(p) (*(vec_u*)(p))
 #define SW 4 /* spans per block of the localized bridge state ([block][DOF][SW], padded with zeros) */
 
 /* Lower band Cholesky in place. Returns SVBI_SOLVER_STATUS_NOT_SPD on a non-positive pivot. */
@@ -34,6 +53,16 @@ void svbi_band_solve(const double* L, int n, int p, double* b);
 /* Solve L L^T X = B in place for nblk * SW right-hand sides stored row by row (B[j * m + s],
  * m = nblk * SW); dinv holds the reciprocals of L's diagonal. */
 void svbi_band_solve_blocked(const double* L, const double* dinv, int n, int p, double* b, long nblk);
+
+/* The band Cholesky factor L (p <= FS_PMAX) as the unit triangle U = L D^-1 (D = diag L), dense in
+ * its band: row j's U(j, j - r) at fw[j p + r - 1], column j's U(j + r, j) at bk[j p + r - 1] (zero
+ * where nothing couples or beyond the matrix), and dinv2[j] = 1 / L(j, j)^2. */
+void svbi_band_unit_factor(const double* L, int n, int p, double* fw, double* bk, double* dinv2);
+
+/* Solve L L^T X = B in place with svbi_band_unit_factor's arrays, for m right-hand sides (m a
+ * multiple of LW) held row after row: row j at b + row(j) m, row(j) = rows[j] (or j without rows). */
+void svbi_band_solve_lanes(const double* fw, const double* bk, const double* dinv2, int n, int p, double* b,
+                           const int* rows, long m);
 
 /* Dense Cholesky of an n x n row-major matrix in place (lower triangle); the solve with it. */
 int svbi_dense_cholesky(double* A, int n);
@@ -57,7 +86,5 @@ static inline void svbi_gb_add(double* AB, int bw, int r, int c, double v) {
   AB[(2 * bw + r - c) + (long)c * (3 * bw + 1)] += v;
 }
 
-/* y += A x for a CSR matrix with n rows. */
-void svbi_csr_add(const int* ptr, const int* idx, const double* val, int n, const double* x, double* y);
 
 #endif /* SVBI_SOLVER_BAND_H */

@@ -80,18 +80,19 @@ void svbi_support_targets(const setup_t* S, work_t* w) {
   }
 }
 
+/* The span load f = C T q' + M P + C Q of span s (span after span layout), row by row in one pass
+ * over M and C's common pattern (work_t MC_*; C = alpha M + beta K), as localized.c's rhs_lanes. */
 void svbi_span_load(const setup_t* S, const work_t* w, int s, double* f) {
-  int i, j, nd = S->nd, ns = S->ns, NS = S->spans * S->ns;
+  int i, j, k, nd = S->nd, ns = S->ns, NS = S->spans * S->ns;
   const double* P = w->PB + (long)s * nd;
   const double* Q = w->QB + (long)s * nd;
   const double* q1 = w->qs + NS + (long)s * ns;
   for (i = 0; i < nd; ++i) {
     double v = 0.0;
     for (j = 0; j < ns; ++j) v += S->CT[i * ns + j] * q1[j];
+    for (k = S->MC_ptr[i]; k < S->MC_ptr[i + 1]; ++k) v += S->MC_m[k] * P[S->MC_idx[k]] + S->MC_c[k] * Q[S->MC_idx[k]];
     f[i] = v;
   }
-  svbi_csr_add(S->M_ptr, S->M_idx, S->M_val, nd, P, f);
-  svbi_csr_add(S->C_ptr, S->C_idx, S->C_val, nd, Q, f);
 }
 
 /* svbi_bridge_update followed by the histories of the next step (svbi_bridge_histories without

@@ -95,6 +95,7 @@ static int multiplier_bandwidth(const setup_t* S, const work_t* w, int per_conta
 int svbi_coupled_init(const setup_t* S, work_t* w) {
   int i, j, nd = S->nd, p = S->band_p;
   for (i = 0; i < nd; ++i) w->Kdinv[i] = 1.0 / w->Kb[(long)i * (p + 1)];
+  if (p <= FS_PMAX) svbi_band_unit_factor(w->Kb, nd, p, w->Kfw, w->Kbk, w->Kd2);
   for (j = 0; j < nd; ++j) {
     double* col = w->XB; /* scratch */
     for (i = 0; i < nd; ++i) col[i] = i == j ? 1.0 : 0.0;
@@ -116,7 +117,7 @@ int svbi_coupled_init(const setup_t* S, work_t* w) {
 }
 
 /* Solve K^_B x_s = f_s for every span at once: f (span after span, nd each) is copied into XB, DOF
- * after DOF over the spans padded to a multiple of SW, and solved there by one blocked solve. */
+ * after DOF over the spans padded to a multiple of SW, and solved there by one lane solve. */
 static void span_solve(const setup_t* S, work_t* w, const double* f) {
   int s, i, nd = S->nd, spans = S->spans;
   long pad = (spans + SW - 1) / SW * SW;
@@ -125,7 +126,10 @@ static void span_solve(const setup_t* S, work_t* w, const double* f) {
     for (s = 0; s < spans; ++s) x[s] = f[(long)s * nd + i];
     for (; s < pad; ++s) x[s] = 0.0;
   }
-  svbi_band_solve_blocked(w->Kb, w->Kdinv, nd, S->band_p, w->XB, pad / SW);
+  if (S->band_p <= FS_PMAX) /* the last rows in registers, as localized-dynamic's span solves */
+    svbi_band_solve_lanes(w->Kfw, w->Kbk, w->Kd2, nd, S->band_p, w->XB, 0, pad);
+  else
+    svbi_band_solve_blocked(w->Kb, w->Kdinv, nd, S->band_p, w->XB, pad / SW);
 }
 
 /* Eliminate the span blocks: y_s = K^-1 f_s (all spans at once, in XB); for the attachments a, b

@@ -38,25 +38,6 @@
 #endif
 
 #define NE 6 /* DOFs of one bridge element (frame2d) */
-/* lanes of the localized bridge state: spans padded to a multiple of LW ([DOF][spans]); four
- * doubles fill one AVX2 register (c_solver_build.simd_flags), two SSE2 registers */
-#define LW 4
-/* the span solves (localized.c, factor_solve): FS_G groups of LW lanes side by side, the factor's
- * half-bandwidth at most FS_PMAX (the frame's is 3 in reverse Cuthill-McKee order, 5 at most) */
-#define FS_G 3
-#define FS_PMAX 6
-/* VW doubles as one value: the register of the lane loops that keep their values in registers (a
- * GNU C vector, the width of the target's registers; the build flags already ask for a
- * GCC-compatible compiler). VEC(p) is the VW doubles at p, read or written as one (vec_u: no
- * alignment assumed, may alias the doubles). */
-#if defined(__AVX__)
-#define VW 4
-#else
-#define VW 2
-#endif
-typedef double vec_t __attribute__((vector_size(VW * sizeof(double))));
-typedef double vec_u __attribute__((vector_size(VW * sizeof(double)), aligned(sizeof(double)), may_alias));
-#define VEC(p) (*(vec_u*)(p))
 #define VLANES 4 /* cars per chunk of the localized vehicles' lane layout (as LW) */
 #define SC_NNZ_MAX 8 /* contact-row non-zeros up to which the interface uses work_t SC */
 #define CAR_KMAX (3 * VLANES / VW) /* registers of three chunks (vehicle.c) */
@@ -190,6 +171,9 @@ typedef struct {
   /* ---- coupled methods (coupled.c; set once by svbi_coupled_init) ---- */
   double* Kinv;  /* nd x nd: K^_B^-1, dense (row-major, symmetric) */
   double* Kdinv; /* nd: reciprocal diagonal of the span factor Kb */
+  double* Kfw;   /* nd x band_p: Kb as a unit triangle (svbi_band_unit_factor; band_p <= FS_PMAX) */
+  double* Kbk;   /* nd x band_p */
+  double* Kd2;   /* nd */
   double* XB;    /* nd x pad: span right-hand sides, DOF after DOF over the spans padded to SW */
   double* Kvinv; /* NV x NV: inverse of the car's effective matrix */
   /* ---- a bridge of substructures (general.c) ---- */

@@ -6,67 +6,9 @@
  */
 #include "internal.h"
 
-/* Solve L L^T X = B in place for m right-hand sides (m a multiple of LW) held row after row: row j
- * at b + row(j) m, row(j) = rows[j] (or j without rows). With U = L D^-1 (unit lower, D = diag L),
- * L L^T = U D^2 U^T: U z = b forward, then U^T x = D^-2 z backward (work_t fw_d, bk_d, dinv2). The
- * sweeps are latency-bound (each row waits for the one before), so the last P rows' results stay
- * in registers (a window sliding down, then up), G groups of LW lanes side by side (independent
- * chains), and a row's chain to the next is one multiply and one subtraction: the nearest row is
- * subtracted last, and no scaling by the diagonal is on it. P and G are constants where
- * window_solve is inlined, so that its loops unroll and its arrays live in registers. */
-static SVBI_ALWAYS_INLINE void window_solve(const work_t* w, double* b, const int* rows, long m, long c, int n,
-                                            const int P, const int G) {
-  enum { K = FS_G * LW / VW };
-  const int k1 = G * LW / VW; /* registers per row */
-  vec_t x[FS_PMAX][K], t[K];
-  int j, r, k;
-  for (r = 0; r < P; ++r)
-    for (k = 0; k < k1; ++k) x[r][k] = (vec_t){0.0};
-  for (j = 0; j < n; ++j) {
-    double* restrict bj = b + (long)(rows ? rows[j] : j) * m + c;
-    const double* u = w->fw_d + (long)j * P;
-    for (k = 0; k < k1; ++k) t[k] = VEC(bj + k * VW);
-    for (r = P; r >= 1; --r)
-      for (k = 0; k < k1; ++k) t[k] -= u[r - 1] * x[r - 1][k];
-    for (k = 0; k < k1; ++k) VEC(bj + k * VW) = t[k];
-    for (r = P - 1; r >= 1; --r)
-      for (k = 0; k < k1; ++k) x[r][k] = x[r - 1][k];
-    for (k = 0; k < k1; ++k) x[0][k] = t[k];
-  }
-  for (r = 0; r < P; ++r)
-    for (k = 0; k < k1; ++k) x[r][k] = (vec_t){0.0};
-  for (j = n - 1; j >= 0; --j) {
-    double* restrict bj = b + (long)(rows ? rows[j] : j) * m + c;
-    const double* u = w->bk_d + (long)j * P;
-    double d = w->dinv2[j];
-    for (k = 0; k < k1; ++k) t[k] = VEC(bj + k * VW) * d;
-    for (r = P; r >= 1; --r)
-      for (k = 0; k < k1; ++k) t[k] -= u[r - 1] * x[r - 1][k];
-    for (k = 0; k < k1; ++k) VEC(bj + k * VW) = t[k];
-    for (r = P - 1; r >= 1; --r)
-      for (k = 0; k < k1; ++k) x[r][k] = x[r - 1][k];
-    for (k = 0; k < k1; ++k) x[0][k] = t[k];
-  }
-}
-
-/* window_solve over all m lanes, FS_G groups of LW at a time, for the factor's half-bandwidth p
- * (the frame's 3 in reverse Cuthill-McKee order; up to FS_PMAX). */
-static SVBI_ALWAYS_INLINE void window_lanes(const work_t* w, double* b, const int* rows, long m, int n, const int P) {
-  long c = 0;
-  for (; c + FS_G * LW <= m; c += FS_G * LW) window_solve(w, b, rows, m, c, n, P, FS_G);
-  if (m - c == 2 * LW) window_solve(w, b, rows, m, c, n, P, 2);
-  else if (m - c == LW) window_solve(w, b, rows, m, c, n, P, 1);
-}
-
+/* The span solve K^_ff X = B for m lanes (svbi_band_solve_lanes with the factor of solver.c). */
 static void factor_solve(const setup_t* S, const work_t* w, double* b, const int* rows, long m) {
-  switch (S->band_pf) {
-    case 1: window_lanes(w, b, rows, m, S->nfree, 1); return;
-    case 2: window_lanes(w, b, rows, m, S->nfree, 2); return;
-    case 3: window_lanes(w, b, rows, m, S->nfree, 3); return;
-    case 4: window_lanes(w, b, rows, m, S->nfree, 4); return;
-    case 5: window_lanes(w, b, rows, m, S->nfree, 5); return;
-    default: window_lanes(w, b, rows, m, S->nfree, 6); return;
-  }
+  svbi_band_solve_lanes(w->fw_d, w->bk_d, w->dinv2, S->nfree, S->band_pf, b, rows, m);
 }
 
 /* Row k (span DOF row) of the predictor's right-hand side f_f - K^_fs q^, f = M P + C Q + C T q',

@@ -162,6 +162,9 @@ static void carve(const setup_t* S, carver_t* c, work_t* w) {
     long on = S->method != 0, cpad = on ? (spans + SW - 1) / SW * SW : 0;
     w->Kinv = take_d(c, on * nd * nd);
     w->Kdinv = take_d(c, on * nd);
+    w->Kfw = take_d(c, on * nd * S->band_p);
+    w->Kbk = take_d(c, on * nd * S->band_p);
+    w->Kd2 = take_d(c, on * nd);
     w->XB = take_d(c, cpad * nd);
     w->Kvinv = take_d(c, on * nv * nv);
   }
@@ -330,22 +333,8 @@ int svbi_solver_init(const setup_t* S, double* work, int* iwork) {
     memcpy(w.Lff, S->Khat_ff_band, sizeof(double) * (size_t)S->nfree * (size_t)(S->band_pf + 1));
     status = svbi_band_cholesky(w.Lff, S->nfree, S->band_pf);
     if (status) return status;
-    {
-      /* the factor as the unit triangle U = L D^-1, dense in its band, row by row and column by
-       * column (work_t); the diagonal as 1 / L(j, j)^2 */
-      int r, p = S->band_pf, n = S->nfree;
-      if (p > FS_PMAX) return ST_BANDWIDTH;
-      for (k = 0; k < n; ++k) {
-        double d = w.Lff[(long)k * (p + 1)];
-        w.dinv2[k] = 1.0 / (d * d);
-      }
-      for (k = 0; k < n; ++k) {
-        for (r = 1; r <= p; ++r) {
-          w.fw_d[(long)k * p + r - 1] = k >= r ? w.Lff[(long)(k - r) * (p + 1) + r] / w.Lff[(long)(k - r) * (p + 1)] : 0.0;
-          w.bk_d[(long)k * p + r - 1] = k + r < n ? w.Lff[(long)k * (p + 1) + r] / w.Lff[(long)k * (p + 1)] : 0.0;
-        }
-      }
-    }
+    if (S->band_pf > FS_PMAX) return ST_BANDWIDTH;
+    svbi_band_unit_factor(w.Lff, S->nfree, S->band_pf, w.fw_d, w.bk_d, w.dinv2);
   }
   return ST_OK;
 }
