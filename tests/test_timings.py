@@ -150,6 +150,15 @@ def test_cli_and_run_path_defer_heavy_imports():
     assert not (whole["matplotlib"] or whole["sympy"] or whole["casadi"]), whole
 
 
+def test_a_run_shorter_than_the_bar_delay_imports_no_progress_bar():
+    """The progress bar (tqdm) shows after 1 s of loop; a shorter run does not import tqdm."""
+    probe = (
+        f"import sys\nimport svbi\nsvbi.simulate({SCENARIO!r}, progress=True)\nprint('tqdm' in sys.modules)"
+    )
+    done = subprocess.run([sys.executable, "-c", probe], capture_output=True, text=True, check=True)
+    assert done.stdout.strip().splitlines()[-1] == "False", done.stdout + done.stderr
+
+
 def test_compiled_run_imports_the_results_modules_during_the_loop():
     """A C-backend run imports xarray in the background thread that it starts at the loop
     (``results.ImportAhead``; the C loop releases the GIL), and not before the loop: the run-path
