@@ -93,10 +93,11 @@ def test_svbi_run_prints_the_timings(tmp_path: Path):
         assert ds.attrs["setup_time_s"] + ds.attrs["loop_time_s"] <= ds.attrs["wall_time_s"]
 
 
-def test_console_script_freezes_gc_at_exit_and_keeps_exit_status(tmp_path: Path, monkeypatch):
-    """``svbi`` (``cli.main``) freezes the garbage collector as the process ends, so that shutdown
-    skips the cyclic collections over the libraries' objects; the exit status and the results file
-    are those of the command: 0 and a complete file, 2 for an invalid scenario."""
+def test_console_script_ends_quickly_and_keeps_exit_status(tmp_path: Path, monkeypatch):
+    """``svbi`` (``cli.main``): `svbi run` ends without the interpreter's shutdown (``os._exit``
+    once the results are written; atexit handlers still run) with the command's exit status and a
+    complete file, 2 for an invalid scenario; the other commands freeze the garbage collector as
+    the process ends, so that shutdown skips the cyclic collections over the libraries' objects."""
     import gc
 
     from svbi.runtime import cli
@@ -104,23 +105,32 @@ def test_console_script_freezes_gc_at_exit_and_keeps_exit_status(tmp_path: Path,
     scenario = tmp_path / "s.toml"
     scenario.write_text(TOML)
     out = tmp_path / "r.nc"
-    monkeypatch.setattr(sys, "argv", ["svbi", "run", str(scenario), "-o", str(out), "-q"])
-    try:
-        with pytest.raises(SystemExit) as done:
-            cli.main()
-        assert gc.get_freeze_count() > 0
-    finally:
-        gc.unfreeze()
-    assert done.value.code in (0, None)
+
+    def svbi(*args: str) -> subprocess.CompletedProcess:
+        probe = (
+            "import atexit, sys\nfrom svbi.runtime.cli import main\n"
+            "atexit.register(lambda: print('atexit ran'))\n"
+            f"sys.argv = {['svbi', *args]!r}\nmain()\n"
+        )
+        return subprocess.run([sys.executable, "-c", probe], capture_output=True, text=True, check=False)
+
+    done = svbi("run", str(scenario), "-o", str(out), "-q")
+    assert done.returncode == 0 and "atexit ran" in done.stdout, done.stdout + done.stderr
     with xr.open_dataset(out, engine="h5netcdf") as ds:
         assert ds.attrs["complete"] == 1 and ds.attrs["steps"] == 50
         assert ds.sizes["time"] == 50 // ds.attrs["output_every"] + 1
     bad = tmp_path / "bad.toml"
     bad.write_text(TOML.replace("duration = 0.05", "duration = -1.0"))
-    argv = ["svbi", "run", str(bad), "-o", str(tmp_path / "x.nc")]
-    probe = f"import sys\nfrom svbi.runtime.cli import main\nsys.argv = {argv!r}\nmain()\n"
-    failed = subprocess.run([sys.executable, "-c", probe], capture_output=True, text=True)
+    failed = svbi("run", str(bad), "-o", str(tmp_path / "x.nc"))
     assert failed.returncode == 2 and "duration" in failed.stderr, failed.stderr
+    monkeypatch.setattr(sys, "argv", ["svbi", "metrics", str(out)])
+    try:
+        with pytest.raises(SystemExit) as metrics:
+            cli.main()
+        assert gc.get_freeze_count() > 0
+    finally:
+        gc.unfreeze()
+    assert metrics.value.code in (0, None)
 
 
 def _fresh(code: str) -> dict[str, bool]:
@@ -148,6 +158,32 @@ def test_cli_and_run_path_defer_heavy_imports():
     # over a whole run
     whole = _fresh(f"import svbi\nsvbi.simulate({SCENARIO!r})\n")
     assert not (whole["matplotlib"] or whole["sympy"] or whole["casadi"]), whole
+
+
+def test_every_command_is_registered_by_the_module_the_cli_names():
+    """`svbi COMMAND` registers only COMMAND's module (cli.COMMAND_MODULES): every module's commands
+    are the ones the table gives it, and the table has every command."""
+    import importlib
+
+    import typer
+    from svbi.runtime import cli
+
+    for module in set(cli.COMMAND_MODULES.values()):
+        group = typer.Typer()
+        importlib.import_module(f"svbi.runtime.{module}").register(group)
+        names = {c.name for c in group.registered_commands}
+        assert names == {k for k, v in cli.COMMAND_MODULES.items() if v == module}, module
+    done = subprocess.run(
+        [
+            sys.executable,
+            "-c",
+            "import sys; from svbi.runtime.cli import main; sys.argv = ['svbi', 'run', '--help']; main()",
+        ],
+        capture_output=True,
+        text=True,
+        check=False,
+    )
+    assert done.returncode == 0 and "Run a scenario" in done.stdout, done.stdout + done.stderr
 
 
 def test_a_run_shorter_than_the_bar_delay_imports_no_progress_bar():
