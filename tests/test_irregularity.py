@@ -287,3 +287,15 @@ def test_factory_kinds(tmp_path) -> None:
     assert high.ramp.start == 2.0
     with pytest.raises(ValueError, match="german-low"):
         make_irregularity("german-medium", length=100.0)
+
+
+def test_fast_length_is_scipy_next_fast_len() -> None:
+    """The table's FFT length (irregularity.fast_length: factors 2, 3, 5, 7, 11) is SciPy's
+    next_fast_len for complex data, so the table has the nodes it had with scipy.fft."""
+    import scipy.fft
+    from svbi.runtime.excitation.irregularity import fast_length
+
+    targets = [*range(1, 3000), *np.random.default_rng(4).integers(3000, 10**7, 300).tolist()]
+    assert [fast_length(int(n)) for n in targets] == [scipy.fft.next_fast_len(int(n)) for n in targets]
+    with pytest.raises(ValueError, match="positive"):
+        fast_length(0)

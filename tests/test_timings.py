@@ -66,7 +66,17 @@ duration = 0.05
 """
 
 METHODS = ("localized-dynamic", "coupled-dynamic", "coupled-classic")
-HEAVY = ("matplotlib", "scipy.signal", "scipy.interpolate", "dask", "xarray", "sympy", "casadi")
+HEAVY = (
+    "matplotlib",
+    "scipy.signal",
+    "scipy.interpolate",
+    "scipy.fft",
+    "scipy.special",
+    "dask",
+    "xarray",
+    "sympy",
+    "casadi",
+)
 
 
 def test_results_carry_setup_loop_and_wall_time():
