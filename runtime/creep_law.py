@@ -8,9 +8,8 @@ default material and geometry (:class:`CreepParameters`) and the two geometry-de
 coefficients the symbolic law takes as parameters, computed rather than looked up by hand:
 
 * the Hertz coefficients m, n, from the curvature ratio B/A by solving Hertz's equations with
-  complete elliptic integrals (Timoshenko & Goodier 1970 §140, Johnson 1985 §4.2), computed by
-  the arithmetic-geometric mean (:func:`elliptic_ke`; tests check it against
-  ``scipy.special.ellipk/ellipe``, whose import, 0.02 s, a run then does without);
+  complete elliptic integrals (``scipy.special.ellipk/ellipe``, Timoshenko & Goodier 1970 §140,
+  Johnson 1985 §4.2);
 * Kalker's C11 at the ellipse ratio a/b = m/n and Poisson's ratio ν, interpolated in Kalker's
   table (Kalker 1990, Table E.3, the table used by CONTACT's ``linrol``): linear in the ratio,
   and quadratic in ν through the three tabulated ν = 0, 0.25, 0.5 applied to 1/C11, which is
@@ -62,21 +61,6 @@ _C11_A_GT_B = np.array(  # rows g = b/a = 0.1 .. 1.0
 )
 
 
-def elliptic_ke(m: float) -> tuple[float, float]:
-    """Complete elliptic integrals K(m) and E(m) of parameter m = e² (0 <= m < 1), as
-    ``scipy.special.ellipk/ellipe``, by the arithmetic-geometric mean (Abramowitz & Stegun 17.6):
-    ``K = π / (2 a_N)``, ``E = K (1 - Σ 2^(n-1) c_n²)`` from ``a_0 = 1``, ``b_0 = √(1 - m)``,
-    ``c_0 = √m``; each step doubles the correct digits."""
-    a, b = 1.0, math.sqrt(1.0 - m)
-    total, weight = 0.5 * m, 0.5
-    while a - b > 1e-15 * a:  # then the next c is below 1e-30 a: K and E have converged
-        a, b, c = 0.5 * (a + b), math.sqrt(a * b), 0.5 * (a - b)
-        weight *= 2.0
-        total += weight * c * c
-    k = math.pi / (2.0 * a)
-    return k, k * (1.0 - total)
-
-
 def hertz_coefficients(curvature_x: float, curvature_y: float) -> tuple[float, float]:
     """Hertz coefficients (for the x semi-axis, for the y semi-axis) from the relative curvatures.
 
@@ -90,9 +74,10 @@ def hertz_coefficients(curvature_x: float, curvature_y: float) -> tuple[float, f
     ratio = large / small
     if ratio - 1.0 < 1e-12:
         return 1.0, 1.0
+    from scipy.special import ellipe, ellipk  # 0.02 s: a run without creep does without it
 
     def mismatch(e2: float) -> float:
-        k_, e_ = elliptic_ke(e2)
+        k_, e_ = ellipk(e2), ellipe(e2)
         return (e_ / (1.0 - e2) - k_) / (k_ - e_) - ratio
 
     # The mismatch rises monotonically from 1 - ratio < 0 (a circle) to +inf (e -> 1): bisection to
@@ -109,9 +94,8 @@ def hertz_coefficients(curvature_x: float, curvature_y: float) -> tuple[float, f
             hi = mid
     e2 = 0.5 * (lo + hi)
     k2 = 1.0 - e2
-    big_e = elliptic_ke(e2)[1]
-    m = (2.0 * big_e / (math.pi * k2)) ** (1.0 / 3.0)
-    n = (2.0 * big_e * math.sqrt(k2) / math.pi) ** (1.0 / 3.0)
+    m = (2.0 * ellipe(e2) / (math.pi * k2)) ** (1.0 / 3.0)
+    n = (2.0 * ellipe(e2) * math.sqrt(k2) / math.pi) ** (1.0 / 3.0)
     return (m, n) if curvature_x <= curvature_y else (n, m)
 
 
