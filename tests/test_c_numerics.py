@@ -277,19 +277,26 @@ def test_banded_lu_reports_a_singular_matrix() -> None:
 # (svbi_gb_factor_solve_r)
 
 
+def factor_solve_r(
+    a: np.ndarray, bw: int, b: np.ndarray
+) -> tuple[int, np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """svbi_gb_factor_solve_r on ``a``'s band and a copy of ``b``: status, factor (band.h's layout),
+    pivots, reciprocal pivots, solution."""
+    n = a.shape[0]
+    ab, piv, rpiv, x = lapack_band(a, bw), np.zeros(n, dtype=np.int32), np.zeros(n), np.array(b, dtype=float)
+    status = library().svbi_gb_factor_solve_r(dp(ab), n, bw, ip(piv), dp(rpiv), dp(x))
+    return status, ab, piv, rpiv, x
+
+
 @pytest.mark.parametrize(("n", "bw"), [(1, 0), (6, 1), (40, 5), (33, 7)])
 def test_reciprocal_pivot_lu_matches_scipy(n: int, bw: int) -> None:
     rng = np.random.default_rng(7 * n + bw)
     a = general_band(rng, n, bw)
     if n == 1:
         a[0, 0] = 0.7
-    ab = lapack_band(a, bw)
-    piv, rpiv = np.zeros(n, dtype=np.int32), np.zeros(n)
     b = rng.standard_normal(n)
-    x = b.copy()
-    assert (
-        library().svbi_gb_factor_solve_r(dp(ab), n, bw, ip(piv), dp(rpiv), dp(x)) == c_solver_build.STATUS_OK
-    )
+    status, _, piv, _, x = factor_solve_r(a, bw, b)
+    assert status == c_solver_build.STATUS_OK
     ref, ref_piv = lapack_band(a, bw), np.zeros(n, dtype=np.int32)
     assert library().svbi_gb_factor(dp(ref), n, bw, ip(ref_piv)) == c_solver_build.STATUS_OK
     np.testing.assert_array_equal(piv, ref_piv)  # the same pivoting
@@ -341,13 +348,9 @@ def test_reciprocal_pivot_lu_without_swaps_is_the_textbook_elimination(n: int, b
     rng = np.random.default_rng(5 * n + bw)
     a = general_band(rng, n, bw)
     a[np.arange(n), np.arange(n)] = 2.0 * bw + 1.0 + rng.uniform(0.0, 1.0, n)
-    ab = lapack_band(a, bw)
-    piv, rpiv = np.zeros(n, dtype=np.int32), np.zeros(n)
     b = rng.standard_normal(n)
-    x = b.copy()
-    assert (
-        library().svbi_gb_factor_solve_r(dp(ab), n, bw, ip(piv), dp(rpiv), dp(x)) == c_solver_build.STATUS_OK
-    )
+    status, ab, piv, rpiv, x = factor_solve_r(a, bw, b)
+    assert status == c_solver_build.STATUS_OK
     np.testing.assert_array_equal(piv, np.arange(n))
     lu, ref_rpiv = doolittle_reciprocal(a, bw)
     np.testing.assert_array_equal(rpiv, ref_rpiv)
@@ -364,13 +367,10 @@ def test_reciprocal_pivot_lu_swaps_from_the_first_column_that_needs_it(bw: int) 
     rng = np.random.default_rng(bw)
     a = general_band(rng, n, bw)
     a[np.arange(n // 2), np.arange(n // 2)] = 2.0 * bw + 1.0
-    ab, ref = lapack_band(a, bw), lapack_band(a, bw)
-    piv, rpiv, ref_piv = np.zeros(n, dtype=np.int32), np.zeros(n), np.zeros(n, dtype=np.int32)
     b = rng.standard_normal(n)
-    x = b.copy()
-    assert (
-        library().svbi_gb_factor_solve_r(dp(ab), n, bw, ip(piv), dp(rpiv), dp(x)) == c_solver_build.STATUS_OK
-    )
+    status, _, piv, _, x = factor_solve_r(a, bw, b)
+    assert status == c_solver_build.STATUS_OK
+    ref, ref_piv = lapack_band(a, bw), np.zeros(n, dtype=np.int32)
     assert library().svbi_gb_factor(dp(ref), n, bw, ip(ref_piv)) == c_solver_build.STATUS_OK
     np.testing.assert_array_equal(piv, ref_piv)
     first_swap = int(np.flatnonzero(piv != np.arange(n))[0])
@@ -382,12 +382,7 @@ def test_reciprocal_pivot_lu_swaps_from_the_first_column_that_needs_it(bw: int) 
 def test_reciprocal_pivot_lu_reports_a_singular_matrix() -> None:
     a = general_band(np.random.default_rng(3), 8, 2)
     a[:, 4] = 0.0
-    ab = lapack_band(a, 2)
-    piv, rpiv, x = np.zeros(8, dtype=np.int32), np.zeros(8), np.ones(8)
-    assert (
-        library().svbi_gb_factor_solve_r(dp(ab), 8, 2, ip(piv), dp(rpiv), dp(x))
-        == c_solver_build.STATUS_SINGULAR
-    )
+    assert factor_solve_r(a, 2, np.ones(8))[0] == c_solver_build.STATUS_SINGULAR
 
 
 # --------------------------------------------------------------------------------------------------

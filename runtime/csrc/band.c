@@ -85,6 +85,19 @@ void svbi_band_solve_blocked(const double* L, const double* dinv, int n, int p, 
       for (l = 0; l < SW; ++l) bj[k * SW + l] *= di;
   }
 }
+/* One row of a sweep of window_solve: t -= sum_r u[r - 1] x[r - 1], the farthest row first, stored
+ * at bj; then the window slides (x[0]: the row just solved). */
+static SVBI_ALWAYS_INLINE void window_row(double* bj, const double* u, vec_t* t, vec_t (*x)[FS_G * LW / VW],
+                                          const int P, const int k1) {
+  int r, k;
+  for (r = P; r >= 1; --r)
+    for (k = 0; k < k1; ++k) t[k] -= u[r - 1] * x[r - 1][k];
+  for (k = 0; k < k1; ++k) VEC(bj + k * VW) = t[k];
+  for (r = P - 1; r >= 1; --r)
+    for (k = 0; k < k1; ++k) x[r][k] = x[r - 1][k];
+  for (k = 0; k < k1; ++k) x[0][k] = t[k];
+}
+
 /* Solve L L^T X = B in place for m right-hand sides (m a multiple of LW) held row after row: row j
  * at b + row(j) m, row(j) = rows[j] (or j without rows). With U = L D^-1 (unit lower, D = diag L),
  * L L^T = U D^2 U^T: U z = b forward, then U^T x = D^-2 z backward (fw, bk, dinv2). The
@@ -105,12 +118,7 @@ static SVBI_ALWAYS_INLINE void window_solve(const double* fw, const double* bk, 
     double* restrict bj = b + (long)(rows ? rows[j] : j) * m + c;
     const double* u = fw + (long)j * P;
     for (k = 0; k < k1; ++k) t[k] = VEC(bj + k * VW);
-    for (r = P; r >= 1; --r)
-      for (k = 0; k < k1; ++k) t[k] -= u[r - 1] * x[r - 1][k];
-    for (k = 0; k < k1; ++k) VEC(bj + k * VW) = t[k];
-    for (r = P - 1; r >= 1; --r)
-      for (k = 0; k < k1; ++k) x[r][k] = x[r - 1][k];
-    for (k = 0; k < k1; ++k) x[0][k] = t[k];
+    window_row(bj, u, t, x, P, k1);
   }
   for (r = 0; r < P; ++r)
     for (k = 0; k < k1; ++k) x[r][k] = (vec_t){0.0};
@@ -119,12 +127,7 @@ static SVBI_ALWAYS_INLINE void window_solve(const double* fw, const double* bk, 
     const double* u = bk + (long)j * P;
     double d = dinv2[j];
     for (k = 0; k < k1; ++k) t[k] = VEC(bj + k * VW) * d;
-    for (r = P; r >= 1; --r)
-      for (k = 0; k < k1; ++k) t[k] -= u[r - 1] * x[r - 1][k];
-    for (k = 0; k < k1; ++k) VEC(bj + k * VW) = t[k];
-    for (r = P - 1; r >= 1; --r)
-      for (k = 0; k < k1; ++k) x[r][k] = x[r - 1][k];
-    for (k = 0; k < k1; ++k) x[0][k] = t[k];
+    window_row(bj, u, t, x, P, k1);
   }
 }
 
