@@ -43,7 +43,7 @@ COMMAND_MODULES = {
     "check": "cli_study",
     "sweep": "cli_study",
 }
-"""The module that registers each command (tests/test_cli_model.py checks it against the modules)."""
+"""The module that registers each command (tests/test_timings.py checks it against the modules)."""
 
 
 @app.callback()
@@ -116,7 +116,7 @@ def _end_run(code: object) -> None:
     if code is not None and not isinstance(code, int):
         print(code, file=sys.stderr)
         code = 1
-    atexit._run_exitfuncs()
+    atexit._run_exitfuncs()  # what the shutdown would run first; CPython has no public name for it
     sys.stdout.flush()
     sys.stderr.flush()
     os._exit(code or 0)
