@@ -124,6 +124,7 @@ class CoupledClassic(Monolithic):
         st.vV, st.aV = nm.update_increment(duV, PtV, QtV)
         uV = st.uV = st.uV + duV
         self._finish_bridge(x, PB, QB)
+        P_start = st.P  # the forces of t_n (a landing's impulse, unilateral.Impact)
         st.P = self.sC * x[self.oP : self.oP + self.nc]
         st.PV = st.P
         st.ug = (uV @ tr.W).reshape(-1)
@@ -135,7 +136,9 @@ class CoupledClassic(Monolithic):
             st.P[~act.active] = 0.0
             dropped = None
             if act.landing.any():  # plastic impact at t_{n+1} (docs/method.md section 12)
-                dropped = self.impact.apply(st, c, act.active, act.landing, aux_is_wheel=True)
+                dropped = self.impact.apply(
+                    st, c, act.active, act.landing, aux_is_wheel=True, P_start=P_start
+                )
             act.finish(dropped)
             st.contact_state = act.in_contact
         if creep is not None:
@@ -189,12 +192,16 @@ class CoupledClassic(Monolithic):
             rr[oP[free]] = 0.0
             x = solve_sparse(const, Tp, self.n, rr)
             P = sC * x[self.oP : self.oP + nc]
-            uplift = None
+            gap = None
             if free.any():
                 uB = x[self.oB : self.oB + self.NB].reshape(self.model.bridge.nsub, -1)
+                ue = uB[span[:, None], idx]
                 duV = x[: self.NV].reshape(tr.cars, self.nV)
                 wheel = ((self.state.uV + duV) @ tr.W).reshape(-1)
-                rail_on = np.einsum("ij,ij->i", rows.N0, uB[span[:, None], idx])
+                rail_on = np.einsum("ij,ij->i", rows.N0, ue)
                 uplift = wheel - (np.where(on, rail_on, c.q) + c.r)
-            if not act.update(P, uplift, t):
+                # a wheel in contact at t_n: its contact row's residual, wheel - (W_hat u_B + h)
+                stab = wheel - np.where(on, np.einsum("ij,ij->i", rows.W_hat, ue), 0.0) - h
+                gap = act.gap(stab, uplift)
+            if not act.update(P, gap, t):
                 return x

@@ -204,13 +204,14 @@ class CoupledDynamic(Monolithic):
         dlamV = x[self.oLV : self.oLV + self.nc]
         dlamB = x[self.oLB : self.oLB + self.nc]
         st.PV = self.DV * dlamV - HV
+        P_start = st.P  # the forces of t_n (a landing's impulse, unilateral.Impact)
         st.P = DB * dlamB - HB
         self._update_lambda(self.lamV, dlamV)
         self._update_lambda(self.lamB, dlamB)
         self._update_lambda(self.lamG, x[self.oLG :])
         st.t = t
         if self.act is not None:
-            self._contact_events(st, c, mB)
+            self._contact_events(st, c, mB, P_start)
         if creep is not None:
             st.creepage, st.creep_force = creep.evaluate(st, c)
         return st
@@ -257,16 +258,19 @@ class CoupledDynamic(Monolithic):
             r[lb[free]] = HB[free]
             x = solve_sparse(self.const, Tp, self.n, r)
             P = DB * x[self.oLB : self.oLB + nc] - HB
-            uplift = None
+            gap = None
             if free.any():
                 uB = x[self.oB : self.oB + self.NB].reshape(self.model.bridge.nsub, -1)
-                rail_on = np.einsum("ij,ij->i", rows.N0, uB[span[:, None], idx])
-                rail = np.where(on, rail_on, c.q) + c.r
-                uplift = x[self.oG : self.oG + nc] - rail
-            if not act.update(P, uplift, t):
+                ue = uB[span[:, None], idx]
+                ug = x[self.oG : self.oG + nc]
+                rail = np.where(on, np.einsum("ij,ij->i", rows.N0, ue), c.q) + c.r
+                # a wheel in contact at t_n: its stabilised row's residual, ug - (W_hat u_B + h_B)
+                stab = ug - np.where(on, np.einsum("ij,ij->i", rows.W_hat, ue), 0.0) - h_B
+                gap = act.gap(stab, ug - rail)
+            if not act.update(P, gap, t):
                 return x
 
-    def _contact_events(self, st: State, c: Contacts, mB: np.ndarray) -> None:
+    def _contact_events(self, st: State, c: Contacts, mB: np.ndarray, P_start: np.ndarray) -> None:
         """Free wheels carry ``P = 0`` exactly; landing wheels go through the plastic impact, and
         the multipliers of every force the impact changed restart from it (section 5's initial
         form: ``lambda = P/kbar``): a multiplier only parametrises its force, ``dlambda`` is free."""
@@ -277,7 +281,7 @@ class CoupledDynamic(Monolithic):
         dropped = None
         if act.landing.any():
             P0, PV0 = st.P.copy(), st.PV.copy()
-            dropped = self.impact.apply(st, c, act.active, act.landing, aux_is_wheel=False)
+            dropped = self.impact.apply(st, c, act.active, act.landing, aux_is_wheel=False, P_start=P_start)
             changed = (st.P != P0) | (st.PV != PV0)
             lamB = self._initial_lambda(st.P, mB)
             lamV = self._initial_lambda(st.PV, self.mV)

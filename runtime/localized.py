@@ -176,11 +176,14 @@ class LocalizedDynamic:
         st.vg, st.ag = nm.update(ug, Pg, Qg)
         st.ug = ug
         self._finish_bridge(uB, PB, QB)
+        P_start = st.P  # the forces of t_n (a landing's impulse, unilateral.Impact)
         st.P, st.PV, st.t = P, PV, t
         if self.act is not None:
             dropped = None
             if self.act.landing.any():  # plastic impact at t_{n+1} (docs/method.md section 12)
-                dropped = self.impact.apply(st, c, self.act.active, self.act.landing, aux_is_wheel=False)
+                dropped = self.impact.apply(
+                    st, c, self.act.active, self.act.landing, aux_is_wheel=False, P_start=P_start
+                )
             self.act.finish(dropped)
             st.contact_state = self.act.in_contact
         if creep is not None:
@@ -225,7 +228,7 @@ class LocalizedDynamic:
                 A2[free, free] = 1.0
                 r2[free] = 0.0
                 P = _solve(A2, r2)
-            uplift = None
+            gap = None
             if not act.active.all():
                 if FNN is None:
                     FNN = self.bridge.pair(N_full, N_full, c.loc.span, c.on)
@@ -234,7 +237,9 @@ class LocalizedDynamic:
                 PV = ((self.c_g * P - d_V).reshape(tr.cars, tr.wheels) @ self.B.T).reshape(-1)
                 ug = p_t + self.c_g * (P - PV)
                 uplift = predicted_uplift(ug, c, Nu - FNN @ P)
-            if not act.update(P, uplift, t):
+                # a wheel in contact at t_n: its stabilised row's residual, ug - (W_hat u_B + h_B)
+                gap = act.gap(A @ P - rhs, uplift)
+            if not act.update(P, gap, t):
                 return P
 
     # ----------------------------------------------------------------------------------------------

@@ -258,7 +258,9 @@ class Recorder:
         if state.contact_state is not None:  # uplift: the wheel-rail gap of an airborne wheel
             cs = state.contact_state.reshape(shape)
             d["contact_state"][k] = cs
-            d["wheel_uplift"][k] = np.where(cs, 0.0, gaps["bridge"].reshape(shape))
+            # clipped at 0: a wheel that leaves at this step lies within its contact row's
+            # constraint violation (gap_bridge) of the rail (docs/method.md section 12)
+            d["wheel_uplift"][k] = np.where(cs, 0.0, np.maximum(gaps["bridge"].reshape(shape), 0.0))
         self.count += 1
         return gaps
 

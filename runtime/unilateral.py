@@ -1,17 +1,22 @@
 """Unilateral wheel-rail contact: lift-off, flight and landing (docs/method.md section 12).
 
-The paper's contact is bilateral (rigid, Section 2.3). Here a wheel whose contact force would become
-tensile at t_{n+1} is released: its aux-bridge (wheel-rail) row is replaced by ``P_i = 0`` and the
-wheel, with its auxiliary point rigidly on it, flies under its own dynamics. A free wheel whose
-predicted uplift at t_{n+1} is ``<= 0`` lands: for that step its row is the position-level
-``g_{n+1} = 0`` (:func:`landing_rows`), and after the Newmark update a perfectly plastic impact
-(:class:`Impact`) removes its relative normal velocity and makes the accelerations at t_{n+1}
-consistent with the wheel staying on the rail. The steppers of the three methods share this module,
-so they take the same decisions on the same numbers.
+The paper's contact is bilateral (rigid, Section 2.3). Here the contact state of every wheel at
+t_{n+1} solves one linear complementarity problem (LCP) per step, over all wheels together: a
+wheel in contact carries ``P_i >= 0`` with its row satisfied; a wheel out of contact carries
+``P_i = 0`` with its gap ``w_i >= 0``; never both a tensile force and a closed gap. The gap ``w_i``
+of a wheel is its row's residual: for a wheel in contact at t_n, the residual of its stabilised
+row (the ``g'' + 2 zeta omega g' + omega^2 g = 0`` of Eq. 22), for a wheel airborne at t_n its
+predicted uplift at t_{n+1} (the position-level landing row ``g_{n+1} = 0``, :func:`landing_rows`).
+Each row is fixed for the step by the wheel's state at t_n, so the problem is one LCP with a fixed
+matrix, and :class:`Pivoting` (block principal pivoting, Murty's least-index rule as its fallback)
+finds its solution in a few passes.
 
-The active set is per wheel: each step starts from the wheels in contact at t_n; a pass that flips a
-wheel (a release or a landing) re-solves the step. When nothing separates, the only work is the
-sign test of ``P``.
+A landing wheel then goes through a perfectly plastic impact (:class:`Impact`), itself two LCPs
+over the wheels in contact: impulses ``>= 0`` with post-impact relative velocities ``>= 0``, then
+the force jump that makes the accelerations consistent, with forces ``>= 0``. A wheel that would
+need a tensile impulse or force leaves the rail instead. The steppers of the three methods share
+this module, so they take the same decisions on the same numbers; the C loop (``impact.c``,
+``localized.c``) follows it pass for pass.
 """
 
 from __future__ import annotations
@@ -25,18 +30,62 @@ from svbi.runtime.assembly import Contacts, Model, State
 from svbi.runtime.contact_rows import ShapeKernel
 from svbi.runtime.substructures import SubstructureCompliance
 
+PIVOT_TRIES = 3
+"""Block pivots allowed without fewer infeasible wheels before the single-wheel rule takes over
+(Judice & Pires 1994: the block rule is fast but can cycle; Murty's least-index rule cannot, for the
+P-matrices of a contact flexibility)."""
+
 
 class ContactWarning(UserWarning):
     """A bilateral run in which the rail pulls a wheel (tensile filtered contact force)."""
 
 
 class ActiveSetError(RuntimeError):
-    """The active set of a step did not settle (should not happen; the message names the wheels)."""
+    """The contact state of a step did not settle (should not happen; the message names the wheels)."""
 
 
 def is_unilateral(model: Model) -> bool:
     """True when the run's normal contact is unilateral (and there are wheels to lift)."""
     return model.settings.normal == "unilateral" and not model.train.moving_load
+
+
+def pass_limit(n: int) -> int:
+    """Passes allowed to one complementarity problem of ``n`` wheels before it is reported."""
+    return 4 * n + 16
+
+
+class Pivoting:
+    """The pivoting rule of an LCP solved by complementary sets (block principal pivoting).
+
+    Every pass flips all infeasible wheels (a basic one with a negative force, a non-basic one with a
+    negative gap) while their number falls; after :data:`PIVOT_TRIES` passes without a new lowest
+    count it flips only the lowest-numbered one (Murty's rule), which terminates for P-matrices.
+    """
+
+    def __init__(self, n: int) -> None:
+        self.n = n
+        self.best = n + 1
+        self.tries = PIVOT_TRIES
+        self.passes = 0
+
+    def flips(self, bad: np.ndarray, t: float, what: str) -> np.ndarray:
+        """The wheels to flip this pass (``bad`` the infeasible ones, at least one)."""
+        self.passes += 1
+        if self.passes > pass_limit(self.n):
+            raise ActiveSetError(
+                f"the {what} did not settle at t = {t:.6g} s (wheels {np.flatnonzero(bad).tolist()}, "
+                f"0-based in train order); please report this run"
+            )
+        k = int(bad.sum())
+        if k < self.best:
+            self.best, self.tries = k, PIVOT_TRIES
+            return bad
+        if self.tries > 0:
+            self.tries -= 1
+            return bad
+        one = np.zeros_like(bad)
+        one[np.argmax(bad)] = True
+        return one
 
 
 @dataclass
@@ -59,15 +108,16 @@ def landing_rows(model: Model, contacts: Contacts, shape: ShapeKernel) -> Landin
 
 
 class ActiveSet:
-    """The per-wheel contact state and the iteration of one step's active set.
+    """The per-wheel contact state and the complementarity problem of one step (module docstring).
 
     Usage per step::
 
         act.begin()
         while True:
-            ... solve with act.free (P = 0 rows) and act.landing (position rows) ...
-            if not act.update(P, uplift): break
-        ... act.finish() after the impact
+            ... solve with act.free (P = 0 rows), act.landing (position rows), the other active
+                wheels on their stabilised rows ...
+            if not act.update(P, act.gap(stabilised, uplift), t): break
+        ... act.finish(dropped) after the impact
     """
 
     def __init__(self, n: int) -> None:
@@ -76,59 +126,77 @@ class ActiveSet:
         """State at t_n (after :meth:`finish`: at t_{n+1})."""
         self.active = self.in_contact.copy()
         self.landing = np.zeros(n, dtype=bool)
-        self._released = np.zeros(n, dtype=bool)
-        self._twice = np.zeros(n, dtype=bool)
-        self._passes = 0
+        self._pivot = Pivoting(n)
         self.all_in = True
         """True when every wheel was in contact at t_n and none changed: the plain bilateral step."""
 
     def begin(self) -> None:
         self.active[:] = self.in_contact
         self.landing[:] = False
-        self._released[:] = False
-        self._twice[:] = False
-        self._passes = 0
+        self._pivot = Pivoting(self.n)
         self.all_in = bool(self.in_contact.all())
 
     @property
     def free(self) -> np.ndarray:
         return ~self.active
 
-    def update(self, P: np.ndarray, uplift: np.ndarray | None, t: float) -> bool:
+    def gap(self, stabilised: np.ndarray, uplift: np.ndarray) -> np.ndarray:
+        """Each wheel's complementarity gap: the residual of its stabilised row (in units of length,
+        positive opening) if it was in contact at t_n, its predicted uplift if it was airborne."""
+        return np.where(self.in_contact, stabilised, uplift)
+
+    def update(self, P: np.ndarray, gap: np.ndarray | None, t: float) -> bool:
         """Flip the wheels whose state contradicts the solution; True if the step must be re-solved.
 
-        ``P`` the contact forces of the pass, ``uplift`` the predicted uplift at t_{n+1} of every
-        wheel (only read for the free ones; None when no wheel is free).
+        ``P`` the contact forces of the pass, ``gap`` every wheel's gap (:meth:`gap`; only read for
+        the free ones, None when no wheel is free). A wheel in the set with ``P < 0`` is released,
+        a free one with ``gap < 0`` joins (a wheel airborne at t_n lands: its row is the
+        position-level one, :attr:`landing`).
         """
-        release = self.active & (P < 0.0)
-        land = np.zeros(self.n, dtype=bool)
-        if uplift is not None:
-            # a wheel released in this pass whose gap is still closed (the stabilised row's residual
-            # at a slope kink) gets one landing try with the position-level row; released twice,
-            # it stays free for the step (the iteration ends)
-            land = ~self.active & ~self._twice & (uplift <= 0.0)
-        if not (release.any() or land.any()):
+        bad = self.active & (P < 0.0)
+        if gap is not None:
+            bad |= ~self.active & (gap < 0.0)
+        if not bad.any():
             return False
-        self._passes += 1
-        if self._passes > 2 * self.n + 2:
-            raise ActiveSetError(
-                f"the contact active set did not settle at t = {t:.6g} s (wheels "
-                f"{np.flatnonzero(release | land).tolist()})"
-            )
-        self.active[release] = False
-        self.landing[release] = False
-        self._twice |= release & self._released
-        self._released |= release
-        self.active[land] = True
-        self.landing[land] = True
+        flip = self._pivot.flips(bad, t, "contact state")
+        self.active ^= flip
+        np.logical_and(self.active, ~self.in_contact, out=self.landing)
         self.all_in = False
         return True
 
     def finish(self, dropped: np.ndarray | None = None) -> None:
-        """The state at t_{n+1}: the active set, less landing wheels the impact let go."""
+        """The state at t_{n+1}: the active set, less the wheels the impact let go."""
         self.in_contact[:] = self.active
         if dropped is not None:
             self.in_contact[dropped] = False
+
+
+def complementary_solve(
+    G: np.ndarray, want: np.ndarray, x0: np.ndarray, candidates: np.ndarray, t: float, what: str
+) -> tuple[np.ndarray, np.ndarray]:
+    """``y`` with ``z = x0 + y >= 0``, ``w = G y - want >= 0``, ``z w = 0`` over the candidates;
+    the others keep ``z = 0`` (``y = -x0``). ``G`` symmetric positive definite (a flexibility).
+
+    Returns ``(y, basic)``: ``basic`` the candidates with ``w = 0`` (solved), the rest have ``z = 0``.
+    With every candidate basic and feasible, ``y`` is the plain solve ``G_cc y_c = want_c``.
+    """
+    basic = candidates.copy()
+    pivot = Pivoting(int(candidates.sum()))
+    y = np.zeros_like(want)
+    while True:
+        y[:] = np.where(basic, 0.0, -x0)
+        b = np.flatnonzero(basic)
+        fixed = np.flatnonzero(~basic)
+        if b.size:
+            rhs = want[b] - G[np.ix_(b, fixed)] @ y[fixed]
+            y[b] = np.linalg.solve(G[np.ix_(b, b)], rhs)
+        bad = basic & (x0 + y < 0.0)
+        out = np.flatnonzero(candidates & ~basic)
+        if out.size:
+            bad[out] = G[out] @ y - want[out] < 0.0
+        if not bad.any():
+            return y, basic
+        basic ^= pivot.flips(bad, t, what)
 
 
 class Impact:
@@ -191,25 +259,35 @@ class Impact:
         return rv, ra
 
     def apply(
-        self, st: State, c: Contacts, active: np.ndarray, landing: np.ndarray, aux_is_wheel: bool
+        self,
+        st: State,
+        c: Contacts,
+        active: np.ndarray,
+        landing: np.ndarray,
+        aux_is_wheel: bool,
+        P_start: np.ndarray,
     ) -> np.ndarray:
-        """Impact of the ``landing`` wheels on ``st`` at t_{n+1} (in place). Returns the landing
-        wheels let go again (consistent force tensile: they touch with zero relative velocity and
-        leave at once)."""
+        """Impact of the ``landing`` wheels on ``st`` at t_{n+1} (in place). Returns the wheels of
+        ``active`` let go: a landing wheel whose consistent force would be tensile (it touches with
+        zero relative velocity and leaves at once), or a wheel in contact that the impulses or the
+        force jump would have to pull (a neighbour's landing lifts it). ``P_start`` the contact
+        forces at t_n (``st.P`` holds those of t_{n+1})."""
         tr = self.model.train
         shapes = self.shapes(c.loc.xi, c.loc.span)
         N0 = shapes[0]
         idx = c.element_dofs()
         G = self._G(c, N0, idx)
-        act = np.flatnonzero(active)
         shape = (tr.cars, tr.wheels)
 
-        # velocity jump: landing wheels lose their relative normal velocity, the others keep theirs
+        # velocity jump: landing wheels lose their relative normal velocity, the others keep theirs;
+        # impulses >= 0 (a wheel that would need a tensile one leaves the rail with what it has)
         rv, _ = self._rail_rates(st, c, shapes, idx)
         g1 = st.vg - rv
         target = np.where(landing, -g1, 0.0)
-        impulse = np.zeros(tr.contacts)
-        impulse[act] = np.linalg.solve(G[np.ix_(act, act)], target[act])
+        # the step's own impulse (Newmark: the trapezoid of the force): the impact's impulse may
+        # take back what the landing step overshot, never more (the total stays compressive)
+        step_impulse = np.where(active, 0.5 * self.model.dt * (P_start + st.P), 0.0)
+        impulse, on_rail = complementary_solve(G, target, step_impulse, active, st.t, "landing impulse")
         dvV = impulse.reshape(shape) @ self.MinvW.T
         dvB = -self.S_M.field(self._bridge_field(c, N0, idx, impulse))
         st.vV = st.vV + dvV
@@ -224,28 +302,16 @@ class Impact:
         N0ue = lambda X: np.einsum("ij,ij->i", N0, X[c.loc.span[:, None], idx])  # noqa: E731
         dg0 = (daV0 @ tr.W).reshape(-1) - np.where(c.on, N0ue(daB0), 0.0)
         want = np.where(landing, -g2, 0.0) - dg0
-        dropped = np.zeros(tr.contacts, dtype=bool)
-        J = np.zeros(tr.contacts)
-        for _ in range(tr.contacts + 1):
-            unknown = active & ~dropped
-            fixed = dropped  # let go: the force at t_{n+1} returns to 0
-            J[:] = 0.0
-            J[fixed] = -st.P[fixed]
-            u = np.flatnonzero(unknown)
-            rhs = want[u] - G[np.ix_(u, np.flatnonzero(fixed))] @ J[fixed]
-            if u.size:
-                J[u] = np.linalg.solve(G[np.ix_(u, u)], rhs)
-            bad = landing & ~dropped & (st.P + J < 0.0)
-            if not bad.any():
-                break
-            dropped |= bad
+        # the force jump J: forces P + J >= 0 on the wheels the impulses kept on the rail, the
+        # others let go (J = -P); a wheel whose consistent force would be tensile leaves at once
+        J, held = complementary_solve(G, want, st.P, on_rail, st.t, "force after a landing")
+        dropped = active & ~held
         daV = daV0 + J.reshape(shape) @ self.MinvW.T
         daB = daB0 - self.S_M.field(self._bridge_field(c, N0, idx, J))
         st.aV = st.aV + daV
         st.ag = st.ag + (daV @ tr.W).reshape(-1)
         st.aB = st.aB + daB
-        st.P = st.P + J
-        st.P[dropped] = 0.0
+        st.P = np.where(held, st.P + J, 0.0)
         if aux_is_wheel:
             st.PV = st.P
         else:

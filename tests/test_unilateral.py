@@ -250,10 +250,10 @@ def test_energy_never_increases_at_an_impact(monkeypatch):
         aux = 0.5 * SPLIT * M_W * (st.vg[0] - q1) ** 2
         return body + wheel + aux
 
-    def spy(self, st, c, active, landing, aux_is_wheel):
+    def spy(self, st, c, active, landing, aux_is_wheel, P_start):
         q1 = float(c.q1[0])
         before = energy(st, q1)
-        out = original(self, st, c, active, landing, aux_is_wheel)
+        out = original(self, st, c, active, landing, aux_is_wheel, P_start)
         records.append((st.t, before, energy(st, q1)))
         relative.append(abs(st.vg[0] - q1) / abs(q1))
         return out

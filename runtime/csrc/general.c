@@ -280,20 +280,23 @@ int svbi_general_interface(const setup_t* S, work_t* w, const int* active, const
 }
 
 /* (F_NN P)_c: the rail's deflection under contact c from this step's contact forces, through its
- * substructure and the links (the NumPy backend's Bridge compliance pair(N, N) P). */
-double svbi_general_deflection(const setup_t* S, const work_t* w, const double* P, int c) {
+ * substructure and the links (the NumPy backend's Bridge compliance pair(N, N) P); with
+ * `stabilised`, (F_B P)_c: the same through contact c's stabilised row W_hat in place of N0. */
+double svbi_general_deflection(const setup_t* S, const work_t* w, const double* P, int c, int stabilised) {
   int m, s = w->cspan[c], fc = w->cfirst[c], nd = S->nd;
-  const double* Nc = w->crow + (long)c * ROW_COLS + COL_N0;
+  const double* X = w->crow + (long)c * ROW_COLS + (stabilised ? COL_W_HAT : COL_N0);
+  const int* nzX = stabilised ? nz_W_hat : nz_N0;
+  const int nX = stabilised ? NNZ_W_HAT : NNZ_N0;
   const double* Srows = kind_S(S, s) + (long)fc * nd;
   double f = 0.0;
   for (m = w->sstart[s]; m < w->sstart[s + 1]; ++m) {
     int cj = w->slist[m];
     const double* Nj = w->crow + (long)cj * ROW_COLS + COL_N0;
-    f += svbi_row_S_N0(Nc, nz_N0, NNZ_N0, Srows, nd, w->cfirst[cj], Nj) * P[cj];
+    f += svbi_row_S_N0(X, nzX, nX, Srows, nd, w->cfirst[cj], Nj) * P[cj];
   }
   for (m = S->g_sl_ptr[s]; m < S->g_sl_ptr[s + 1]; ++m) {
     int l = S->g_sl_link[m];
-    f -= row_link(S, Nc, nz_N0, NNZ_N0, s, fc, l) * w->lam[l];
+    f -= row_link(S, X, nzX, nX, s, fc, l) * w->lam[l];
   }
   return f;
 }

@@ -151,6 +151,51 @@ static int solve_on(const setup_t* S, work_t* w, const double* G, const int* mas
   return ST_OK;
 }
 
+/* y with z = x0 + y >= 0, w = G y - want >= 0, z w = 0 over the candidates, the others at z = 0
+ * (y = -x0) (svbi.runtime.unilateral.complementary_solve): the complementary sets pass by pass,
+ * each solved on its basic set (w = 0 there), flipped by the rule of pivot_t. `basic` returns the
+ * candidates with w = 0; the rest have z = 0. */
+static int complementary_solve(const setup_t* S, work_t* w, const double* G, const double* want, const double* x0,
+                               const int* cand, double* y, int* basic) {
+  int i, j, nc = S->nc, status, ncand = 0;
+  pivot_t pv;
+  for (i = 0; i < nc; ++i) {
+    basic[i] = cand[i];
+    ncand += cand[i] != 0;
+  }
+  svbi_pivot_init(&pv, ncand);
+  for (;;) {
+    int nbad = 0;
+    for (i = 0; i < nc; ++i) { /* want_b - G_bf y_f, y_f = -x0_f */
+      double r = 0.0;
+      if (basic[i])
+        for (j = 0; j < nc; ++j)
+          if (!basic[j]) r += G[(long)i * nc + j] * -x0[j];
+      w->ib3[i] = want[i] - r;
+    }
+    status = solve_on(S, w, G, basic, w->ib3, y);
+    if (status) return status;
+    for (i = 0; i < nc; ++i)
+      if (!basic[i]) y[i] = -x0[i];
+    for (i = 0; i < nc; ++i) {
+      int bad = 0;
+      if (basic[i]) {
+        bad = x0[i] + y[i] < 0.0;
+      } else if (cand[i]) {
+        double g = 0.0;
+        for (j = 0; j < nc; ++j) g += G[(long)i * nc + j] * y[j];
+        bad = g - want[i] < 0.0;
+      }
+      w->flip[i] = bad;
+      nbad += bad;
+    }
+    if (!nbad) return ST_OK;
+    if (svbi_pivot_flips(&pv, w->flip, nc)) return ST_EVENT;
+    for (i = 0; i < nc; ++i)
+      if (w->flip[i]) basic[i] = !basic[i];
+  }
+}
+
 /* The rail's velocity and acceleration under every contact (total time derivatives). */
 static void rail_rates(const setup_t* S, work_t* w, double* rv, double* ra) {
   int c, nc = S->nc;
@@ -185,7 +230,7 @@ static void cars_add(const setup_t* S, const double* f, double* x) {
 }
 
 int svbi_impact(const setup_t* S, state_t* X, work_t* w, const int* active, const int* landing) {
-  int i, k, d, pass, status, nc = S->nc, subs = (int)n_subs(S), nd = S->nd;
+  int i, k, d, status, nc = S->nc, subs = (int)n_subs(S), nd = S->nd;
   long n;
   double* G = w->IG;
   double* rv = w->iv1;
@@ -196,10 +241,15 @@ int svbi_impact(const setup_t* S, state_t* X, work_t* w, const int* active, cons
   double* aV0 = w->IaV; /* cars x NV: the damping force's answer to it */
   flexibility(S, w, G);
 
-  /* velocity jump: landing wheels lose their relative normal velocity, the others keep theirs */
+  /* velocity jump: landing wheels lose their relative normal velocity, the others keep theirs;
+   * the impulses may take back what the step's own impulse (the trapezoid of its force)
+   * overshot, never more: a wheel that would need a tensile total leaves the rail */
   rail_rates(S, w, rv, ra);
-  for (i = 0; i < nc; ++i) w->ib2[i] = landing[i] ? -(X->vg[i] - rv[i]) : 0.0;
-  status = solve_on(S, w, G, active, w->ib2, imp);
+  for (i = 0; i < nc; ++i) {
+    w->ib2[i] = landing[i] ? -(X->vg[i] - rv[i]) : 0.0;
+    w->iv4[i] = active[i] ? 0.5 * S->dt * (w->P0[i] + X->P[i]) : 0.0;
+  }
+  status = complementary_solve(S, w, G, w->ib2, w->iv4, active, imp, w->onrail);
   if (status) return status;
   memset(dV, 0, sizeof(double) * (size_t)S->cars * NV);
   cars_add(S, imp, dV);
@@ -243,31 +293,11 @@ int svbi_impact(const setup_t* S, state_t* X, work_t* w, const int* active, cons
     if (w->con[i]) dg0 -= dot_el(w, S, w->crow + (long)i * ROW_COLS + COL_N0, w->dB3, i);
     w->ib2[i] = (landing[i] ? -(X->ag[i] - ra[i]) : 0.0) - dg0; /* want */
   }
-  for (i = 0; i < nc; ++i) w->idrop[i] = 0;
-  for (pass = 0; pass <= nc; ++pass) {
-    int bad = 0;
-    for (i = 0; i < nc; ++i) {
-      w->iunk[i] = active[i] && !w->idrop[i];
-      w->ib3[i] = w->ib2[i];
-    }
-    for (i = 0; i < nc; ++i) { /* the let-go wheels' force returns to 0: J = -P there */
-      int j;
-      if (!w->iunk[i]) continue;
-      for (j = 0; j < nc; ++j)
-        if (w->idrop[j]) w->ib3[i] -= G[(long)i * nc + j] * (-X->P[j]);
-    }
-    status = solve_on(S, w, G, w->iunk, w->ib3, J);
-    if (status) return status;
-    for (i = 0; i < nc; ++i)
-      if (w->idrop[i]) J[i] = -X->P[i];
-    for (i = 0; i < nc; ++i) {
-      if (landing[i] && !w->idrop[i] && X->P[i] + J[i] < 0.0) {
-        w->idrop[i] = 1;
-        bad = 1;
-      }
-    }
-    if (!bad) break;
-  }
+  /* the force jump J: forces P + J >= 0 on the wheels the impulses kept on the rail, the others
+   * let go (J = -P); a wheel whose consistent force would be tensile leaves at once */
+  status = complementary_solve(S, w, G, w->ib2, X->P, w->onrail, J, w->iunk);
+  if (status) return status;
+  for (i = 0; i < nc; ++i) w->idrop[i] = active[i] && !w->iunk[i];
   cars_add(S, J, aV0); /* da_V = da_V0 + M^-1 W J */
   for (n = 0; n < (long)S->cars * NV; ++n) X->aV[n] += aV0[n];
   for (i = 0; i < nc; ++i) X->ag[i] += wheel(S, aV0 + (long)(i / NW) * NV, i % NW);
@@ -275,7 +305,7 @@ int svbi_impact(const setup_t* S, state_t* X, work_t* w, const int* active, cons
   mass_field(S, w, w->dB1, w->dB2);
   for (n = 0; n < w->nb; ++n) w->ba[n] += w->dB3[n] - w->dB2[n];
   for (i = 0; i < nc; ++i) {
-    X->P[i] = w->idrop[i] ? 0.0 : X->P[i] + J[i];
+    X->P[i] = w->iunk[i] ? X->P[i] + J[i] : 0.0;
     X->PV[i] = X->P[i] - S->m_g[i % NW] * (X->ag[i] + S->gravity);
   }
   return ST_OK;

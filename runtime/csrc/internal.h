@@ -189,8 +189,9 @@ typedef struct {
   double* qact;  /* nact: the active supports' q' of the step */
   /* ---- unilateral contact: landings and the plastic impact (localized.c, impact.c) ---- */
   int* landing;  /* nc: a landing wheel's row is the position-level g_{n+1} = 0 */
-  int* released; /* nc: released in a pass of this step */
-  int* twice;    /* nc: released twice: stays free for the step */
+  int* flip;     /* nc: the wheels a pass of a complementarity problem flips */
+  int* onrail;   /* nc: the wheels the landing impulses keep on the rail */
+  double* P0;    /* nc: the contact forces of t_n (a landing's step impulse) */
   double* rland; /* nc: the landing row's right-hand side */
   double* IG;    /* nc x nc: mass flexibility at the contacts */
   double* IGs;   /* nc x nc: its factor on a subset */
@@ -263,7 +264,7 @@ void svbi_general_locate(const setup_t* S, work_t* w);
 void svbi_general_targets(const setup_t* S, work_t* w);
 void svbi_general_predictor(const setup_t* S, work_t* w, const double* creep);
 int svbi_general_interface(const setup_t* S, work_t* w, const int* active, const int* landing, double* P);
-double svbi_general_deflection(const setup_t* S, const work_t* w, const double* P, int c);
+double svbi_general_deflection(const setup_t* S, const work_t* w, const double* P, int c, int stabilised);
 void svbi_general_correct(const setup_t* S, work_t* w, const double* P);
 void svbi_general_link_forces(const setup_t* S, work_t* w, const double* P);
 double svbi_general_row_link(const setup_t* S, const double* X, const int* nzX, int nX, int s, int first, int l,
@@ -335,6 +336,44 @@ static inline double svbi_row_target(const setup_t* S, const work_t* w, int i, d
   }
 }
 double svbi_rail_height(const setup_t* S, const work_t* w, int c);
+
+/* The pivoting rule of a complementarity problem solved by complementary sets
+ * (svbi.runtime.unilateral.Pivoting): flip every infeasible wheel while their number falls, after
+ * PIVOT_TRIES passes without a new lowest count only the lowest-numbered one (Murty's rule, which
+ * terminates for the P-matrices of a contact flexibility). */
+enum { PIVOT_TRIES = 3 };
+typedef struct {
+  int n, best, tries, passes;
+} pivot_t;
+
+static inline void svbi_pivot_init(pivot_t* p, int n) {
+  p->n = n;
+  p->best = n + 1;
+  p->tries = PIVOT_TRIES;
+  p->passes = 0;
+}
+
+/* bad[0 .. nc): the infeasible wheels (at least one), left holding the ones to flip. Nonzero past
+ * the pass limit (unilateral.pass_limit): the caller hands the step to NumPy, which reports it. */
+static inline int svbi_pivot_flips(pivot_t* p, int* bad, int nc) {
+  int i, k = 0, first = -1;
+  if (++p->passes > 4 * p->n + 16) return 1;
+  for (i = 0; i < nc; ++i) {
+    if (bad[i] && first < 0) first = i;
+    k += bad[i] != 0;
+  }
+  if (k < p->best) {
+    p->best = k;
+    p->tries = PIVOT_TRIES;
+    return 0;
+  }
+  if (p->tries > 0) {
+    --p->tries;
+    return 0;
+  }
+  for (i = 0; i < nc; ++i) bad[i] = i == first;
+  return 0;
+}
 #endif
 
 #if defined(__GNUC__)

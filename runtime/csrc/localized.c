@@ -238,7 +238,7 @@ static double predicted_uplift(const setup_t* S, const work_t* w, const double* 
     pv += (S->c_g[j] * P[cj] - w->dV[cj]) * S->V_B[i * NW + j];
   }
   ug = w->pt[c] + S->c_g[i] * (P[c] - pv);
-  if (w->con[c] && S->general) return ug - (rail - svbi_general_deflection(S, w, P, c));
+  if (w->con[c] && S->general) return ug - (rail - svbi_general_deflection(S, w, P, c, 0));
   if (w->con[c]) { /* less the rail's deflection under this step's contact forces */
     const double* Nc = w->crow + (long)c * ROW_COLS + COL_N0;
     int s = w->cspan[c];
@@ -250,6 +250,29 @@ static double predicted_uplift(const setup_t* S, const work_t* w, const double* 
     }
   }
   return ug - rail;
+}
+
+/* The complementarity gap of contact c (svbi.runtime.unilateral.ActiveSet.gap): for a wheel in
+ * contact at t_n the residual of its stabilised row, (F* + F_B)_c P - rhs_c = u_g - (W_hat u_B + h_B)
+ * at t_{n+1}; for a wheel airborne at t_n its predicted uplift. */
+static double row_gap(const setup_t* S, const work_t* w, const double* P, int c, int stabilised) {
+  int k = c / NW, i = c % NW, j, m, nd = S->nd;
+  double r = 0.0;
+  if (!stabilised) return predicted_uplift(S, w, P, c);
+  for (j = 0; j < NW; ++j) r += S->V_Fstar[i * NW + j] * P[k * NW + j];
+  if (w->con[c] && S->general) {
+    r += svbi_general_deflection(S, w, P, c, 1);
+  } else if (w->con[c]) {
+    const double* Wh = w->crow + (long)c * ROW_COLS + COL_W_HAT;
+    int s = w->cspan[c];
+    const double* Srows = S->S + (long)w->cfirst[c] * nd;
+    for (m = w->sstart[s]; m < w->sstart[s + 1]; ++m) {
+      int cj = w->slist[m];
+      const double* Nj = w->crow + (long)cj * ROW_COLS + COL_N0;
+      r += svbi_row_S_N0(Wh, nz_W_hat, NNZ_W_HAT, Srows, nd, w->cfirst[cj], Nj) * P[cj];
+    }
+  }
+  return r - w->rhs[c];
 }
 #endif
 
@@ -348,38 +371,32 @@ int svbi_step_localized(const setup_t* S, state_t* X, work_t* w) {
       status = interface_solve(S, w, bw, 0, 0, X->P);
       if (status) return status;
     } else {
-      /* the per-wheel active set (svbi.runtime.unilateral.ActiveSet.update), pass by pass: a wheel
-       * in contact whose force goes tensile lifts off; an airborne wheel that would reach its rail
-       * lands (its row the position-level g_{n+1} = 0, then the plastic impact, impact.c); a wheel
-       * released twice in the step stays free; the step is solved again after every change */
-      int passes = 0, changed, airborne;
+      /* the contact state of the step, one complementarity problem over all wheels
+       * (svbi.runtime.unilateral.ActiveSet.update), pass by pass: a wheel in the set whose force
+       * goes tensile is released, a free wheel whose gap would close joins it (a wheel airborne
+       * at t_n lands: its row the position-level g_{n+1} = 0, then the plastic impact, impact.c);
+       * the pivoting rule of pivot_t; the step is solved again after every change */
+      pivot_t pv;
       for (i = 0; i < nc; ++i) {
         w->active[i] = X->in_contact[i];
-        w->landing[i] = w->released[i] = w->twice[i] = 0;
+        w->landing[i] = 0;
+        w->P0[i] = X->P[i];
       }
+      svbi_pivot_init(&pv, nc);
       for (;;) {
+        int nbad = 0;
         status = interface_solve(S, w, bw, w->active, w->landing, X->P);
         if (status) return status;
-        changed = airborne = 0;
-        for (i = 0; i < nc; ++i) airborne |= !w->active[i];
-        for (i = 0; i < nc; ++i) { /* the uplifts, before any flip (all from this pass's P) */
-          w->ib[i] = !w->active[i] && !w->twice[i] ? predicted_uplift(S, w, X->P, i) : 1.0;
+        for (i = 0; i < nc; ++i) { /* all from this pass's P, before any flip */
+          w->flip[i] = w->active[i] ? X->P[i] < 0.0 : row_gap(S, w, X->P, i, X->in_contact[i]) < 0.0;
+          nbad += w->flip[i];
         }
+        if (!nbad) break;
+        if (svbi_pivot_flips(&pv, w->flip, nc)) return ST_EVENT; /* NumPy reports a set that does not settle */
         for (i = 0; i < nc; ++i) {
-          int release = w->active[i] && X->P[i] < 0.0;
-          int land = airborne && !w->active[i] && !w->twice[i] && w->ib[i] <= 0.0;
-          if (release) {
-            w->active[i] = w->landing[i] = 0;
-            w->twice[i] |= w->released[i];
-            w->released[i] = 1;
-            changed = 1;
-          } else if (land) {
-            w->active[i] = w->landing[i] = 1;
-            changed = 1;
-          }
+          if (w->flip[i]) w->active[i] = !w->active[i];
+          w->landing[i] = w->active[i] && !X->in_contact[i];
         }
-        if (!changed) break;
-        if (++passes > 2 * nc + 2) return ST_EVENT; /* NumPy reports a set that does not settle */
       }
     }
 

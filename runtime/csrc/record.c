@@ -141,7 +141,8 @@ int svbi_record(const setup_t* S, const state_t* X, const excitation_t* E, outpu
         O->gap_bridge[row * nc + c] = gb;
         if (S->unilateral) { /* uplift: the wheel-rail gap of an airborne wheel */
           O->contact_state[row * nc + c] = X->in_contact[c];
-          O->wheel_uplift[row * nc + c] = X->in_contact[c] ? 0.0 : gb;
+          /* clipped at 0: a wheel that leaves at this step lies within its row's violation */
+          O->wheel_uplift[row * nc + c] = X->in_contact[c] || gb < 0.0 ? 0.0 : gb;
         }
         worst_of(&worst_v, gv);
         worst_of(&worst_b, gb);

@@ -187,8 +187,9 @@ static void carve(const setup_t* S, carver_t* c, work_t* w) {
     long u = S->unilateral, lanes = (spans + LW - 1) / LW * LW; /* the blocked layout's spans */
     long field = u ? (lanes > subs ? lanes : subs) * nd : 0;
     w->landing = take_i(c, nc);
-    w->released = take_i(c, nc);
-    w->twice = take_i(c, nc);
+    w->flip = take_i(c, nc);
+    w->onrail = take_i(c, nc);
+    w->P0 = take_d(c, nc);
     w->rland = take_d(c, nc);
     w->IG = take_d(c, u * nc * nc);
     w->IGs = take_d(c, u * nc * nc);
