@@ -1,14 +1,15 @@
 """Initial state: static start and consistent initial accelerations (method-notes pitfall 6).
 
-DESIGN.md section 2: the vehicles start in static equilibrium on rigid, level track and the bridge at
-rest in its dead-load state. Newmark never damps an inconsistent initial acceleration, so after
+By default a train that starts off the bridge has its vehicles in static equilibrium on rigid, level
+track and the bridge at rest in its dead-load state. Newmark never damps an inconsistent initial acceleration, so after
 placing the system we solve the equations of motion together with the acceleration-level
 constraints once, at t = 0, for consistent accelerations and contact forces. For the default start
 (train off the bridge, excitations with smooth onsets) those accelerations are zero.
 
-``start="static"`` (Python API) instead puts the whole train-bridge system in static equilibrium:
-vehicles resting on the deflected bridge. A held train (speed 0) then stays exactly still, which is
-the static check of the test-suite.
+``start="static"`` (the scenario's ``train.initial``, and its default "auto" when a wheel is on the
+bridge at t = 0) instead puts the whole train-bridge system in static equilibrium: vehicles resting
+on the deflected bridge. A held train (speed 0) then stays exactly still, which is the static check
+of the test-suite.
 
 The wheelset spin DOFs have no stiffness and no load: they are rigid modes of the static problem,
 which is singular. We find such free modes (the null space of ``[K; W^T]``), check that gravity does
@@ -102,13 +103,24 @@ def vehicle_static_on_rigid_track(train: Train, z_track: np.ndarray) -> tuple[np
     return sol[:n].T.copy(), sol[n : n + nw].T.copy()
 
 
-def initial_state(model: Model, start: str = "rigid-track") -> State:
-    """The state at t = 0 (see the module docstring); ``start`` is "rigid-track" or "static"."""
+def resolved_start(model: Model, start: str) -> str:
+    """``start`` with "auto" resolved: "static" when a wheel is on the bridge at t = 0 (a train
+    standing or running on the bridge rests on it deflected, not dropped onto it unloaded), else
+    "rigid-track"."""
+    if start != "auto":
+        return start
+    return "static" if bool(model.contacts(0.0).on.any()) else "rigid-track"
+
+
+def initial_state(model: Model, start: str = "auto") -> State:
+    """The state at t = 0 (see the module docstring); ``start`` is "auto", "rigid-track" or
+    "static" (the scenario's ``train.initial``, :func:`resolved_start`)."""
     b, tr = model.bridge, model.train
     q, q1, _ = model.supports(0.0)
     uB = b.quasi_static(q)
     vB = b.quasi_static(q1)
     c = model.contacts(0.0)
+    start = resolved_start(model, start)
     (N0,) = ShapeKernel(b.contact_element_length)(c.loc.xi, c.loc.span)
     idx = c.element_dofs()
     rail = np.where(c.on, np.einsum("ij,ij->i", N0, uB[c.loc.span[:, None], idx]), c.q) + c.r

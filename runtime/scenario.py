@@ -225,6 +225,11 @@ class TrainSpec(_Table):
     stops and then stands."""
     hslm: Literal[HSLM_TRAINS] | None = None  # type: ignore[valid-type]
     parameters: dict[str, float | list[float]] = Field(default_factory=dict)
+    initial: Literal["auto", "static", "rigid-track"] = "auto"
+    """The state at t = 0: "static" the whole train-bridge system in static equilibrium (the train
+    resting on the deflected bridge), "rigid-track" the cars at rest on rigid level track and the
+    bridge unloaded; "auto" is "static" when a wheel stands on the bridge at t = 0, else
+    "rigid-track" (docs/scenario.md)."""
 
     @model_validator(mode="after")
     def _speed_given_once(self) -> TrainSpec:

@@ -274,7 +274,7 @@ def simulate(
     *,
     progress: bool = False,
     hold_train: bool = False,
-    start: str = "rigid-track",
+    start: str | None = None,
     model: Model | None = None,
     clock_start: float | None = None,
     import_ahead: Sequence[str] = (),
@@ -284,8 +284,8 @@ def simulate(
 
     ``scenario`` is a :class:`Scenario`, a path to a scenario file, or a TOML-shaped dict.
     Python-API-only options: ``hold_train`` keeps the train at its start position (speed 0, needs
-    ``solver.duration``); ``start="static"`` starts from the static equilibrium of the train on the
-    deflected bridge instead of on rigid track; ``model`` replaces the assembled model (e.g. with
+    ``solver.duration``); ``start`` ("auto", "static" or "rigid-track") replaces the scenario's
+    ``train.initial``; ``model`` replaces the assembled model (e.g. with
     an analytic ground motion) — the scenario then only provides the echo and attributes;
     ``clock_start`` is the ``time.perf_counter()`` at which the caller began (``svbi run`` passes
     the time before it loaded the scenario), so that ``setup_time_s`` counts it; ``import_ahead``
@@ -321,7 +321,7 @@ def simulate(
         )
         requested = "numpy"
     backend, cls = stepper_class(requested, s.method)
-    state = initial_state(model, start)
+    state = initial_state(model, scenario.train.initial if start is None else start)
     stepper = cls(model, state)
     backend = getattr(stepper, "backend", backend)  # a compiled backend that fell back says so
     recorder = Recorder(model)

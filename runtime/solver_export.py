@@ -126,7 +126,7 @@ def scenario_files(
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", UserWarning)
         model = build_model(scenario)
-    state = initial_state(model)
+    state = initial_state(model, scenario.train.initial)
     from svbi.runtime.c_steppers import CStepper
 
     stepper = CStepper(model, state, model.settings.method)
