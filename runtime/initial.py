@@ -1,8 +1,8 @@
 """Initial state: static start and consistent initial accelerations (method-notes pitfall 6).
 
 By default a train that starts off the bridge has its vehicles in static equilibrium on rigid, level
-track and the bridge at rest in its dead-load state. Newmark never damps an inconsistent initial acceleration, so after
-placing the system we solve the equations of motion together with the acceleration-level
+track and the bridge at rest in its dead-load state. Newmark never damps an inconsistent initial
+acceleration, so after placing the system we solve the equations of motion together with the acceleration-level
 constraints once, at t = 0, for consistent accelerations and contact forces. For the default start
 (train off the bridge, excitations with smooth onsets) those accelerations are zero.
 

@@ -29,6 +29,12 @@ if TYPE_CHECKING:
     import xarray as xr
 
 FILTER_ORDER = 4
+
+
+class ContactInvariantError(RuntimeError):
+    """A wheel in contact with a tensile force: a defect of svbi, reported, never written as a result."""
+
+
 FILTER_BLOCK = 1 << 22  # samples (32 MiB) of forces filtered at once
 FILTER_THREADS = max(1, int(os.environ.get("SVBI_FILTER_THREADS", min(2, os.cpu_count() or 1))))
 """Blocks of the force filter filtered at once: 2 (a second core while the run has it), or
@@ -275,6 +281,8 @@ class Recorder:
         wanted = variables is None or any(v.startswith("body_") for v in variables)
         bodies, body_vars = body_variables(tr.vehicle.dof_names, u, a) if wanted else ([], {})
         filtered = self._filtered(k)
+        if self.in_contact is not None:
+            filtered = self._unilateral_filtered(filtered, k)
         static = self._static_loads()
         with np.errstate(divide="ignore", invalid="ignore"):
             unloading = np.where(static > 0, 1.0 - filtered / static, 0.0)
@@ -557,6 +565,33 @@ class Recorder:
                     stacklevel=4,
                 )
         return out
+
+    def _unilateral_filtered(self, filtered: np.ndarray, k: int) -> np.ndarray:
+        """Check the contact invariant at every step, and keep the filtered force physical.
+
+        A wheel in contact never carries a tensile force (the step's complementarity problem,
+        ``svbi.runtime.unilateral``): a sample that does is a defect of svbi, not a result, and
+        stops the run. The zero-phase low-pass of a one-sided signal rings below zero after the
+        impact spikes of a landing; a contact force is never tensile, so the filtered force is
+        clipped at 0, and it is 0 while the wheel flies: a flying wheel is fully unloaded
+        (``unloading_ratio`` = 1) (docs/method.md section 12).
+        """
+        tr = self.model.train
+        n = self.steps_done + 1
+        states = self.in_contact[:n]
+        raw = self.forces[:n]
+        bad = states & (raw < 0.0)
+        if bad.any():
+            i, j = np.argwhere(bad)[0]
+            car, wheel = divmod(int(j), tr.wheels)
+            raise ContactInvariantError(
+                f"internal error: wheel {wheel + 1} of car {car + 1} is in contact with a tensile "
+                f"force {raw[i, j]:.4g} N at t = {i * self.model.dt:.6g} s ({int(bad.sum())} such "
+                "samples); the contact state must never allow this. Please report it with the scenario"
+            )
+        every = self.model.settings.output_every
+        flying = ~states[::every][:k].reshape(filtered.shape)
+        return np.where(flying, 0.0, np.maximum(filtered, 0.0))
 
     def _filtered(self, k: int) -> np.ndarray:
         m = self.model

@@ -29,7 +29,7 @@ from svbi.runtime.assembly import FunctionGround
 from svbi.runtime.contact_rows import ShapeKernel
 from svbi.runtime.scenario import validate_scenario
 from svbi.runtime.simulate import build_model
-from test_unilateral import BRIDGE, C_S, G, K_S, M_S, M_W, SPLIT, sine_cubed
+from test_unilateral import BRIDGE, C_S, K_S, M_S, M_W, SPLIT, G, sine_cubed
 
 import svbi
 
@@ -133,7 +133,9 @@ class Reference:
     def gap_rate(self, t: float, v: np.ndarray) -> np.ndarray:
         return v[self.nf + 2 :] - self.Nf @ v[: self.nf] - self.Ns @ self.ground(t)[1]
 
-    def solve(self, t: float, x: np.ndarray, v: np.ndarray, A: tuple[int, ...]) -> tuple[np.ndarray, np.ndarray]:
+    def solve(
+        self, t: float, x: np.ndarray, v: np.ndarray, A: tuple[int, ...]
+    ) -> tuple[np.ndarray, np.ndarray]:
         """Accelerations and contact forces with the wheels ``A`` held on their rails (g'' = 0;
         the rows N are constant: the wheels stand)."""
         f = self.free_forces(t, x, v)
@@ -179,10 +181,10 @@ class Reference:
             for B in itertools.combinations(cand, k):
                 idx = list(B)
                 J = self.Jc[idx]
-                I = np.linalg.solve(J @ Minv @ J.T, -g1[idx]) if idx else np.zeros(0)
-                dv = Minv @ J.T @ I if idx else np.zeros(self.n)
+                imp = np.linalg.solve(J @ Minv @ J.T, -g1[idx]) if idx else np.zeros(0)
+                dv = Minv @ J.T @ imp if idx else np.zeros(self.n)
                 after = g1 + self.Jc @ dv
-                if (I >= 0).all() and all(after[i] >= -1e-12 for i in cand):
+                if (imp >= 0).all() and all(after[i] >= -1e-12 for i in cand):
                     return v + dv
         raise AssertionError(f"no consistent impact at t = {t}")
 
