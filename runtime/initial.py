@@ -2,9 +2,10 @@
 
 By default a train that starts off the bridge has its vehicles in static equilibrium on rigid, level
 track and the bridge at rest in its dead-load state. Newmark never damps an inconsistent initial
-acceleration, so after placing the system we solve the equations of motion together with the acceleration-level
-constraints once, at t = 0, for consistent accelerations and contact forces. For the default start
-(train off the bridge, excitations with smooth onsets) those accelerations are zero.
+acceleration, so after placing the system we solve the equations of motion together with the
+acceleration-level constraints once, at t = 0, for consistent accelerations and contact forces.
+For the default start (train off the bridge, excitations with smooth onsets) those accelerations
+are zero.
 
 ``start="static"`` (the scenario's ``train.initial``, and its default "auto" when a wheel is on the
 bridge at t = 0) instead puts the whole train-bridge system in static equilibrium: vehicles resting
