@@ -929,6 +929,8 @@ class CStepper:
                 "vehicle": recorder.data["gap_vehicle"][k].reshape(-1),
                 "bridge": recorder.data["gap_bridge"][k].reshape(-1),
             }
+            if "contact_state" in recorder.data:  # the state of that row (airborne wheels' gaps)
+                st.contact_state = recorder.data["contact_state"][k].reshape(-1).astype(bool)
             guard.check_gaps(st, gaps)
         elif status == c_solver_build.STATUS_SINGULAR:
             raise np.linalg.LinAlgError(

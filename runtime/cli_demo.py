@@ -129,8 +129,9 @@ def _strong_shaking(path: Path, overrides: list[str], backend: str | None, out: 
     written = write_netcdf(ds, out / f"{STRONG_NAME}.nc")
     a = ds.attrs
     typer.echo(
-        f"  {written}: {a['steps']} steps, loop {a['loop_time_s']:.2f} s; {a['liftoffs']} lift-offs, "
-        f"longest flight {a['longest_flight_s']:.4g} s, peak uplift {1e3 * a['peak_uplift_m']:.3g} mm"
+        f"  {written}: {a['steps']} steps, loop {a['loop_time_s']:.2f} s; peak uplift "
+        f"{1e3 * a['peak_uplift_m']:.3g} mm, longest flight {a['longest_flight_s']:.4g} s, "
+        f"{a.get('airborne_time_s', 0.0):.4g} s airborne over all wheels"
     )
     label = f"{STRONG_NAME} (2 g vertical)"
     plot_results({label: ds}, out / f"{STRONG_NAME}-figures")

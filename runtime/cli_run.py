@@ -127,10 +127,10 @@ def _run(
         typer.echo(timing_line(attrs))
         if attrs.get("liftoffs"):
             typer.echo(
-                f"wheels lifted off {attrs['liftoffs']} times: longest flight "
-                f"{attrs['longest_flight_s']:.4g} s, peak uplift {1e3 * attrs['peak_uplift_m']:.3g} mm "
+                f"wheels lift off: peak uplift {1e3 * attrs['peak_uplift_m']:.3g} mm "
                 f"(t = {attrs['peak_uplift_time']:.4g} s, car {attrs['peak_uplift_car']}, wheel "
-                f"{attrs['peak_uplift_wheel']})"
+                f"{attrs['peak_uplift_wheel']}), longest flight {attrs['longest_flight_s']:.4g} s, "
+                f"{attrs.get('airborne_time_s', 0.0):.4g} s airborne over all wheels"
             )
         if "pier_drift" in ds:  # a bridge with piers: the largest drift of a pier top over its base
             import numpy as np

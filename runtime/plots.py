@@ -719,8 +719,9 @@ SUMMARY_ROWS: dict[str, str] = {
     "gap_vehicle": "max |gap_vehicle| (m)",
     "gap_bridge": "max |gap_bridge| (m)",
     "gap_support": "max |gap_support| (m)",
-    "liftoffs": "wheel lift-offs",
     "longest_flight_s": "longest flight (s)",
+    "airborne_time_s": "time airborne, all wheels (s)",
+    "liftoffs": "wheel lift-offs (grows as dt shrinks)",
     "peak_uplift_m": "peak uplift (mm)",
     "peak_unloading_ratio": "peak unloading ratio",
     "setup_time_s": "set-up time (s)",
@@ -761,7 +762,14 @@ def _summary_values(runs: Sequence[Run]) -> dict[str, dict[str, float | None]]:
         for key, (da, scale) in peaks.items():
             peak = _scalar(da)
             values[key] = None if peak is None else peak * scale
-        for key in ("setup_time_s", "loop_time_s", "wall_time_s", "liftoffs", "longest_flight_s"):
+        for key in (
+            "setup_time_s",
+            "loop_time_s",
+            "wall_time_s",
+            "liftoffs",
+            "longest_flight_s",
+            "airborne_time_s",
+        ):
             values[key] = _attr_float(ds, key)
         up = _attr_float(ds, "peak_uplift_m")
         values["peak_uplift_m"] = None if up is None else up * 1e3

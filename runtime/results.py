@@ -537,6 +537,7 @@ class Recorder:
                     at = (begin[r] * dt, *divmod(int(j), tr.wheels))
         out["liftoffs"] = liftoffs
         out["longest_flight_s"] = longest
+        out["airborne_time_s"] = float((~states).sum() * dt) if states is not None else 0.0
         if longest > 0:
             out["longest_flight_time"] = float(at[0])
             out["longest_flight_car"] = int(at[1]) + 1

@@ -145,7 +145,12 @@ int svbi_record(const setup_t* S, const state_t* X, const excitation_t* E, outpu
           O->wheel_uplift[row * nc + c] = X->in_contact[c] || gb < 0.0 ? 0.0 : gb;
         }
         worst_of(&worst_v, gv);
-        worst_of(&worst_b, gb);
+        /* the guard's bridge gap: the constraint violation of the wheels in contact; an airborne
+         * wheel's gap is its uplift, and only a flight beyond the limit stops the run */
+        if (!S->unilateral || X->in_contact[c])
+          worst_of(&worst_b, gb);
+        else if (gb > 0.0)
+          worst_of(&worst_b, gb);
       }
       if (S->carbody_z >= 0) {
         O->carbody_uz[row * S->cars + k] = X->uV[k * NV + S->carbody_z];
