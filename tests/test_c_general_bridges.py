@@ -230,11 +230,15 @@ def test_exported_solver_runs_a_viaduct_with_piers_as_svbi_run(tmp_path):
 def test_casadi_backend_runs_a_bridge_of_substructures():
     """The CasADi backend evaluates each contact's rows with its span's element length (the
     Functions take it as an input), on every method: no fallback on a bridge with unequal spans,
-    a continuous girder and piers (NumPy's results to 1e-12, measured 2e-13)."""
+    a continuous girder and piers. NumPy's results to round-off: localized-dynamic measured 2e-13
+    of each peak (bound 1e-12); coupled-classic, whose index-1 contact rows amplify round-off,
+    measured 1.4e-12 here and 1.05e-12 on an Intel Xeon (another instruction path), bound 1e-11
+    (7x margin; a defect of the rows shows at 1e-6 or more)."""
+    bound = {"localized-dynamic": 1e-12, "coupled-classic": 1e-11}
     for method in ("localized-dynamic", "coupled-classic"):
         keys = {"contact": {"normal": "bilateral"}, "solver": {"duration": 0.3}}
         ref, cas = run("numpy", method, **keys), run("casadi", method, **keys)
         assert cas.attrs["backend"] == "casadi"
         for name in ("contact_force", "midspan_uz", "pier_top_ux", "support_reaction"):
             peak = float(np.abs(ref[name]).max())
-            assert float(np.abs(cas[name] - ref[name]).max()) <= 1e-12 * peak, (method, name)
+            assert float(np.abs(cas[name] - ref[name]).max()) <= bound[method] * peak, (method, name)
