@@ -22,7 +22,7 @@ HERE = Path(__file__).resolve().parent
 sys.path.insert(0, str(HERE))
 
 from bench_solver import on_bridge, per_step_us, total_s  # noqa: E402
-from svbi.runtime.scenario import load_scenario, validate_scenario  # noqa: E402
+from svbi.runtime.scenario.schema import load_scenario, validate_scenario  # noqa: E402
 
 VIADUCT = HERE.parent / "examples" / "viaduct.toml"
 PIER = dict(height=12.0, mass_per_length=22.5e3, youngs_modulus=34.0e9, area=9.0, second_moment=6.1)

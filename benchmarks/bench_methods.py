@@ -13,9 +13,9 @@ from __future__ import annotations
 import argparse
 import time
 
-from svbi.runtime.initial import initial_state
-from svbi.runtime.scenario import validate_scenario
-from svbi.runtime.simulate import build_model, stepper_class
+from svbi.runtime.methods.initial import initial_state
+from svbi.runtime.run.simulate import build_model, stepper_class
+from svbi.runtime.scenario.schema import validate_scenario
 
 METHODS = ("localized-dynamic", "coupled-dynamic", "coupled-classic")
 

@@ -34,10 +34,10 @@ import warnings
 from pathlib import Path
 
 import numpy as np
-from svbi.runtime.initial import initial_state
-from svbi.runtime.results import Recorder
-from svbi.runtime.scenario import load_scenario, validate_scenario
-from svbi.runtime.simulate import DivergenceGuard, build_model, numpy_steppers
+from svbi.runtime.methods.initial import initial_state
+from svbi.runtime.run.results import Recorder
+from svbi.runtime.run.simulate import DivergenceGuard, build_model, numpy_steppers
+from svbi.runtime.scenario.schema import load_scenario, validate_scenario
 
 PAPER = Path(__file__).resolve().parents[1] / "examples" / "paper-2020.toml"
 METHODS = ("localized-dynamic", "coupled-dynamic", "coupled-classic")
@@ -80,11 +80,11 @@ def _stepper(model, backend: str, method: str):
     # cars and spans: 0.3 s for 100 cars on 1000 spans, so every case starts from it
     state = initial_state(model, "static")
     if backend == "c":
-        from svbi.runtime.c_steppers import CStepper
+        from svbi.runtime.backends.c.stepper import CStepper
 
         return CStepper(model, state, method)
     if backend == "casadi":
-        from svbi.runtime.casadi_backend import casadi_stepper
+        from svbi.runtime.backends.casadi import casadi_stepper
 
         return casadi_stepper(method)(model, state)
     return numpy_steppers()[method](model, state)

@@ -36,13 +36,13 @@ import tempfile
 import time
 from pathlib import Path
 
-# as `svbi sweep` (svbi.runtime.cli.BLAS_THREADS): one BLAS thread in this process, the scheduler's
+# as `svbi sweep` (svbi.runtime.cli.app.BLAS_THREADS): one BLAS thread in this process, the scheduler's
 BLAS_VARS = ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS")
 for _name in BLAS_VARS:
     os.environ.setdefault(_name, "1")
 
 import numpy as np  # noqa: E402
-from svbi.runtime.sweep import load_study, read_store, run_sweep  # noqa: E402
+from svbi.runtime.study.sweep import load_study, read_store, run_sweep  # noqa: E402
 
 REPO = Path(__file__).resolve().parents[1]
 EXAMPLES = REPO / "examples"
@@ -127,7 +127,7 @@ int main(void) {
 HSLM_RUNS = r"""
 import sys, time, warnings
 import svbi
-from svbi.runtime.scenario import load_scenario
+from svbi.runtime.scenario.schema import load_scenario
 sc = load_scenario(sys.argv[1], overrides={"train.hslm": "A5", "train.speed_kmh": 300.0,
                                            "solver.time_step": 2e-4, "solver.output_every": 5})
 with warnings.catch_warnings():

@@ -15,7 +15,7 @@
   The Hertz coefficients m, n depend only on the ratio B/A through complete elliptic integrals.
   They stay parameters here (``hertz_m`` multiplies the rolling-direction semi-axis a, ``hertz_n``
   the lateral b) so that the kernel is exact and closed-form; their values are computed from the
-  radii by solving Hertz's elliptic-integral equations (``svbi.runtime.creep_law.hertz_coefficients``).
+  radii by solving Hertz's elliptic-integral equations (``svbi.runtime.model.creep_law.hertz_coefficients``).
   Likewise ``kalker_c11`` is a parameter whose value comes from Kalker's table at a/b = m/n and ν.
 * **Saturation** (Shen, Hedrick & Elkins 1983): with ``F_lin = |f33 ξ|`` and
   ``β = F_lin / (μ N)``, the force magnitude is ``μN (β - β²/3 + β³/27)`` for β < 3 and μN

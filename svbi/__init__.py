@@ -12,7 +12,7 @@ from typing import TYPE_CHECKING, Any
 if TYPE_CHECKING:  # the runtime imports are deferred so that `import svbi` stays light
     import xarray as xr
 
-    from svbi.runtime.scenario import Scenario
+    from svbi.runtime.scenario.schema import Scenario
 
 __version__ = "0.1.0"
 """The one place the version is written: pyproject.toml reads it from here. A literal, not
@@ -22,14 +22,14 @@ __all__ = ["__version__", "load_scenario", "simulate"]
 
 
 def load_scenario(path: str | Path) -> Scenario:
-    """Read and validate a scenario TOML file (see ``svbi.runtime.scenario.load_scenario``)."""
-    from svbi.runtime.scenario import load_scenario as _load
+    """Read and validate a scenario TOML file (see ``svbi.runtime.scenario.schema.load_scenario``)."""
+    from svbi.runtime.scenario.schema import load_scenario as _load
 
     return _load(path)
 
 
 def simulate(scenario: Scenario | str | Path, **kwargs: Any) -> xr.Dataset:
-    """Run a scenario and return the results as an ``xarray.Dataset`` (``svbi.runtime.simulate``)."""
-    from svbi.runtime.simulate import simulate as _simulate
+    """Run a scenario and return the results as an ``xarray.Dataset`` (``svbi.runtime.run.simulate``)."""
+    from svbi.runtime.run.simulate import simulate as _simulate
 
     return _simulate(scenario, **kwargs)

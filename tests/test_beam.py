@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 import sympy as sp
 from svbi.codegen import beam
-from svbi.runtime.modes import span_modes
+from svbi.runtime.model.modes import span_modes
 
 L, m, EA, EI = beam.le, beam.mu, beam.E * beam.A, beam.E * beam.I
 

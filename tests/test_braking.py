@@ -16,8 +16,8 @@ import numpy as np
 import pytest
 from conftest import c_compiler_works
 from scipy.integrate import solve_ivp
-from svbi.runtime.scenario import validate_scenario
-from svbi.runtime.simulate import build_model
+from svbi.runtime.run.simulate import build_model
+from svbi.runtime.scenario.schema import validate_scenario
 
 import svbi
 
@@ -157,7 +157,7 @@ def test_the_rows_terms_of_the_acceleration_keep_the_contact_gap_closed(tmp_path
     held at position level, so without them the wheel still follows the rail, but the gap on the span
     opens to about 1e-9 m instead of staying at the constant-speed run's level (2e-10 m, left by
     the entry kink's transient)."""
-    from svbi.runtime import contact_rows
+    from svbi.runtime.model import contact_rows
 
     v0, a = 40.0, -12.0
 
@@ -196,7 +196,7 @@ def test_a_braking_train_stops_and_stands(tmp_path):
 
 
 def test_a_braking_train_that_stops_on_the_bridge_needs_a_duration():
-    from svbi.runtime.scenario import ScenarioError
+    from svbi.runtime.scenario.schema import ScenarioError
 
     with pytest.raises(
         ScenarioError, match="train.acceleration: braking at 5 m/s\\^2 the train stops after 40 m"
@@ -223,7 +223,7 @@ def test_c_loop_brakes_to_a_stop_as_numpy_does():
     none below its stable speed): a Pioneer car braking to a stop on the bridge under a quake."""
     import warnings
 
-    from svbi.runtime.simulate import BackendFallback
+    from svbi.runtime.run.simulate import BackendFallback
 
     def run(backend: str):
         sc = validate_scenario(

@@ -14,8 +14,8 @@ import warnings
 import numpy as np
 import pytest
 from conftest import c_compiler_works
-from svbi.runtime.scenario import ScenarioError, load_scenario, loads_scenario
-from svbi.runtime.simulate import build_model
+from svbi.runtime.run.simulate import build_model
+from svbi.runtime.scenario.schema import ScenarioError, load_scenario, loads_scenario
 
 import svbi
 
@@ -228,7 +228,7 @@ def test_shorthand_and_long_form_together_or_neither(tmp_path):
 
 
 def test_modes_of_a_refused_scenario_is_one_line(tmp_path):
-    from svbi.runtime.cli import _register, app
+    from svbi.runtime.cli.app import _register, app
     from typer.testing import CliRunner
 
     _register()

@@ -15,7 +15,8 @@ import subprocess
 from pathlib import Path
 
 import pytest
-from svbi.runtime import c_solver_build, kernel_cache
+from svbi.runtime.backends import compiler as kernel_cache
+from svbi.runtime.backends.c import build as c_solver_build
 
 ALLOCATORS = {
     "malloc",

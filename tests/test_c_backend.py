@@ -1,4 +1,5 @@
-"""The C backend (the whole Newmark loop in C, ``svbi.runtime.c_steppers``) against the NumPy reference.
+"""The C backend (the whole Newmark loop in C, ``svbi.runtime.backends.c.stepper``) against the NumPy
+reference.
 
 The NumPy backend is the truth: the C loop must reproduce every output variable of DESIGN.md section
 4 (and the creep and irregularity outputs) to round-off, for every method, on multi-car, multi-span
@@ -34,13 +35,15 @@ from pathlib import Path
 import numpy as np
 import pytest
 from conftest import c_compiler_works, export_and_run
-from svbi.runtime import c_solver_build, c_steppers, kernel_cache
+from svbi.runtime.backends import compiler as kernel_cache
+from svbi.runtime.backends.c import build as c_solver_build
+from svbi.runtime.backends.c import stepper as c_steppers
 from svbi.runtime.excitation.ground import RecordGround, ground_motion
 from svbi.runtime.excitation.synthetic import synthetic_record
-from svbi.runtime.initial import initial_state
-from svbi.runtime.results import Recorder
-from svbi.runtime.scenario import validate_scenario
-from svbi.runtime.simulate import BackendFallback, DivergenceGuard, build_model
+from svbi.runtime.methods.initial import initial_state
+from svbi.runtime.run.results import Recorder
+from svbi.runtime.run.simulate import BackendFallback, DivergenceGuard, build_model
+from svbi.runtime.scenario.schema import validate_scenario
 
 import svbi
 
@@ -220,7 +223,7 @@ def test_divergence_stops_with_the_same_message_and_partial_results():
             constraint_kappa=1e4,
             normal="bilateral",  # unilateral, the overshooting force would release the wheel
         )
-        with pytest.warns(svbi.runtime.simulate.SimulationIncomplete, match="diverged"):
+        with pytest.warns(svbi.runtime.run.simulate.SimulationIncomplete, match="diverged"):
             res[backend] = svbi.simulate(sc)
     ref, out = res["numpy"], res["c"]
     assert ref.attrs["complete"] == 0 and out.attrs["complete"] == 0
@@ -331,13 +334,13 @@ def test_loop_library_exports_its_interface_and_hides_the_rest():
 
 def test_builtin_loop_imports_neither_jinja2_nor_casadi():
     """A built-in model's loop is the static C plus committed glue: building and loading it
-    imports no template engine and no CasADi (svbi.runtime.c_glue is for generation only)."""
+    imports no template engine and no CasADi (svbi.runtime.backends.c.glue is for generation only)."""
     code = (
         "import sys\n"
-        "from svbi.runtime import c_solver_build\n"
+        "from svbi.runtime.backends.c import build as c_solver_build\n"
         "c_solver_build.load_loop(c_solver_build.LoopSpec('pioneer-2d', 14, 4))\n"
         "c_solver_build.load_loop(c_solver_build.LoopSpec('moving-load', 0, 0))\n"
-        "print(sorted(m for m in ('jinja2', 'casadi', 'svbi.runtime.c_glue') if m in sys.modules))\n"
+        "print(sorted(m for m in ('jinja2', 'casadi', 'svbi.runtime.backends.c.glue') if m in sys.modules))\n"
     )
     done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
     assert done.stdout.strip() == "[]", done.stdout + done.stderr
@@ -346,7 +349,7 @@ def test_builtin_loop_imports_neither_jinja2_nor_casadi():
 def test_committed_glue_is_what_a_topology_file_gets():
     """A topology file has its svbi_topology.h rendered at run time; for a built-in topology that
     is byte for byte the committed header, and the rest of the glue is the committed files."""
-    from svbi.runtime import c_glue
+    from svbi.runtime.backends.c import glue as c_glue
 
     spec = c_solver_build.LoopSpec("pioneer-2d", 14, 4)
     committed = c_solver_build.glue_sources(spec)

@@ -9,8 +9,8 @@ import warnings
 import numpy as np
 import pytest
 from conftest import c_compiler_works, export_and_run
-from svbi.runtime.scenario import validate_scenario
-from svbi.runtime.simulate import BackendFallback
+from svbi.runtime.run.simulate import BackendFallback
+from svbi.runtime.scenario.schema import validate_scenario
 from test_continuous_bridges import VIADUCT
 
 import svbi

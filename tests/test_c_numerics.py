@@ -5,7 +5,7 @@ reciprocal-pivot variant, dense Cholesky) and ``runtime/csrc/tables.c`` (piecewi
 tables) depend on no topology: they are compiled here on their own, with the generated
 ``svbi_solver_types.h``, into a small library and called through ctypes. The same library carries
 a helper that reports ``sizeof`` and ``offsetof`` of every generated struct, which must equal the
-ctypes mirrors of ``svbi.runtime.c_solver_build`` (both come from its field lists).
+ctypes mirrors of ``svbi.runtime.backends.c.build`` (both come from its field lists).
 
 Truth: ``scipy.linalg.cholesky_banded`` / ``cho_solve_banded`` / ``solve_banded``,
 ``numpy.linalg.solve`` and ``scipy.interpolate.PPoly``. Tolerances are round-off of the condition
@@ -21,7 +21,8 @@ import numpy as np
 import pytest
 import scipy.interpolate
 import scipy.linalg
-from svbi.runtime import c_solver_build, kernel_cache
+from svbi.runtime.backends import compiler as kernel_cache
+from svbi.runtime.backends.c import build as c_solver_build
 
 SW = 4  # spans per block of band_solve_blocked (runtime/csrc/band.h)
 STRUCTS = {

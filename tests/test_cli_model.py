@@ -8,7 +8,7 @@ from pathlib import Path
 import numpy as np
 import sympy as sp
 from svbi.codegen.vehicle import derive_vehicle
-from svbi.runtime.cli import _register, app
+from svbi.runtime.cli.app import _register, app
 from typer.testing import CliRunner
 
 _register()
@@ -87,7 +87,7 @@ def test_the_cli_runs_one_blas_thread_unless_the_user_says_otherwise():
     import sys
 
     code = (
-        "import svbi.runtime.cli, numpy, os; "
+        "import svbi.runtime.cli.app, numpy, os; "
         "print(os.environ['OPENBLAS_NUM_THREADS'], os.environ['OMP_NUM_THREADS'])"
     )
     env = {k: v for k, v in os.environ.items() if k not in ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS")}
@@ -108,7 +108,7 @@ def test_a_command_runs_without_cyclic_collection_but_a_sweep_turns_it_on(tmp_pa
     def enabled_after(*args: str) -> str:
         code = (
             "import gc, sys\n"
-            "from svbi.runtime import cli\n"
+            "from svbi.runtime.cli import app as cli\n"
             f"sys.argv = ['svbi', *{list(args)!r}]\n"
             "try:\n"
             "    cli.main()\n"

@@ -13,8 +13,8 @@ import numpy as np
 import pytest
 import sympy as sp
 from svbi.codegen import beam, constraints
-from svbi.runtime.bridge import Bridge
-from svbi.runtime.contact_rows import (
+from svbi.runtime.model.bridge import Bridge
+from svbi.runtime.model.contact_rows import (
     BridgeConstraintMass,
     ContactRowKernel,
     ShapeKernel,

@@ -19,10 +19,10 @@ import numpy as np
 import pytest
 from scipy.integrate import solve_ivp
 from scipy.optimize import brentq
-from svbi.runtime.assembly import FunctionGround
-from svbi.runtime.bridge import Bridge, Girder, Section
-from svbi.runtime.scenario import validate_scenario
-from svbi.runtime.simulate import build_model
+from svbi.runtime.model.bridge import Bridge, Girder, Section
+from svbi.runtime.model.system import FunctionGround
+from svbi.runtime.run.simulate import build_model
+from svbi.runtime.scenario.schema import validate_scenario
 
 import svbi
 
@@ -224,7 +224,7 @@ def test_free_longitudinal_vibration_of_the_pier_in_the_time_loop():
     assert np.abs(top[free]).max() > 1e-3  # it does swing
     # drift: the top relative to the ground at its base, and its peak among the metrics
     np.testing.assert_array_equal(ds.pier_drift.values[:, 0], top - ds.ground_ux.values)
-    from svbi.runtime.metrics import compute_metrics
+    from svbi.runtime.study.metrics import compute_metrics
 
     m = compute_metrics(ds)
     assert float(m.peak_pier_drift.sel(pier=1)) == float(np.abs(ds.pier_drift).max())
@@ -378,9 +378,9 @@ def test_localized_equals_coupled_dynamic_with_bearing_springs():
 def test_the_viaduct_example_loads_prints_its_modes_and_runs(tmp_path):
     """examples/viaduct.toml (shipped with the package): valid, `svbi modes` prints the whole
     bridge's frequencies, and a short run writes piers' results."""
-    from svbi.runtime.cli import _register, app
-    from svbi.runtime.cli_demo import example_path
-    from svbi.runtime.scenario import load_scenario
+    from svbi.runtime.cli.app import _register, app
+    from svbi.runtime.cli.demo import example_path
+    from svbi.runtime.scenario.schema import load_scenario
     from typer.testing import CliRunner
 
     path = example_path("viaduct.toml")
@@ -405,7 +405,7 @@ def test_the_viaduct_example_loads_prints_its_modes_and_runs(tmp_path):
 
 def test_svbi_run_reports_the_peak_pier_drift(tmp_path):
     import tomli_w
-    from svbi.runtime.cli import _register, app
+    from svbi.runtime.cli.app import _register, app
     from typer.testing import CliRunner
 
     data = {

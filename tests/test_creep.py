@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 import sympy as sp
 from svbi.codegen import creep as law
-from svbi.runtime.creep_law import (
+from svbi.runtime.model.creep_law import (
     CreepParameters,
     creep_force,
     creep_force_derivative,

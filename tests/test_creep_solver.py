@@ -4,7 +4,7 @@ Independent truths:
 
 * a car rolling on the approach track while the ground moves longitudinally: each wheelset spin
   obeys ``J w' = R F(xi, N)`` with ``xi = (R w - q_x'(t)) / v`` (its only coupling), integrated by
-  ``solve_ivp`` with the creep law of ``svbi.runtime.creep_law`` (itself tested against SymPy and
+  ``solve_ivp`` with the creep law of ``svbi.runtime.model.creep_law`` (itself tested against SymPy and
   Kalker's tables in ``test_creep.py``); small creepage gives Kalker's linear force, a low friction
   coefficient saturates it at ``mu N``;
 * friction only dissipates: ``F xi <= 0`` at every step, and a heavy wheelset rolling on a span damps
@@ -20,10 +20,10 @@ from functools import cache
 import numpy as np
 import pytest
 from scipy.integrate import solve_ivp
-from svbi.runtime.assembly import FunctionGround
-from svbi.runtime.creep_law import CreepLaw, CreepParameters, kalker_coefficient
-from svbi.runtime.scenario import validate_scenario
-from svbi.runtime.simulate import build_model
+from svbi.runtime.model.creep_law import CreepLaw, CreepParameters, kalker_coefficient
+from svbi.runtime.model.system import FunctionGround
+from svbi.runtime.run.simulate import build_model
+from svbi.runtime.scenario.schema import validate_scenario
 
 import svbi
 

@@ -5,10 +5,10 @@ from __future__ import annotations
 from pathlib import Path
 
 import xarray as xr
-from svbi.runtime.cli import _register, app
-from svbi.runtime.cli_demo import METHODS, example_path
-from svbi.runtime.plots import FIGURE_NAMES
-from svbi.runtime.scenario import load_scenario
+from svbi.runtime.cli.app import _register, app
+from svbi.runtime.cli.demo import METHODS, example_path
+from svbi.runtime.plots.results import FIGURE_NAMES
+from svbi.runtime.scenario.schema import load_scenario
 from typer.testing import CliRunner
 
 _register()

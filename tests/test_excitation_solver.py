@@ -27,12 +27,12 @@ import numpy as np
 import pytest
 import scipy.signal as sig
 from scipy.integrate import solve_ivp
-from svbi.runtime.assembly import FunctionGround
 from svbi.runtime.excitation import make_irregularity, process_record, read_record, synthetic_record
 from svbi.runtime.excitation.synthetic import synthetic_motion
-from svbi.runtime.hslm import hslm_train
-from svbi.runtime.scenario import ScenarioError, validate_scenario
-from svbi.runtime.simulate import build_model
+from svbi.runtime.model.hslm import hslm_train
+from svbi.runtime.model.system import FunctionGround
+from svbi.runtime.run.simulate import build_model
+from svbi.runtime.scenario.schema import ScenarioError, validate_scenario
 
 import svbi
 

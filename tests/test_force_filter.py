@@ -1,4 +1,4 @@
-"""The compiled zero-phase filter of the contact forces (svbi.runtime.zero_phase) is SciPy's
+"""The compiled zero-phase filter of the contact forces (svbi.runtime.run.force_filter) is SciPy's
 ``sosfiltfilt``: odd padding, ``sosfilt_zi`` states, forward and backward passes, decimated rows."""
 
 from __future__ import annotations
@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 import scipy.signal as sig
 from conftest import c_compiler_works
-from svbi.runtime import zero_phase
+from svbi.runtime.run import force_filter as zero_phase
 
 pytestmark = pytest.mark.skipif(not c_compiler_works(), reason="no working C compiler")
 

@@ -22,8 +22,8 @@ import sympy as sp
 from svbi.codegen import kernels
 from svbi.codegen.kernels import KernelSpec
 from svbi.codegen.vehicle import derive_vehicle
-from svbi.runtime import c_solver_build
-from svbi.runtime.kernel_modules import load
+from svbi.runtime.backends.c import build as c_solver_build
+from svbi.runtime.model.kernels import load
 
 RTOL = 1e-12
 MODELS = ("frame2d", "sprung-mass", "pioneer-2d")
@@ -81,7 +81,7 @@ def test_row_tables_equal_the_symbolic_rows() -> None:
     from svbi.codegen import beam, constraints
 
     rng = np.random.default_rng(7)
-    from svbi.runtime import c_glue
+    from svbi.runtime.backends.c import glue as c_glue
 
     exprs = c_glue.row_expressions()
     degree, nonzero = c_solver_build.row_structure()
@@ -100,7 +100,7 @@ def test_row_tables_equal_the_symbolic_rows() -> None:
 
 
 def test_numeric_vehicle_equals_the_symbolic_model() -> None:
-    from svbi.runtime.train import vehicle_model
+    from svbi.runtime.model.train import vehicle_model
 
     for name in ("sprung-mass", "pioneer-2d"):
         values = {"pioneer-2d": {"wheelset_mass": 2100.0}, "sprung-mass": {}}[name]
@@ -208,7 +208,7 @@ def test_c_run_imports_no_sympy_casadi_or_jinja2() -> None:
 
 CACHE_PROBE = r"""
 import sys
-from svbi.runtime.train import vehicle_model
+from svbi.runtime.model.train import vehicle_model
 
 v = vehicle_model(sys.argv[1]).numeric({"sprung_mass": 12345.0})
 print(repr(float(v.M[0, 0])), "sympy" in sys.modules)

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-from svbi.runtime.hslm import hslm_train
+from svbi.runtime.model.hslm import hslm_train
 
 # EN 1991-2:2003, Table E.1: train -> (N intermediate coaches, D coach length m, d bogie axle
 # spacing m, P point force kN). Retyped here from the standard as the independent reference.

@@ -6,7 +6,7 @@ proportional to |cos(π L / D)| at that speed (ERRI D214; Museros et al. 2002, J
 so where L / D = i - 1/2 the resonance is cancelled. Here:
 
 * HSLM-A4 (D = 21 m) on a 20 m span (L/D = 0.95) and HSLM-A1 (D = 18 m) on the same span
-  (L/D = 1.11): the speed of the peak filtered deck acceleration (``svbi.runtime.metrics``) lies
+  (L/D = 1.11): the speed of the peak filtered deck acceleration (``svbi.runtime.study.metrics``) lies
   within 3 % of f1 D (f1 of the model, from the generated span matrices);
 * HSLM-A4 on a 31.5 m span (L/D = 1.5, cancelled) against a 21 m span (L/D = 1.0, the strongest
   resonance) of the same first frequency and mass: at v = f1 D the cancelled span's deck
@@ -23,9 +23,9 @@ import warnings
 
 import numpy as np
 import pytest
-from svbi.runtime.hslm import HSLM_A
-from svbi.runtime.metrics import compute_metrics, span_frequencies
-from svbi.runtime.scenario import validate_scenario
+from svbi.runtime.model.hslm import HSLM_A
+from svbi.runtime.scenario.schema import validate_scenario
+from svbi.runtime.study.metrics import compute_metrics, span_frequencies
 
 import svbi
 

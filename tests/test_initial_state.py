@@ -1,4 +1,4 @@
-"""The initial state's full-system solves (``svbi.runtime.initial``) against a dense reference.
+"""The initial state's full-system solves (``svbi.runtime.methods.initial``) against a dense reference.
 
 The initial state solves two bordered full-system problems: the static equilibrium of the train on
 the deflected bridge (``start="static"``) and the consistent accelerations. They are assembled
@@ -25,11 +25,11 @@ import pytest
 import scipy.linalg as sla
 import scipy.sparse as sps
 import scipy.sparse.linalg as spla
-from svbi.runtime import initial
-from svbi.runtime.assembly import FunctionGround, Model
-from svbi.runtime.contact_rows import ShapeKernel
-from svbi.runtime.scenario import validate_scenario
-from svbi.runtime.simulate import build_model
+from svbi.runtime.methods import initial
+from svbi.runtime.model.contact_rows import ShapeKernel
+from svbi.runtime.model.system import FunctionGround, Model
+from svbi.runtime.run.simulate import build_model
+from svbi.runtime.scenario.schema import validate_scenario
 
 VEHICLES = ("pioneer-2d", "sprung-mass", "moving-load")
 RTOL = 1e-12

@@ -8,7 +8,7 @@ from __future__ import annotations
 from pathlib import Path
 
 import pytest
-from svbi.runtime.cli import _register, app
+from svbi.runtime.cli.app import _register, app
 from typer.testing import CliRunner
 
 _register()
@@ -279,7 +279,7 @@ def test_run_refuses_bad_numbers_naming_the_key(tmp_path: Path, setting: str, ex
 
 
 def test_size_guards_explain_the_limit(tmp_path: Path) -> None:
-    from svbi.runtime import limits
+    from svbi.runtime.scenario import limits
 
     text = _run_error(tmp_path, "solver.time_step=1e-9")
     assert f"{limits.MAX_STEPS:.0e}" in text or f"{limits.MAX_STEPS:,}" in text
@@ -524,7 +524,7 @@ output_every = 3
 
 
 def _jacobs(tmp_path: Path, backend: str):  # noqa: ANN202 - xarray.Dataset
-    from svbi.runtime.scenario import load_scenario
+    from svbi.runtime.scenario.schema import load_scenario
 
     import svbi
 

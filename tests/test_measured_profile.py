@@ -17,9 +17,9 @@ import numpy as np
 import pytest
 from scipy.integrate import solve_ivp
 from scipy.interpolate import CubicSpline
-from svbi.runtime.run_output import OutputPathError, check_output, run_inputs
-from svbi.runtime.scenario import ScenarioError, load_scenario
-from svbi.runtime.simulate import simulate
+from svbi.runtime.run.output import OutputPathError, check_output, run_inputs
+from svbi.runtime.run.simulate import simulate
+from svbi.runtime.scenario.schema import ScenarioError, load_scenario
 
 M_S, K_S = 5750.0, 1.595e6  # sprung-mass defaults (codegen/vehicles/sprung-mass.toml)
 

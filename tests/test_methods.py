@@ -14,7 +14,7 @@ from functools import cache
 
 import numpy as np
 import pytest
-from svbi.runtime.scenario import validate_scenario
+from svbi.runtime.scenario.schema import validate_scenario
 
 import svbi
 
@@ -98,9 +98,10 @@ def test_coupled_dynamic_with_kappa_zero_is_classic():
 
     The partitioned solve (forces as unknowns) reproduces classic to round-off. The monolithic
     coupled-dynamic keeps the paper's multipliers lambda as unknowns; with kappa = 0, lambda grows
-    like t^2 (method-notes pitfall 7). Solving for their increments (runtime/coupled_dynamic.py) leaves
-    lambda' growing like t in ``a0 dlambda - a2 lambda'``: measured over this 1000-step run, 1e-11 on
-    the bridge and the contact force, 1.5e-9 on the car-body pitch (5e-7 in the total form).
+    like t^2 (method-notes pitfall 7). Solving for their increments
+    (runtime/methods/coupled_dynamic.py) leaves lambda' growing like t in ``a0 dlambda - a2 lambda'``:
+    measured over this 1000-step run, 1e-11 on the bridge and the contact force, 1.5e-9 on the
+    car-body pitch (5e-7 in the total form).
     """
     classic = run("coupled-classic", cars=1, spans=2, quake=False)
     localized0 = run("localized-dynamic", kappa=0.0, cars=1, spans=2, quake=False)

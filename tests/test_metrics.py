@@ -21,10 +21,10 @@ from pathlib import Path
 import numpy as np
 import pytest
 import xarray as xr
-from svbi.runtime.checks import en1990_checks
-from svbi.runtime.metrics import compute_metrics, span_frequencies
-from svbi.runtime.results import write_netcdf
-from svbi.runtime.scenario import validate_scenario
+from svbi.runtime.run.results import write_netcdf
+from svbi.runtime.scenario.schema import validate_scenario
+from svbi.runtime.study.en1990 import en1990_checks
+from svbi.runtime.study.metrics import compute_metrics, span_frequencies
 
 import svbi
 
@@ -115,8 +115,8 @@ def test_deck_filter_is_scipys_and_imports_no_scipy_signal_once_designed(tmp_pat
     fresh process whose filter design is cached does not import ``scipy.signal`` (0.38 s, with
     ``scipy.stats``: a sweep worker's first run paid it)."""
     import scipy.signal as sig
-    from svbi.runtime import zero_phase
-    from svbi.runtime.metrics import FILTER_ORDER, lowpass
+    from svbi.runtime.run import force_filter as zero_phase
+    from svbi.runtime.study.metrics import FILTER_ORDER, lowpass
 
     if not zero_phase.compiled():
         pytest.skip("no working C compiler: the metrics filter is SciPy's own")
@@ -129,7 +129,7 @@ def test_deck_filter_is_scipys_and_imports_no_scipy_signal_once_designed(tmp_pat
     np.testing.assert_array_equal(lowpass(acc[:, 1], fc, fs), sig.sosfiltfilt(sos, acc[:, 1], padlen=padlen))
     probe = (
         "import sys, numpy as np\n"
-        "from svbi.runtime.metrics import lowpass\n"
+        "from svbi.runtime.study.metrics import lowpass\n"
         f"lowpass(np.ones((3001, 2)), {fc!r}, {fs!r})\n"
         "print('scipy.signal' in sys.modules)\n"
     )
@@ -170,7 +170,7 @@ def test_unilateral_contact_metrics_when_present():
 
 def _svbi(*args: str) -> subprocess.CompletedProcess:
     """The command line in this process (typer's runner): exit status, stdout and stderr."""
-    from svbi.runtime.cli import _register, app
+    from svbi.runtime.cli.app import _register, app
     from typer.testing import CliRunner
 
     if not app.registered_commands:

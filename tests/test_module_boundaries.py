@@ -52,7 +52,7 @@ def test_the_check_finds_a_private_import(tmp_path: Path) -> None:
     """The check itself: it must flag both forms (else the test below could never fail)."""
     bad = tmp_path / "probe.py"
     bad.write_text(
-        "from svbi.runtime.simulate import _hidden\nimport svbi.runtime.simulate as s\ns._other()\n"
+        "from svbi.runtime.run.simulate import _hidden\nimport svbi.runtime.run.simulate as s\ns._other()\n"
     )
     found = _private_uses(bad)
     assert len(found) == 2, found

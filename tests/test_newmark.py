@@ -1,4 +1,4 @@
-"""Newmark's update in total and increment form (runtime/newmark.py).
+"""Newmark's update in total and increment form (runtime/methods/newmark.py).
 
 The vehicles are stepped in increment form: the same scheme, but the car-body acceleration (a
 plotted result) no longer carries the ``a0 eps |u|`` round-off of ``a0 u_{n+1} - P``.
@@ -10,7 +10,7 @@ from fractions import Fraction
 
 import numpy as np
 import sympy as sp
-from svbi.runtime.newmark import Newmark
+from svbi.runtime.methods.newmark import Newmark
 
 
 def test_increment_form_is_the_total_form_in_exact_arithmetic() -> None:

@@ -10,9 +10,9 @@ from __future__ import annotations
 import numpy as np
 import pytest
 import xarray as xr
-from svbi.runtime.cli_demo import METHODS, example_path
-from svbi.runtime.scenario import load_scenario
-from svbi.runtime.simulate import build_model, simulate
+from svbi.runtime.cli.demo import METHODS, example_path
+from svbi.runtime.run.simulate import build_model, simulate
+from svbi.runtime.scenario.schema import load_scenario
 
 pytestmark = pytest.mark.slow
 

@@ -1,4 +1,4 @@
-"""`svbi plot` / `svbi compare` and the figures and summary of runtime/plots.py.
+"""`svbi plot` / `svbi compare` and the figures and summary of runtime/plots/results.py.
 
 Results files here are synthetic but follow the DESIGN §4 contract exactly; the summary is checked
 against peaks computed in the test straight from the arrays that went into the file.
@@ -14,7 +14,8 @@ import pytest
 import typer
 import xarray as xr
 from PIL import Image
-from svbi.runtime import cli_plot, plots
+from svbi.runtime.cli import plot as cli_plot
+from svbi.runtime.plots import results as plots
 from typer.testing import CliRunner
 
 runner = CliRunner()

@@ -14,8 +14,8 @@ import json
 
 import numpy as np
 import pytest
-from svbi.runtime.scenario import validate_scenario
-from svbi.runtime.simulate import simulate
+from svbi.runtime.run.simulate import simulate
+from svbi.runtime.scenario.schema import validate_scenario
 from typer.testing import CliRunner
 
 SPAN, E, MU, AREA, I_Y = 32.0, 35.5e9, 22.4e3, 8.63, 6.58
@@ -68,7 +68,7 @@ def test_uniform_ground_is_subtracted_from_every_span() -> None:
 
 
 def test_modes_of_a_scenario_print_its_vehicle_and_spans(tmp_path) -> None:
-    from svbi.runtime.cli import _register, app
+    from svbi.runtime.cli.app import _register, app
 
     _register()
     text = (

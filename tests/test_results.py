@@ -1,5 +1,5 @@
 """The results' post-processing: the filtered contact force and the background import of the
-modules the results need after the loop (``svbi.runtime.results``)."""
+modules the results need after the loop (``svbi.runtime.run.results``)."""
 
 from __future__ import annotations
 
@@ -10,9 +10,9 @@ from pathlib import Path
 import numpy as np
 import pytest
 from scipy import signal
-from svbi.runtime import results
-from svbi.runtime.results import ImportAhead, Recorder
-from svbi.runtime.simulate import build_model, validate_scenario
+from svbi.runtime.run import results
+from svbi.runtime.run.results import ImportAhead, Recorder
+from svbi.runtime.run.simulate import build_model, validate_scenario
 
 SCENARIO = {
     "bridge": dict(
@@ -87,7 +87,7 @@ def test_a_writer_that_cannot_load_loses_no_run(tmp_path: Path, monkeypatch) -> 
     """The writer's modules are imported ahead as a head start only: a broken netCDF4 neither fails
     the run after its loop nor the write, which falls back to h5netcdf (the same NetCDF-4 file)."""
     import xarray as xr
-    from svbi.runtime.simulate import simulate
+    from svbi.runtime.run.simulate import simulate
 
     (tmp_path / "svbi_broken_writer.py").write_text("raise ImportError('broken writer')\n")
     monkeypatch.syspath_prepend(str(tmp_path))
@@ -108,7 +108,7 @@ def test_a_writer_that_cannot_load_loses_no_run(tmp_path: Path, monkeypatch) -> 
 
 
 def test_modules_after_loop_follow_the_filter_setting(tmp_path: Path, monkeypatch) -> None:
-    from svbi.runtime import zero_phase
+    from svbi.runtime.run import force_filter as zero_phase
 
     monkeypatch.setenv("SVBI_CACHE_DIR", str(tmp_path))  # no filter designed yet on this "machine"
     model = build_model(validate_scenario(SCENARIO))

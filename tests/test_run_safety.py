@@ -59,7 +59,7 @@ PREVIOUS = b"previous results: must survive\n"
 
 
 def _app():
-    from svbi.runtime.cli import _register, app
+    from svbi.runtime.cli.app import _register, app
 
     _register()
     return app
@@ -90,7 +90,7 @@ def _debris(folder: Path) -> list[str]:
 @pytest.fixture
 def no_simulation(monkeypatch: pytest.MonkeyPatch) -> None:
     """Fail the test if the run reaches the simulation (the check must come first)."""
-    import svbi.runtime.simulate as sim
+    import svbi.runtime.run.simulate as sim
 
     def refuse(*args, **kwargs):
         raise AssertionError("simulate() was called: the output path was not checked first")
@@ -191,7 +191,7 @@ class _Exploding:
     name = "localized-dynamic"
 
     def __init__(self, model, state):
-        from svbi.runtime.localized import LocalizedDynamic
+        from svbi.runtime.methods.localized import LocalizedDynamic
 
         self.inner = LocalizedDynamic(model, state)
         self.contacts = None
@@ -205,7 +205,7 @@ class _Exploding:
 
 
 def test_a_diverged_run_keeps_the_previous_results_and_writes_incomplete_beside(tmp_path: Path) -> None:
-    import svbi.runtime.simulate as sim
+    import svbi.runtime.run.simulate as sim
 
     sim.register_backend("casadi", {"localized-dynamic": _Exploding})
     try:
@@ -238,7 +238,7 @@ def test_a_diverged_run_keeps_the_previous_results_and_writes_incomplete_beside(
 def test_a_full_disk_during_the_write_gives_one_line_and_keeps_the_previous_file(
     tmp_path: Path, monkeypatch: pytest.MonkeyPatch
 ) -> None:
-    import svbi.runtime.results as results
+    import svbi.runtime.run.results as results
 
     real = results.write_atomic
 
@@ -262,7 +262,7 @@ def test_a_full_disk_during_the_write_gives_one_line_and_keeps_the_previous_file
 
 
 def _svbi_command() -> list[str]:
-    return [sys.executable, "-c", "from svbi.runtime.cli import main; main()"]
+    return [sys.executable, "-c", "from svbi.runtime.cli.app import main; main()"]
 
 
 def test_a_file_size_limit_during_the_write_gives_one_line_not_a_crash(tmp_path: Path) -> None:
@@ -407,8 +407,8 @@ def test_sigterm_during_an_atomic_write_leaves_no_temporary_file(tmp_path: Path)
         f"""
         import time
         from pathlib import Path
-        from svbi.runtime.atomic import write_atomic
-        from svbi.runtime.run_output import signals_interrupt
+        from svbi.runtime.run.atomic import write_atomic
+        from svbi.runtime.run.output import signals_interrupt
 
         def slow(tmp: Path) -> None:
             tmp.write_bytes(b"partial")
@@ -457,7 +457,7 @@ def test_a_compile_killed_part_way_leaves_no_build_folder_for_good(tmp_path: Pat
     cc.write_text(SLOW_CC, encoding="utf-8")
     code = textwrap.dedent(
         f"""
-        from svbi.runtime import kernel_cache
+        from svbi.runtime.backends import compiler as kernel_cache
         source = {{"a.c": b"int f(void) {{ return 1; }}\\n"}}
         kernel_cache.build_library(source, "probe", cache_dir={str(cache)!r})
         """
@@ -482,7 +482,7 @@ def test_a_compile_killed_part_way_leaves_no_build_folder_for_good(tmp_path: Pat
     assert len(stale) == 1  # what the killed compile left
 
     # the next build in the same cache, with a working compiler, removes it
-    from svbi.runtime import kernel_cache
+    from svbi.runtime.backends import compiler as kernel_cache
 
     path = kernel_cache.build_library({"a.c": b"int f(void) { return 1; }\n"}, "probe", cache_dir=cache)
     assert path.is_file()
@@ -491,7 +491,7 @@ def test_a_compile_killed_part_way_leaves_no_build_folder_for_good(tmp_path: Pat
 
 def test_a_live_build_folder_is_left_alone(tmp_path: Path) -> None:
     """A build of a running process (this one) is not stale, however the sweep is triggered."""
-    from svbi.runtime import kernel_cache
+    from svbi.runtime.backends import compiler as kernel_cache
 
     live = kernel_cache.new_build_folder(tmp_path, "0123456789ab")
     kernel_cache.remove_stale_builds(tmp_path)
@@ -538,7 +538,7 @@ def test_max_memory_sets_the_limit(tmp_path: Path) -> None:
 
 
 def test_parse_size() -> None:
-    from svbi.runtime.resources import parse_size
+    from svbi.runtime.run.memory import parse_size
 
     assert parse_size("8GiB") == 8 * 2**30
     assert parse_size("1.5 GB") == 1_500_000_000
@@ -556,10 +556,10 @@ def test_the_estimate_of_the_stored_arrays_is_what_the_run_allocates(tmp_path: P
     not)."""
     import tracemalloc
 
-    import svbi.runtime.results as results
-    from svbi.runtime.resources import estimate_memory
-    from svbi.runtime.scenario import load_scenario
-    from svbi.runtime.simulate import simulate
+    import svbi.runtime.run.results as results
+    from svbi.runtime.run.memory import estimate_memory
+    from svbi.runtime.run.simulate import simulate
+    from svbi.runtime.scenario.schema import load_scenario
 
     text = (
         GOOD.replace("spans = 1", "spans = 4")
@@ -577,7 +577,7 @@ def test_the_estimate_of_the_stored_arrays_is_what_the_run_allocates(tmp_path: P
             super().__init__(model)
             recorders.append(self)
 
-    import svbi.runtime.simulate as sim
+    import svbi.runtime.run.simulate as sim
 
     real = sim.Recorder
     sim.Recorder = Spy

@@ -12,7 +12,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 import xarray as xr
-from svbi.runtime.scenario import ScenarioError, ScenarioWarning, load_scenario, loads_scenario
+from svbi.runtime.scenario.schema import ScenarioError, ScenarioWarning, load_scenario, loads_scenario
 from typer.testing import CliRunner
 
 import svbi
@@ -217,7 +217,7 @@ def test_overrides_are_toml_literals_or_text(tmp_path):
 def test_casadi_backend_runs_and_agrees_with_numpy(tmp_path):
     """``backend = "casadi"`` evaluates the contact rows with the CasADi Functions (no fallback);
     the warn-once fallback of a backend that cannot run is in tests/test_c_backend.py."""
-    import svbi.runtime.simulate as sim
+    import svbi.runtime.run.simulate as sim
 
     sc = load_scenario(write(tmp_path, GOOD), overrides=["solver.backend=casadi", "solver.duration=0.02"])
     with warnings.catch_warnings():
@@ -236,7 +236,7 @@ def test_casadi_backend_runs_and_agrees_with_numpy(tmp_path):
 
 
 def test_cli_run_writes_results_atomically(tmp_path):
-    from svbi.runtime.cli import _register, app
+    from svbi.runtime.cli.app import _register, app
 
     _register()
     scenario = write(tmp_path, GOOD)
@@ -281,7 +281,7 @@ def test_cli_run_writes_results_atomically(tmp_path):
 
 
 def test_cli_run_rejects_bad_scenario(tmp_path):
-    from svbi.runtime.cli import _register, app
+    from svbi.runtime.cli.app import _register, app
 
     _register()
     scenario = write(tmp_path, GOOD)
@@ -298,7 +298,7 @@ class _Exploding:
     name = "localized-dynamic"
 
     def __init__(self, model, state):
-        from svbi.runtime.localized import LocalizedDynamic
+        from svbi.runtime.methods.localized import LocalizedDynamic
 
         self.inner = LocalizedDynamic(model, state)
         self.contacts = None
@@ -312,8 +312,8 @@ class _Exploding:
 
 
 def test_cli_run_stops_a_diverging_run_and_keeps_what_it_had(tmp_path):
-    import svbi.runtime.simulate as sim
-    from svbi.runtime.cli import _register, app
+    import svbi.runtime.run.simulate as sim
+    from svbi.runtime.cli.app import _register, app
 
     _register()
     sim.register_backend("casadi", {"localized-dynamic": _Exploding})

@@ -19,8 +19,8 @@ from typing import Any
 import tomli_w
 from hypothesis import HealthCheck, event, given, settings
 from hypothesis import strategies as st
-from svbi.runtime.cli import _register, app
-from svbi.runtime.scenario import Scenario, ScenarioError, ScenarioWarning, validate_scenario
+from svbi.runtime.cli.app import _register, app
+from svbi.runtime.scenario.schema import Scenario, ScenarioError, ScenarioWarning, validate_scenario
 from typer.testing import CliRunner
 
 _register()

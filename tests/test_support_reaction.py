@@ -3,7 +3,7 @@
 * a load crossing a simply supported span slowly: the vertical reactions are the statics of a
   simply supported beam, ``mu g L / 2 + P (L - a) / L`` and ``mu g L / 2 + P a / L`` (a: the load's
   distance from the left bearing), the longitudinal one zero;
-* the C loop equals the NumPy backend (the same equation: ``svbi.runtime.reactions``) under an
+* the C loop equals the NumPy backend (the same equation: ``svbi.runtime.methods.reactions``) under an
   earthquake with wave passage, a train of Pioneer cars and creep, for the three methods.
 """
 
@@ -12,8 +12,8 @@ from __future__ import annotations
 import numpy as np
 import pytest
 from svbi.codegen.plain_types import GRAVITY
-from svbi.runtime.scenario import validate_scenario
-from svbi.runtime.simulate import simulate
+from svbi.runtime.run.simulate import simulate
+from svbi.runtime.scenario.schema import validate_scenario
 
 SPAN, MU, LOAD, SPEED = 32.0, 22.4e3, 200.0e3, 4.0
 

@@ -3,7 +3,7 @@
 Independent truths:
 
 * Newmark's average-acceleration relations between consecutive steps (written out here, not taken
-  from ``svbi.runtime.newmark``) hold for the targets of any sequence to round-off;
+  from ``svbi.runtime.methods.newmark``) hold for the targets of any sequence to round-off;
 * the targets differ from the record's exact q, q', q'' (its piecewise cubic, evaluated by
   ``MotionHistory.evaluate``) only by Newmark's truncation: |Q - q| <= dt^3 max|jump of q'''| / 12,
   |Q' - q'| <= dt^2 max|q'''| / 12 (measured 1/34 and 1/12 of those scales for RinaldiUP);
@@ -20,9 +20,9 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from svbi.runtime.assembly import newmark_targets, support_hat
 from svbi.runtime.excitation import process_record, read_record
-from svbi.runtime.scenario import validate_scenario
+from svbi.runtime.model.system import newmark_targets, support_hat
+from svbi.runtime.scenario.schema import validate_scenario
 
 import svbi
 

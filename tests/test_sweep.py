@@ -17,8 +17,8 @@ from pathlib import Path
 import numpy as np
 import pytest
 import xarray as xr
-from svbi.runtime.metrics import METRIC_DIMS, compute_metrics
-from svbi.runtime.sweep import StudyError, load_study, read_store, run_sweep
+from svbi.runtime.study.metrics import METRIC_DIMS, compute_metrics
+from svbi.runtime.study.sweep import StudyError, load_study, read_store, run_sweep
 
 BRIDGE = """[bridge]
 spans = 1
@@ -63,7 +63,11 @@ def write(folder: Path, name: str, text: str) -> Path:
 
 def svbi_cli(*args: str, **kw) -> subprocess.CompletedProcess:
     return subprocess.run(
-        [sys.executable, "-m", "svbi.runtime.cli", *args], capture_output=True, text=True, timeout=300, **kw
+        [sys.executable, "-m", "svbi.runtime.cli", *args],
+        capture_output=True,
+        text=True,
+        timeout=300,
+        **kw,
     )
 
 
@@ -273,7 +277,7 @@ def test_workers_keep_dask_thread_limits_without_the_malloc_trim_threshold():
     mmap threshold left alone (``sweep.worker_environment``: the per-run overhead halves)."""
     import dask
     import distributed  # noqa: F401 - loads Dask's distributed defaults
-    from svbi.runtime.sweep import worker_environment
+    from svbi.runtime.study.sweep import worker_environment
 
     env = worker_environment()
     assert "MALLOC_TRIM_THRESHOLD_" not in env

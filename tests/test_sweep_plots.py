@@ -12,8 +12,8 @@ import numpy as np
 import pytest
 import xarray as xr
 from scipy.stats import norm
-from svbi.runtime.results import write_netcdf
-from svbi.runtime.sweep_plots import fit_lognormal, fragility, plot_store
+from svbi.runtime.plots.study import fit_lognormal, fragility, plot_store
+from svbi.runtime.run.results import write_netcdf
 
 
 def test_fit_recovers_median_and_beta_from_synthetic_counts():

@@ -87,7 +87,7 @@ def test_results_carry_setup_loop_and_wall_time():
 
 
 def test_svbi_run_prints_the_timings(tmp_path: Path):
-    from svbi.runtime.cli import _register, app
+    from svbi.runtime.cli.app import _register, app
 
     _register()
     scenario = tmp_path / "s.toml"
@@ -110,7 +110,7 @@ def test_console_script_ends_quickly_and_keeps_exit_status(tmp_path: Path, monke
     the process ends, so that shutdown skips the cyclic collections over the libraries' objects."""
     import gc
 
-    from svbi.runtime import cli
+    from svbi.runtime.cli import app as cli
 
     scenario = tmp_path / "s.toml"
     scenario.write_text(TOML)
@@ -118,7 +118,7 @@ def test_console_script_ends_quickly_and_keeps_exit_status(tmp_path: Path, monke
 
     def svbi(*args: str) -> subprocess.CompletedProcess:
         probe = (
-            "import atexit, sys\nfrom svbi.runtime.cli import main\n"
+            "import atexit, sys\nfrom svbi.runtime.cli.app import main\n"
             "atexit.register(lambda: print('atexit ran'))\n"
             f"sys.argv = {['svbi', *args]!r}\nmain()\n"
         )
@@ -152,11 +152,12 @@ def _fresh(code: str) -> dict[str, bool]:
 
 def test_cli_and_run_path_defer_heavy_imports():
     before_loop = _fresh(
-        "import svbi.runtime.cli as cli\n"
+        "import svbi.runtime.cli.app as cli\n"
         "cli._register()\n"
-        "from svbi.runtime import cli_run, results\n"
-        "from svbi.runtime.initial import initial_state\n"
-        "from svbi.runtime.simulate import build_model, stepper_class, validate_scenario\n"
+        "from svbi.runtime.cli import run as cli_run\n"
+        "from svbi.runtime.run import results\n"
+        "from svbi.runtime.methods.initial import initial_state\n"
+        "from svbi.runtime.run.simulate import build_model, stepper_class, validate_scenario\n"
         f"model = build_model(validate_scenario({SCENARIO!r}))\n"
         "_, cls = stepper_class('numpy', model.settings.method)\n"
         "cls(model, initial_state(model))\n"
@@ -176,18 +177,18 @@ def test_every_command_is_registered_by_the_module_the_cli_names():
     import importlib
 
     import typer
-    from svbi.runtime import cli
+    from svbi.runtime.cli import app as cli
 
     for module in set(cli.COMMAND_MODULES.values()):
         group = typer.Typer()
-        importlib.import_module(f"svbi.runtime.{module}").register(group)
+        importlib.import_module(f"svbi.runtime.cli.{module}").register(group)
         names = {c.name for c in group.registered_commands}
         assert names == {k for k, v in cli.COMMAND_MODULES.items() if v == module}, module
     done = subprocess.run(
         [
             sys.executable,
             "-c",
-            "import sys; from svbi.runtime.cli import main; sys.argv = ['svbi', 'run', '--help']; main()",
+            "import sys; from svbi.runtime.cli.app import main; sys.argv = ['svbi', 'run', '--help']; main()",
         ],
         capture_output=True,
         text=True,
@@ -212,9 +213,11 @@ def test_compiled_run_imports_the_results_modules_during_the_loop():
     (``zero_phase.design``, cached) and compiled, the run does not import scipy.signal at all.
     Recorded in a fresh interpreter by a meta-path hook that notes which thread first asked for
     each module."""
-    from svbi.runtime import c_solver_build, kernel_cache, zero_phase
-    from svbi.runtime.results import FILTER_ORDER
-    from svbi.runtime.simulate import build_model, validate_scenario
+    from svbi.runtime.backends import compiler as kernel_cache
+    from svbi.runtime.backends.c import build as c_solver_build
+    from svbi.runtime.run import force_filter as zero_phase
+    from svbi.runtime.run.results import FILTER_ORDER
+    from svbi.runtime.run.simulate import build_model, validate_scenario
 
     try:
         c_solver_build.load_loop(c_solver_build.LoopSpec("moving-load", 0, 0))
@@ -225,9 +228,9 @@ def test_compiled_run_imports_the_results_modules_during_the_loop():
     zero_phase.design(FILTER_ORDER, model.settings.force_filter_hz, 1.0 / model.dt)  # as a first run
     assert zero_phase.compiled()
     before_loop = _fresh(
-        "from svbi.runtime.initial import initial_state\n"
-        "from svbi.runtime.results import Recorder\n"
-        "from svbi.runtime.simulate import build_model, stepper_class, validate_scenario\n"
+        "from svbi.runtime.methods.initial import initial_state\n"
+        "from svbi.runtime.run.results import Recorder\n"
+        "from svbi.runtime.run.simulate import build_model, stepper_class, validate_scenario\n"
         f"model = build_model(validate_scenario({c_run!r}))\n"
         "_, cls = stepper_class('c', model.settings.method)\n"
         "cls(model, initial_state(model))\n"
@@ -252,7 +255,7 @@ def test_compiled_run_imports_the_results_modules_during_the_loop():
 
 
 def test_demo_summary_compares_methods_by_loop_time():
-    from svbi.runtime.plots import summary_text
+    from svbi.runtime.plots.results import summary_text
 
     runs = [svbi.simulate({**SCENARIO, "solver": {**SCENARIO["solver"], "method": m}}) for m in METHODS]
     lines = {line.split("  ")[0].strip(): line.split()[-3:] for line in summary_text(runs).splitlines()}

@@ -17,10 +17,10 @@ import warnings
 import numpy as np
 import pytest
 from scipy.integrate import solve_ivp
-from svbi.runtime.assembly import FunctionGround
-from svbi.runtime.scenario import ScenarioError, validate_scenario
-from svbi.runtime.simulate import BackendFallback, build_model
-from svbi.runtime.unilateral import ContactWarning, Impact
+from svbi.runtime.methods.unilateral import ContactWarning, Impact
+from svbi.runtime.model.system import FunctionGround
+from svbi.runtime.run.simulate import BackendFallback, build_model
+from svbi.runtime.scenario.schema import ScenarioError, validate_scenario
 
 import svbi
 
@@ -181,7 +181,7 @@ def test_speed_zero_needs_a_duration():
 
 
 def test_paper_examples_are_bilateral():
-    from svbi.runtime.scenario import load_scenario
+    from svbi.runtime.scenario.schema import load_scenario
 
     for name in ("paper-2020.toml", "paper-2020-tabas.toml"):
         assert load_scenario(f"examples/{name}").contact.normal == "bilateral"
@@ -426,8 +426,8 @@ def test_bilateral_run_with_tension_warns_with_time_car_wheel():
 
 
 def test_plot_draws_lift_off_panels_and_summary_rows(tmp_path):
-    from svbi.runtime import plots
-    from svbi.runtime.results import write_netcdf
+    from svbi.runtime.plots import results as plots
+    from svbi.runtime.run.results import write_netcdf
 
     path = write_netcdf(run(dt=4e-4, duration=0.4), tmp_path / "lift.nc")
     ds = plots.read_results(path)

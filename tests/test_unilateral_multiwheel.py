@@ -25,10 +25,10 @@ import itertools
 import numpy as np
 import pytest
 from scipy.integrate import solve_ivp
-from svbi.runtime.assembly import FunctionGround
-from svbi.runtime.contact_rows import ShapeKernel
-from svbi.runtime.scenario import validate_scenario
-from svbi.runtime.simulate import build_model
+from svbi.runtime.model.contact_rows import ShapeKernel
+from svbi.runtime.model.system import FunctionGround
+from svbi.runtime.run.simulate import build_model
+from svbi.runtime.scenario.schema import validate_scenario
 from test_unilateral import BRIDGE, C_S, K_S, M_S, M_W, SPLIT, G, sine_cubed
 
 import svbi

@@ -10,7 +10,7 @@ import scipy.linalg as sla
 import sympy as sp
 from svbi.codegen.topology import TopologyError, builtin_topologies, load_topology, parse_topology
 from svbi.codegen.vehicle import GRAVITY, a_split, derive_vehicle
-from svbi.runtime.modes import vehicle_modes
+from svbi.runtime.model.modes import vehicle_modes
 
 WAGON = """
 name = "two-axle-wagon"

@@ -16,7 +16,7 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-from svbi.runtime.scenario import validate_scenario
+from svbi.runtime.scenario.schema import validate_scenario
 
 import svbi
 

@@ -11,7 +11,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 from svbi.codegen.topology import load_topology
-from svbi.runtime.scenario import validate_scenario
+from svbi.runtime.scenario.schema import validate_scenario
 
 import svbi
 

@@ -23,7 +23,7 @@ void svbi_place(const setup_t* S, work_t* w, int i, int span, double local, cons
   svbi_contact_rows(pw, cf, w->crow + (long)i * ROW_COLS); /* generated: the structural non-zeros */
 }
 
-/* Span, element, local coordinate and contact rows of every contact (svbi.runtime.bridge.locate). */
+/* Span, element, local coordinate and contact rows of every contact (svbi.runtime.model.bridge.locate). */
 void svbi_locate(const setup_t* S, work_t* w) {
   int i;
   const double* cf = S->acceleration == 0.0 ? S->rows : w->rows_now;

@@ -1,5 +1,5 @@
 /*
- * coupled-dynamic and coupled-classic (svbi.runtime.coupled_dynamic, .classic): the monolithic system
+ * coupled-dynamic and coupled-classic (svbi.runtime.methods.coupled_dynamic, .classic): the monolithic system
  * (paper Eq. 36) by block ("arrow") elimination, solved anew every step as the method prescribes
  * (docs/c-backend.md, "Structure exploited").
  */
@@ -218,7 +218,7 @@ static void span_back(const setup_t* S, work_t* w, int per_contact, int lamB_bas
   }
 }
 
-/* The multiplier unknowns are increments (svbi.runtime.coupled_dynamic): the force of a multiplier triple
+/* The multiplier unknowns are increments (svbi.runtime.methods.coupled_dynamic): the force of a multiplier triple
  * (lambda, lambda', lambda'') is D dlambda - H with H = mbar (P~ + c2 Q~ - omega^2 lambda_n). */
 static void lam_increment_history(const setup_t* S, const double* lam, long n, long i, double* P, double* Q) {
   *P = S->a2 * lam[n + i] + lam[2 * n + i];

@@ -37,7 +37,7 @@ static void ground_at(const setup_t* S, const excitation_t* E, int which, double
   }
 }
 
-/* Newmark-consistent target q, q', q'' of one support at x (svbi.runtime.assembly.newmark_targets,
+/* Newmark-consistent target q, q', q'' of one support at x (svbi.runtime.model.system.newmark_targets,
  * docs/method.md "Support targets"): h = q - dt^2/4 q'' at t - dt, t, t + dt, combined so that the
  * targets of consecutive steps satisfy Newmark's relations exactly. */
 static void support_target(const setup_t* S, const excitation_t* E, int which, double t, double x,
@@ -122,7 +122,7 @@ void svbi_excite(const setup_t* S, const excitation_t* E, work_t* w, long n, dou
     for (i = 0; i < nc; ++i) w->cx[i] = S->start + S->speed * t - S->offsets[i];
     w->v = S->speed;
     w->a = 0.0;
-  } else { /* svbi.runtime.train.Kinematics: a braking train stands from stop_time on */
+  } else { /* svbi.runtime.model.train.Kinematics: a braking train stands from stop_time on */
     double tm = t < S->stop_time ? t : S->stop_time, travel;
     long k, nrow = (long)(ROW_DEG + 1) * ROW_COLS;
     const double* T0 = S->rows_va;

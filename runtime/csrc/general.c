@@ -1,5 +1,5 @@
 /*
- * A bridge of substructures in the localized method (svbi.runtime.substructures, docs/method.md
+ * A bridge of substructures in the localized method (svbi.runtime.methods.substructures, docs/method.md
  * section 13): spans and pier columns of several kinds, each with its supports held at their targets
  * (u = S f + R q^ per kind), joined by links (girder continuity, bearings on pier tops) whose forces
  * Lambda load both ends. The paper's bridge (identical simply supported spans) keeps the blocked
@@ -25,7 +25,7 @@ static inline const double* kind_S(const setup_t* S, int sub) {
 }
 
 /* Span (by the support lines), element, local coordinate and contact rows of every contact
- * (svbi.runtime.bridge.Bridge.locate): each span has its own element length and row table. */
+ * (svbi.runtime.model.bridge.Bridge.locate): each span has its own element length and row table. */
 void svbi_general_locate(const setup_t* S, work_t* w) {
   int i, spans = S->spans;
   long table = (long)(ROW_DEG + 1) * ROW_COLS;
@@ -106,7 +106,7 @@ void svbi_general_predictor(const setup_t* S, work_t* w, const double* creep) {
         f[i] = v;
       }
 #if !SVBI_MOVING_LOAD
-      if (creep && s < S->spans) { /* the creep forces of t_n load the rail (svbi.runtime.wheel_creep) */
+      if (creep && s < S->spans) { /* the creep forces of t_n load the rail (svbi.runtime.model.wheel_creep) */
         int a;
         for (a = w->sstart[s]; a < w->sstart[s + 1]; ++a) {
           int c = w->slist[a];
@@ -362,7 +362,7 @@ int svbi_general_init(const setup_t* S, work_t* w) {
   return svbi_band_cholesky(w->LA, S->nlinks, S->band_links);
 }
 
-/* Support reactions of a bridge of substructures (svbi.runtime.reactions.support_reactions): the
+/* Support reactions of a bridge of substructures (svbi.runtime.methods.reactions.support_reactions): the
  * residual M a + C v - C T q' + K u + N P at every DOF merged with each active support, summed. */
 void svbi_general_reactions(const setup_t* S, const state_t* X, const work_t* w, double* out) {
   int k, m, q, c, nd = S->nd, NSL = 3 * S->nsub;

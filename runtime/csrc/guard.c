@@ -1,5 +1,5 @@
 /*
- * The divergence guard (svbi.runtime.simulate._Guard.check_finite), after every step.
+ * The divergence guard (svbi.runtime.run.simulate._Guard.check_finite), after every step.
  */
 #include "internal.h"
 

@@ -1,5 +1,5 @@
 /*
- * The perfectly plastic impact of landing wheels at t_{n+1} (svbi.runtime.unilateral.Impact,
+ * The perfectly plastic impact of landing wheels at t_{n+1} (svbi.runtime.methods.unilateral.Impact,
  * docs/method.md section 12, step 4), after the localized step's Newmark update: the landing wheels
  * lose their relative normal velocity (an impulse through the mass flexibility G at the contacts),
  * then the accelerations become consistent with the landing wheels staying on the rail (a force
@@ -152,7 +152,7 @@ static int solve_on(const setup_t* S, work_t* w, const double* G, const int* mas
 }
 
 /* y with z = x0 + y >= 0, w = G y - want >= 0, z w = 0 over the candidates, the others at z = 0
- * (y = -x0) (svbi.runtime.unilateral.complementary_solve): the complementary sets pass by pass,
+ * (y = -x0) (svbi.runtime.methods.unilateral.complementary_solve): the complementary sets pass by pass,
  * each solved on its basic set (w = 0 there), flipped by the rule of pivot_t. `basic` returns the
  * candidates with w = 0; the rest have z = 0. */
 static int complementary_solve(const setup_t* S, work_t* w, const double* G, const double* want, const double* x0,

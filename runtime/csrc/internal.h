@@ -338,7 +338,7 @@ static inline double svbi_row_target(const setup_t* S, const work_t* w, int i, d
 double svbi_rail_height(const setup_t* S, const work_t* w, int c);
 
 /* The pivoting rule of a complementarity problem solved by complementary sets
- * (svbi.runtime.unilateral.Pivoting): flip every infeasible wheel while their number falls, after
+ * (svbi.runtime.methods.unilateral.Pivoting): flip every infeasible wheel while their number falls, after
  * PIVOT_TRIES passes without a new lowest count only the lowest-numbered one (Murty's rule, which
  * terminates for the P-matrices of a contact flexibility). */
 enum { PIVOT_TRIES = 3 };

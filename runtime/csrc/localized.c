@@ -1,5 +1,5 @@
 /*
- * localized-dynamic (svbi.runtime.localized): each car's effective matrix and wheel flexibility,
+ * localized-dynamic (svbi.runtime.methods.localized): each car's effective matrix and wheel flexibility,
  * and the factor of the bridge span with its supports held, are constant (one factor serves every
  * span, every span at once). Each step solves one banded interface system for the contact forces,
  * in track order (docs/c-backend.md, "Structure exploited").
@@ -71,7 +71,7 @@ static void localized_predictor(const setup_t* S, work_t* w, const double* creep
   }
 #if !SVBI_MOVING_LOAD
   if (creep) {
-    /* the creep forces of t_n load the rail: -W_T^B F (svbi.runtime.wheel_creep) */
+    /* the creep forces of t_n load the rail: -W_T^B F (svbi.runtime.model.wheel_creep) */
     int i, q;
     for (i = 0; i < S->nc; ++i) {
       if (w->con[i] && creep[i] != 0.0) {
@@ -207,7 +207,7 @@ static void sc_pairs(const setup_t* S, work_t* w, int bw, const int* landing) {
 
 /* (F* + F_B) P = rhs, banded in track order (w->cpos), for the interface of this step; an inactive
  * (airborne) wheel's row is P_i = 0, a landing wheel's the position-level g_{n+1} = 0 (N0 in place
- * of W_hat; svbi.runtime.localized._active_set_solve). */
+ * of W_hat; svbi.runtime.methods.localized._active_set_solve). */
 static int interface_solve(const setup_t* S, work_t* w, int bw, const int* active, const int* landing, double* P) {
   int k, i, j, nc = S->nc, status;
   if (S->general) return svbi_general_interface(S, w, active, landing, P);
@@ -227,7 +227,7 @@ static int interface_solve(const setup_t* S, work_t* w, int bw, const int* activ
 }
 
 /* The uplift of contact c at t_{n+1} predicted from the interface solution P, before anything is
- * committed (svbi.runtime.unilateral.predicted_uplift): its aux point u_g = p~ + c_g (P - P_V), and
+ * committed (svbi.runtime.methods.unilateral.predicted_uplift): its aux point u_g = p~ + c_g (P - P_V), and
  * the rail N0 u~_B - sum_j N0_c S N0_j^T P_j over the contacts on its span (u~_B the predictor), or
  * the ground off the bridge, plus the irregularity. */
 static double predicted_uplift(const setup_t* S, const work_t* w, const double* P, int c) {
@@ -252,7 +252,7 @@ static double predicted_uplift(const setup_t* S, const work_t* w, const double* 
   return ug - rail;
 }
 
-/* The complementarity gap of contact c (svbi.runtime.unilateral.ActiveSet.gap): for a wheel in
+/* The complementarity gap of contact c (svbi.runtime.methods.unilateral.ActiveSet.gap): for a wheel in
  * contact at t_n the residual of its stabilised row, (F* + F_B)_c P - rhs_c = u_g - (W_hat u_B + h_B)
  * at t_{n+1}; for a wheel airborne at t_n its predicted uplift. */
 static double row_gap(const setup_t* S, const work_t* w, const double* P, int c, int stabilised) {
@@ -372,7 +372,7 @@ int svbi_step_localized(const setup_t* S, state_t* X, work_t* w) {
       if (status) return status;
     } else {
       /* the contact state of the step, one complementarity problem over all wheels
-       * (svbi.runtime.unilateral.ActiveSet.update), pass by pass: a wheel in the set whose force
+       * (svbi.runtime.methods.unilateral.ActiveSet.update), pass by pass: a wheel in the set whose force
        * goes tensile is released, a free wheel whose gap would close joins it (a wheel airborne
        * at t_n lands: its row the position-level g_{n+1} = 0, then the plastic impact, impact.c);
        * the pivoting rule of pivot_t; the step is solved again after every change */

@@ -1,5 +1,5 @@
 /*
- * Outputs (svbi.runtime.results.Recorder.record): one row of every recorded variable written
+ * Outputs (svbi.runtime.run.results.Recorder.record): one row of every recorded variable written
  * straight into the recorder's arrays, and the gap check of simulate._Guard.check_gaps.
  */
 #include "internal.h"
@@ -10,7 +10,7 @@ static void worst_of(double* worst, double g) {
   if (a != a || a > *worst) *worst = a;
 }
 
-/* svbi.runtime.reactions.support_reactions: what the span's equation of motion leaves over at each
+/* svbi.runtime.methods.reactions.support_reactions: what the span's equation of motion leaves over at each
  * support DOF, R = [M a + C (v - T q') + K u]_s + [N P]_s (beyond the dead load, added in Python),
  * over the DOFs where a support row of M, C or K is non-zero (work_t rr_*; the terms left out are
  * exact zeros). */

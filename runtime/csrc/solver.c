@@ -1,6 +1,6 @@
 /*
  * The Newmark (gamma = 1/2, beta = 1/4) time loop of svbi: the entry points of solver.h, the
- * workspace and the loop driver. It reproduces the NumPy reference backend (svbi.runtime.localized,
+ * workspace and the loop driver. It reproduces the NumPy reference backend (svbi.runtime.methods.localized,
  * .coupled, .classic) step for step; docs/c-backend.md describes the data layout and the structure
  * it exploits:
  *

@@ -7,7 +7,7 @@
 
 #if !SVBI_MOVING_LOAD
 /* One car's increment histories P~ = P - a0 u, Q~ = Q - a1 u, the full histories P, Q, and the load
- * f = F - K^T u + M^T P~ + C^T Q~ of its increment equation (svbi.runtime.train.increment_load). */
+ * f = F - K^T u + M^T P~ + C^T Q~ of its increment equation (svbi.runtime.model.train.increment_load). */
 void svbi_vehicle_increment_load(const setup_t* S, const double* u, const double* v, const double* a,
                                  double* Pt, double* Qt, double* PV, double* QV, double* f) {
   double sm[NV], sc[NV], sk[NV];
@@ -161,7 +161,7 @@ void svbi_creep_vehicle_load(const setup_t* S, const double* force, int k, doubl
   for (d = 0; d < NV; ++d) f[d] += load[d];
 }
 
-/* Creepage and creep force of every contact at the new state (svbi.runtime.wheel_creep): the
+/* Creepage and creep force of every contact at the new state (svbi.runtime.model.wheel_creep): the
  * creepage (W_T^V' u_V' - rail') / v, rail' following the contact (on the bridge
  * W_T^B' u_B' + v W_T^B'' u_B, off it the longitudinal ground), and the force from the generated
  * creep law (Kalker, Shen-Hedrick-Elkins) under the normal load P. It loads the next step. */

@@ -26,10 +26,10 @@ from typing import Any
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
-from svbi.runtime.assembly import Ground, seen_moving
 from svbi.runtime.excitation.processing import MotionHistory, Processing, process_record
 from svbi.runtime.excitation.records import Record, RecordError, read_record
 from svbi.runtime.excitation.synthetic import DEFAULT_SEED, synthetic_motion, synthetic_record
+from svbi.runtime.model.system import Ground, seen_moving
 
 COMPONENTS = ("vertical", "longitudinal")
 Triple = tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]]
@@ -338,7 +338,7 @@ def ground_from_scenario(scenario: Any, duration: float | None = None) -> Any:
 
 
 class RecordGround(Ground):
-    """A :class:`GroundMotion` as the solver sees it (``svbi.runtime.assembly.Ground``).
+    """A :class:`GroundMotion` as the solver sees it (``svbi.runtime.model.system.Ground``).
 
     Every component is a processed record, i.e. a C2 piecewise cubic in t
     (:meth:`MotionHistory.table`), evaluated at ``t`` (synchronous), at ``t - (x - x_ref)/c``

@@ -1,0 +1,695 @@
+"""The bridge: a chain of identical simply supported spans (paper Section 2.2).
+
+Each span has its own nodes (no node is shared at a joint), 3 DOFs per node ``(u, w, theta)`` and
+``elements_per_span`` Euler-Bernoulli frame elements from ``svbi.codegen.beam``. The support DOFs are
+kept: the fixed bearing (``u`` and ``w``) at the left end and the sliding bearing (``w``) at the right
+end of every span are tied to the ground by constraints (Eqs. 22-24), so an earthquake enters the
+bridge as prescribed support motion, synchronous or not.
+
+Rayleigh damping ``C = alpha M + beta K`` is fitted to the first two vertical modes of a span with its
+supports held. It acts on the motion *relative to the ground*: the damping force is
+``C (u' - T q')``, where ``T q`` is the quasi-static (rigid-body) displacement field that the support
+motion ``q`` imposes on a simply supported span. ``K T = 0``, so only ``C T q'`` (in practice
+``alpha M T q'``) appears as a known load. Damping in absolute coordinates would resist the
+earthquake itself (method-notes pitfall 9).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+import scipy.linalg as sla
+from svbi.codegen.plain_types import GRAVITY
+from svbi.runtime.model.modes import column_matrices, span_matrices
+
+SUPPORT_COMPONENTS = ("longitudinal", "vertical", "vertical")
+"""Component of each support constraint of a span of the shorthand bridge, in the order of
+``span_support_dofs``."""
+
+LONGITUDINAL, VERTICAL, ROTATION = 0, 1, 2
+"""Component codes of a support constraint (``Bridge.support_component``)."""
+COMPONENT_NAMES = ("longitudinal", "vertical", "rotation")
+
+
+@dataclass(frozen=True)
+class Location:
+    """Where the contact points are: span and element index, local coordinate, on/off the bridge."""
+
+    x: np.ndarray
+    on: np.ndarray
+    span: np.ndarray
+    element: np.ndarray
+    xi: np.ndarray
+
+    @property
+    def first_dof(self) -> np.ndarray:
+        """Span-local index of the first DOF of the element (its 6 DOFs are contiguous)."""
+        return 3 * self.element
+
+
+@dataclass(frozen=True)
+class Section:
+    """A cross-section: mass per length (kg/m), E (Pa), A (m^2), I (m^4) and the damping ratio."""
+
+    mass_per_length: float
+    youngs_modulus: float
+    area: float
+    second_moment: float
+    damping_ratio: float
+
+
+@dataclass(frozen=True)
+class Girder:
+    """A deck continuous over ``len(spans)`` spans (one span: simply supported)."""
+
+    spans: tuple[float, ...]
+    section: Section
+    fixed_support: int = 0
+    """Which of its support lines (0 = its first) carries the fixed (longitudinal) bearing."""
+
+
+@dataclass(frozen=True)
+class Pier:
+    """A pier column under support line ``support`` (0 = first abutment), fixed at its base."""
+
+    support: int
+    height: float
+    section: Section
+    bearing_vertical: float | None = None
+    """Stiffness (N/m) of the bearings between the girders and the pier top, vertically; None: rigid."""
+    bearing_longitudinal: float | None = None
+    """... and longitudinally (the fixed bearing); None: rigid."""
+
+
+@dataclass(frozen=True)
+class SupportTable:
+    """The active support constraints as the results list them (dimension ``support``)."""
+
+    flat: np.ndarray
+    """Index of each into the ``(nsub, 3)`` support slots, row-major."""
+    x: np.ndarray
+    sub: np.ndarray
+    component: np.ndarray
+    dead_load: np.ndarray
+    """Reaction carrying the bridge's own weight, N."""
+
+
+@dataclass
+class SubKind:
+    """Matrices shared by every substructure (span or pier) with the same geometry, section,
+    damping and support layout."""
+
+    M: np.ndarray
+    K: np.ndarray
+    C: np.ndarray
+    length: float
+    element_length: float
+    section: Section
+    pier: bool
+    support_dofs: np.ndarray
+    """Three support slots (DOF of each; meaningful where ``support_active``)."""
+    support_active: np.ndarray
+    alpha: float
+    beta: float
+
+
+@dataclass(frozen=True)
+class Links:
+    """Constraints ``u[a_sub, a_dof] - u[b_sub, b_dof] = 0`` between substructures: a girder's
+    continuity over an interior support (u, w, theta) and the bearings on pier tops (w, and u
+    at the fixed bearing). Imposed like the supports, as stabilised gaps (Eq. 22 with no ground)."""
+
+    a_sub: np.ndarray
+    a_dof: np.ndarray
+    b_sub: np.ndarray
+    b_dof: np.ndarray
+    kind: tuple[str, ...]
+    compliance: np.ndarray
+    """0 for a rigid link; ``1 / k`` for a bearing spring of stiffness ``k`` (the link force is then
+    ``k (u_b - u_a)`` on end a: the spring, exact and implicit, not a stabilised constraint)."""
+
+    @property
+    def spring(self) -> np.ndarray:
+        return self.compliance > 0.0
+
+    def __len__(self) -> int:
+        return len(self.a_sub)
+
+    def subset(self, keep: np.ndarray) -> Links:
+        return Links(
+            self.a_sub[keep],
+            self.a_dof[keep],
+            self.b_sub[keep],
+            self.b_dof[keep],
+            tuple(k for k, used in zip(self.kind, keep, strict=True) if used),
+            self.compliance[keep],
+        )
+
+    def flat_dofs(self, ndof: int) -> tuple[np.ndarray, np.ndarray]:
+        """Both ends as indices into the substructures' DOFs laid out one after the other."""
+        return ndof * self.a_sub + self.a_dof, ndof * self.b_sub + self.b_dof
+
+    def gap(self, X: np.ndarray) -> np.ndarray:
+        """``L x``: end a less end b of every link, for ``X`` of shape ``(nsub, ndof)``."""
+        return X[self.a_sub, self.a_dof] - X[self.b_sub, self.b_dof]
+
+    def load(self, force: np.ndarray, shape: tuple[int, int]) -> np.ndarray:
+        """``L^T force`` (``+force`` on end a, ``-force`` on end b) as ``(nsub, ndof)`` loads."""
+        out = np.zeros(shape)
+        np.add.at(out, (self.a_sub, self.a_dof), force)
+        np.add.at(out, (self.b_sub, self.b_dof), -force)
+        return out
+
+    def targets(self, point: Any, P: np.ndarray, Q: np.ndarray) -> np.ndarray:
+        """The gap every link must have at t_{n+1}: a rigid link's stabilised row (the point row of
+        Eq. 22 with no ground: target 0, histories ``L P``, ``L Q``); 0 for a bearing spring,
+        whose force is elastic, not a constraint's."""
+        return np.where(self.spring, 0.0, point.target(self.gap(P), self.gap(Q), 0.0, 0.0, 0.0))
+
+
+def _circular_frequencies(M: np.ndarray, K: np.ndarray, dofs: np.ndarray) -> np.ndarray:
+    """Circular frequencies (rad/s, ascending) of ``K x = w^2 M x`` on the DOFs ``dofs``."""
+    sub = np.ix_(dofs, dofs)
+    return np.sqrt(np.clip(sla.eigh(K[sub], M[sub], eigvals_only=True), 0.0, None))
+
+
+def _gravity_reactions(
+    M: Any, K: Any, vertical: np.ndarray, held: np.ndarray, free: np.ndarray, solve_free: Any
+) -> np.ndarray:
+    """The consistent gravity load ``f = -g M e_z`` (``vertical``: unit vertical translation of
+    every node) with the ``held`` DOFs fixed: ``R = (K u - f)`` there, ``u_f = solve_free(f_f)``
+    (``K_ff`` factored by the caller)."""
+    f = -GRAVITY * (M @ vertical)
+    u = np.zeros(len(vertical))
+    u[free] = solve_free(f[free])
+    return (K @ u - f)[held]
+
+
+class Bridge:
+    """The bridge as substructures: its spans (each with its own nodes, ``elements_per_span``
+    frame elements) and its pier columns (as many column elements), joined by :class:`Links` and
+    tied to the ground by support constraints (Eqs. 22-24).
+
+    ``Bridge(spans, span_length, ...)`` is the shorthand chain of identical simply supported spans
+    (the paper's bridge). ``girders``/``piers`` give the long form (``docs/scenario.md``); a long
+    form without piers whose girders are single equal spans of the default section builds the
+    same arrays as the shorthand. Substructure ``s < spans`` is span ``s``; then the piers in
+    their given order.
+    """
+
+    def __init__(
+        self,
+        spans: int,
+        span_length: float,
+        mass_per_length: float,
+        youngs_modulus: float,
+        area: float,
+        second_moment: float,
+        damping_ratio: float,
+        elements_per_span: int,
+        rail_height: float = 0.0,
+        girders: list[Girder] | None = None,
+        piers: list[Pier] | None = None,
+    ) -> None:
+        default = Section(
+            float(mass_per_length),
+            float(youngs_modulus),
+            float(area),
+            float(second_moment),
+            float(damping_ratio),
+        )
+        if girders is None:
+            girders = [Girder((float(span_length),), default)] * int(spans)
+        self.girders = list(girders)
+        self.piers = list(piers or [])
+        self.elements = int(elements_per_span)
+        self.rail_height = float(rail_height)
+        self.ndof = 3 * (self.elements + 1)
+        self.span_lengths = np.array([length for g in self.girders for length in g.spans], dtype=float)
+        self.spans = len(self.span_lengths)
+        self.nsub = self.spans + len(self.piers)
+        self.span_starts = np.concatenate([[0.0], np.cumsum(self.span_lengths)[:-1]])
+        self.line_x = np.concatenate([[0.0], np.cumsum(self.span_lengths)])
+        """Position of every support line (abutments and piers), ``spans + 1`` entries."""
+        self.span_girder = np.repeat(np.arange(len(self.girders)), [len(g.spans) for g in self.girders])
+        self.uniform = (
+            not self.piers
+            and all(len(g.spans) == 1 and g.fixed_support == 0 for g in self.girders)
+            and len({(g.spans, g.section) for g in self.girders}) == 1
+        )
+        """The paper's bridge: identical simply supported spans on rigid supports, fixed bearing
+        on the left (what the C backend runs)."""
+        self._build()
+
+    # ----------------------------------------------------------------------------------------------
+    def _build(self) -> None:
+        ne, nd = self.elements, self.ndof
+        pier_at = {p.support: i for i, p in enumerate(self.piers)}
+        for p in self.piers:
+            if not 0 <= p.support <= self.spans:
+                raise ValueError(f"pier support line {p.support} is not one of 0..{self.spans}")
+        sup_dof = np.zeros((self.nsub, 3), dtype=np.intp)
+        sup_dof[:] = [0, 1, 3 * ne + 1]
+        sup_comp = np.tile([LONGITUDINAL, VERTICAL, VERTICAL], (self.nsub, 1))
+        sup_active = np.zeros((self.nsub, 3), dtype=bool)
+        sup_x = np.zeros((self.nsub, 3))
+        links: list[tuple[int, int, int, int, str, float]] = []
+        top = 3 * ne  # a pier's top node: u at 3 ne, w at 3 ne + 1
+
+        def hold(span: int, slot: int, dof: int, line: int, what: str) -> None:
+            """A bearing of ``span`` on support line ``line``: to the ground, or to a pier top."""
+            sup_dof[span, slot] = dof
+            sup_x[span, slot] = self.line_x[line]
+            if line in pier_at:
+                p = self.piers[pier_at[line]]
+                k = p.bearing_longitudinal if what == "u" else p.bearing_vertical
+                pier = self.spans + pier_at[line]
+                links.append(
+                    (
+                        span,
+                        dof,
+                        pier,
+                        top + (0 if what == "u" else 1),
+                        f"bearing-{what}",
+                        1.0 / k if k else 0.0,
+                    )
+                )
+            else:
+                sup_active[span, slot] = True
+
+        s0 = 0
+        for g in self.girders:
+            k = len(g.spans)
+            if not 0 <= g.fixed_support <= k:
+                raise ValueError(f"fixed_support {g.fixed_support} is not one of the girder's lines 0..{k}")
+            for j in range(k):
+                s = s0 + j
+                if j == 0:
+                    hold(s, 1, 1, s, "w")
+                else:  # continuous over the interior support: the start node follows the span behind
+                    links += [(s - 1, 3 * ne + d, s, d, f"continuity-{n}", 0.0) for d, n in enumerate("uwt")]
+                hold(s, 2, 3 * ne + 1, s + 1, "w")
+                if g.fixed_support == 0 and j == 0:
+                    hold(s, 0, 0, s, "u")
+                elif g.fixed_support == j + 1:  # an interior line: on the span behind (continuity)
+                    hold(s, 0, 3 * ne, s + 1, "u")
+            s0 += k
+        for i, p in enumerate(self.piers):
+            sub = self.spans + i
+            sup_dof[sub] = [0, 1, 2]
+            sup_comp[sub] = [LONGITUDINAL, VERTICAL, ROTATION]
+            sup_active[sub] = True
+            sup_x[sub] = self.line_x[p.support]
+        self.support_dof = sup_dof
+        self.support_component = sup_comp
+        self.support_active = sup_active
+        self.support_x_all = sup_x
+        """Position of every support slot, ``(nsub, 3)`` (see ``support_active``)."""
+        la = np.array(links, dtype=object).reshape(-1, 6)
+        self.links = Links(
+            la[:, 0].astype(np.intp),
+            la[:, 1].astype(np.intp),
+            la[:, 2].astype(np.intp),
+            la[:, 3].astype(np.intp),
+            tuple(la[:, 4]),
+            la[:, 5].astype(float),
+        )
+        self._kinds()
+        self.span_length = float(self.span_lengths[0])
+        """The spans' length (the paper's bridge); the first span's otherwise."""
+        if self.uniform:
+            k0 = self.kinds[0]
+            self.element_length = k0.element_length
+            self.mass_per_length = k0.section.mass_per_length
+            self.youngs_modulus = k0.section.youngs_modulus
+            self.area = k0.section.area
+            self.second_moment = k0.section.second_moment
+            self.damping_ratio = k0.section.damping_ratio
+            self.M, self.K, self.C = k0.M, k0.K, k0.C
+            self.alpha, self.beta = k0.alpha, k0.beta
+            self.support_dofs = k0.support_dofs
+            self.nsupport = 3
+            self.E = np.zeros((nd, 3))
+            self.E[self.support_dofs, np.arange(3)] = 1.0
+            self.vertical_frequencies = self.girder_frequencies(self.girders[0])
+            self.T = self._quasi_static_field()
+            self.CT = self.C @ self.T
+            self.support_x = sup_x
+            """Position of every support constraint, shape ``(spans, nsupport)``."""
+            self.dead_load_reactions = self._dead_load_reactions()
+            """Support forces carrying the span's own weight, shape ``(nsupport,)`` (results
+            ``support_reaction``: the bridge DOFs are measured from this dead-load state)."""
+        else:
+            self._global()
+
+    def _kinds(self) -> None:
+        """Group the substructures by everything their matrices depend on."""
+        ne = self.elements
+        keys: dict[tuple, int] = {}
+        self.kinds: list[SubKind] = []
+        kind = np.zeros(self.nsub, dtype=np.intp)
+        girder_damping = [
+            self._rayleigh(self.girder_frequencies(g), g.section.damping_ratio) for g in self.girders
+        ]
+        for s in range(self.nsub):
+            if s < self.spans:
+                g = self.girders[self.span_girder[s]]
+                length, section, pier = float(self.span_lengths[s]), g.section, False
+                alpha, beta = girder_damping[self.span_girder[s]]
+            else:
+                p = self.piers[s - self.spans]
+                length, section, pier = p.height, p.section, True
+                alpha, beta = self._rayleigh(self._pier_frequencies(p), section.damping_ratio)
+            key = (
+                pier,
+                length,
+                section,
+                tuple(self.support_dof[s]),
+                tuple(self.support_active[s]),
+                alpha,
+                beta,
+            )
+            if key not in keys:
+                build = column_matrices if pier else span_matrices
+                sec = (section.youngs_modulus, section.area, section.second_moment, section.mass_per_length)
+                M, K = build(length, ne, *sec)
+                keys[key] = len(self.kinds)
+                self.kinds.append(
+                    SubKind(
+                        M,
+                        K,
+                        alpha * M + beta * K,
+                        length,
+                        length / ne,
+                        section,
+                        pier,
+                        self.support_dof[s].copy(),
+                        self.support_active[s].copy(),
+                        alpha,
+                        beta,
+                    )
+                )
+            kind[s] = keys[key]
+        self.kind = kind
+        self.kind_members = [np.flatnonzero(kind == k) for k in range(len(self.kinds))]
+        self.span_element_length = self.span_lengths / ne
+        self.span_mass_per_length = np.array(
+            [self.girders[g].section.mass_per_length for g in self.span_girder], dtype=float
+        )
+
+    # ----------------------------------------------------------------------------------------------
+    def _girder_matrices(self, g: Girder) -> tuple[np.ndarray, np.ndarray, list[int]]:
+        """A girder alone as one continuous beam (shared nodes): M, K and the DOFs its bearings
+        hold on rigid supports (w at every line, u at the fixed line)."""
+        ne = self.elements
+        sec = g.section
+        nodes = ne * len(g.spans) + 1
+        M, K = np.zeros((3 * nodes, 3 * nodes)), np.zeros((3 * nodes, 3 * nodes))
+        for j, length in enumerate(g.spans):
+            m, k = span_matrices(
+                length, ne, sec.youngs_modulus, sec.area, sec.second_moment, sec.mass_per_length
+            )
+            o = slice(3 * ne * j, 3 * ne * j + self.ndof)
+            M[o, o] += m
+            K[o, o] += k
+        held = [3 * ne * j + 1 for j in range(len(g.spans) + 1)] + [3 * ne * g.fixed_support]
+        return M, K, held
+
+    def girder_frequencies(self, g: Girder) -> np.ndarray:
+        """Circular frequencies (rad/s) of the vertical modes of a girder alone on rigid supports
+        (its Rayleigh damping is fitted to the first two; ``svbi metrics`` filters with them)."""
+        M, K, held = self._girder_matrices(g)
+        free = np.setdiff1d(np.arange(M.shape[0]), held)
+        return _circular_frequencies(M, K, np.array([i for i in free if i % 3 != 0]))
+
+    def _pier_frequencies(self, p: Pier) -> np.ndarray:
+        """Circular frequencies (rad/s) of the sway modes of a pier alone, a fixed-base cantilever."""
+        sec = p.section
+        M, K = column_matrices(
+            p.height, self.elements, sec.youngs_modulus, sec.area, sec.second_moment, sec.mass_per_length
+        )
+        return _circular_frequencies(M, K, np.array([i for i in range(3, M.shape[0]) if i % 3 != 1]))
+
+    @staticmethod
+    def _rayleigh(frequencies: np.ndarray, ratio: float) -> tuple[float, float]:
+        """``alpha, beta`` giving the damping ratio at the first two circular frequencies."""
+        if ratio == 0.0:
+            return 0.0, 0.0
+        if len(frequencies) < 2:
+            w1 = frequencies[0]
+            return 0.0, 2 * ratio / w1
+        w1, w2 = frequencies[:2]
+        return 2 * ratio * w1 * w2 / (w1 + w2), 2 * ratio / (w1 + w2)
+
+    def _dead_load_reactions(self) -> np.ndarray:
+        """Support forces carrying one span's own weight (:func:`_gravity_reactions`)."""
+        ez = np.zeros(self.ndof)
+        ez[1::3] = 1.0
+        free = np.setdiff1d(np.arange(self.ndof), self.support_dofs)
+        k_ff = self.K[np.ix_(free, free)]
+        return _gravity_reactions(
+            self.M, self.K, ez, self.support_dofs, free, lambda f: sla.solve(k_ff, f, assume_a="sym")
+        )
+
+    def _quasi_static_field(self) -> np.ndarray:
+        """``T`` (ndof x nsupport): the rigid-body field of a span for unit support motions."""
+        x = np.arange(self.elements + 1) * self.element_length
+        L = self.span_length
+        T = np.zeros((self.ndof, self.nsupport))
+        for col, (dof, comp) in enumerate(zip(self.support_dofs, SUPPORT_COMPONENTS, strict=True)):
+            if comp == "longitudinal":
+                T[0::3, col] = 1.0
+            elif dof == 1:  # left vertical support
+                T[1::3, col] = 1.0 - x / L
+                T[2::3, col] = -1.0 / L
+            else:  # right vertical support
+                T[1::3, col] = x / L
+                T[2::3, col] = 1.0 / L
+        return T
+
+    # ----------------------------------------------------------------------------------------------
+    # the whole bridge as one structure (links merge DOFs): modes, quasi-static field, dead load
+    def _global(self) -> None:
+        """Global numbering (every link merges two DOFs), the quasi-static field ``T`` of the
+        active supports as a sparse map to every substructure DOF, ``C T`` for the damping load
+        on the motion relative to the ground, and the dead-load reactions."""
+        import scipy.sparse as sps
+        import scipy.sparse.linalg as spla
+
+        nd, nsub = self.ndof, self.nsub
+        parent = np.arange(nsub * nd)
+
+        def find(i: int) -> int:
+            while parent[i] != i:
+                parent[i] = parent[parent[i]]
+                i = parent[i]
+            return i
+
+        L = self.links
+        rigid = ~L.spring
+        for a_s, a_d, b_s, b_d in zip(
+            L.a_sub[rigid], L.a_dof[rigid], L.b_sub[rigid], L.b_dof[rigid], strict=True
+        ):
+            ra, rb = find(a_s * nd + a_d), find(b_s * nd + b_d)
+            if ra != rb:
+                parent[max(ra, rb)] = min(ra, rb)
+        roots = np.array([find(i) for i in range(nsub * nd)])
+        uniq, gmap = np.unique(roots, return_inverse=True)
+        self.global_dof = gmap.reshape(nsub, nd)
+        """Global DOF of every substructure DOF (links merged), ``(nsub, ndof)``."""
+        self.nglobal = len(uniq)
+        rows, cols, mv, kv = [], [], [], []
+        for s in range(nsub):
+            kd = self.kinds[self.kind[s]]
+            g = self.global_dof[s]
+            rr, cc = np.meshgrid(g, g, indexing="ij")
+            rows.append(rr.ravel())
+            cols.append(cc.ravel())
+            mv.append(kd.M.ravel())
+            kv.append(kd.K.ravel())
+        spring = L.spring
+        if spring.any():  # bearing springs join their two DOFs elastically
+            ga = self.global_dof[L.a_sub[spring], L.a_dof[spring]]
+            gb = self.global_dof[L.b_sub[spring], L.b_dof[spring]]
+            k = 1.0 / L.compliance[spring]
+            rows += [ga, gb, ga, gb]
+            cols += [ga, gb, gb, ga]
+            kv += [k, k, -k, -k]
+            mv += [0.0 * k] * 4
+        shape = (self.nglobal, self.nglobal)
+        r, c = np.concatenate(rows), np.concatenate(cols)
+        self.M_global = sps.csc_matrix((np.concatenate(mv), (r, c)), shape=shape)
+        self.K_global = sps.csc_matrix((np.concatenate(kv), (r, c)), shape=shape)
+        act = self.support_active
+        self.support_global = self.global_dof[np.nonzero(act)[0], self.support_dof[act]]
+        """Global DOF of every active support constraint (row-major over ``(nsub, 3)``)."""
+        if len(np.unique(self.support_global)) != len(self.support_global):
+            raise ValueError("two support constraints hold the same DOF (check the piers' support lines)")
+        free = np.setdiff1d(np.arange(self.nglobal), self.support_global)
+        self.free_global = free
+        K = self.K_global
+        lu = spla.splu(K[free][:, free].tocsc())
+        Tg = self._quasi_static_global(K, free, lu)
+        # per substructure: T_s = Tg[global_dof[s]]; C T as one sparse map (nsub*ndof x nsup)
+        self.T_map = Tg[self.global_dof.ravel()].tocsr()
+        C_blocks = sps.block_diag([self.kinds[self.kind[s]].C for s in range(nsub)], format="csr")
+        self.CT_map = (C_blocks @ self.T_map).tocsr()
+        ez = np.zeros(self.nglobal)
+        for s in range(nsub):
+            ez[self.global_dof[s][1::3]] = 1.0
+        self.dead_load_global = _gravity_reactions(self.M_global, K, ez, self.support_global, free, lu.solve)
+        """Dead-load reaction of every active support constraint, N."""
+
+    def _quasi_static_global(self, K: Any, free: np.ndarray, lu: Any, block: int = 64) -> Any:
+        """``T``: the static displacement of every global DOF per unit motion of each active support
+        (the others held), sparse. Solved a block of supports at a time and trimmed below 1e-14, so
+        that memory stays linear in the bridge's length (a support's field decays within a few
+        spans)."""
+        import scipy.sparse as sps
+
+        sup = self.support_global
+        nsup = len(sup)
+        K_fs = K[free][:, sup].tocsc()
+        parts = [sps.csc_matrix((np.ones(nsup), (sup, np.arange(nsup))), shape=(self.nglobal, nsup))]
+        for j0 in range(0, nsup, block):
+            cols = np.arange(j0, min(j0 + block, nsup))
+            x = -lu.solve(np.asarray(K_fs[:, cols].todense()))
+            x[np.abs(x) < 1e-14] = 0.0
+            r, c = np.nonzero(x)
+            parts.append(sps.csc_matrix((x[r, c], (free[r], cols[c])), shape=(self.nglobal, nsup)))
+        return sps.csr_matrix(sum(parts[1:], parts[0]))
+
+    def natural_frequencies(self, count: int = 10) -> np.ndarray:
+        """The lowest natural frequencies (Hz) of the whole bridge, supports held."""
+        n = len(self.free_global) if not self.uniform else self.spans * (self.ndof - 3)
+        if self.uniform or n <= 1500:
+            M, K, free = self.assembled()
+            k, m = K[np.ix_(free, free)], M[np.ix_(free, free)]
+            eig = sla.eigh(k, m, eigvals_only=True, subset_by_index=[0, min(count, len(free)) - 1])
+        else:  # a long viaduct: the lowest modes by shift-invert Lanczos on the sparse matrices
+            import scipy.sparse.linalg as spla
+
+            free = self.free_global
+            k = self.K_global[free][:, free].tocsc()
+            m = self.M_global[free][:, free].tocsc()
+            eig = np.sort(spla.eigsh(k, k=min(count, n - 2), M=m, sigma=0.0, return_eigenvectors=False))
+        return np.sqrt(np.clip(eig, 0.0, None)) / (2 * np.pi)
+
+    def assembled(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """Dense global ``M``, ``K`` (links merged) and the free DOFs (active supports held)."""
+        if self.uniform:
+            nd = self.ndof
+            n = self.spans * nd
+            M, K = np.zeros((n, n)), np.zeros((n, n))
+            for s in range(self.spans):
+                o = slice(s * nd, (s + 1) * nd)
+                M[o, o], K[o, o] = self.M, self.K
+            held = (np.arange(self.spans)[:, None] * nd + self.support_dofs[None, :]).ravel()
+            return M, K, np.setdiff1d(np.arange(n), held)
+        return self.M_global.toarray(), self.K_global.toarray(), self.free_global
+
+    # ----------------------------------------------------------------------------------------------
+    # per-step operations on the substructures (the uniform bridge keeps its one-matrix form)
+    def per_kind(self, X: np.ndarray, name: str) -> np.ndarray:
+        """``X[s] @ kind(s).<name>`` for every substructure row of ``X`` (``nsub x ndof``)."""
+        if self.uniform:
+            return X @ getattr(self, name)
+        out = np.empty_like(X)
+        for k, members in enumerate(self.kind_members):
+            out[members] = X[members] @ getattr(self.kinds[k], name)
+        return out
+
+    def history_load(self, P: np.ndarray, Q: np.ndarray, q1: np.ndarray) -> np.ndarray:
+        """The bridge rows' known load ``M P + C Q + C T q'`` (damping on the motion relative to
+        the ground), ``nsub x ndof``; ``q1``: the support targets' velocities ``(nsub, 3)``."""
+        return self.per_kind(P, "M") + self.per_kind(Q, "C") + self.support_damping_load(q1)
+
+    def support_damping_load(self, q1: np.ndarray) -> np.ndarray:
+        if self.uniform:
+            return q1 @ self.CT.T
+        return (self.CT_map @ q1[self.support_active]).reshape(self.nsub, self.ndof)
+
+    def quasi_static(self, q: np.ndarray) -> np.ndarray:
+        """``T q``: the quasi-static field of the support motion ``q`` (or its rates), ``nsub x ndof``."""
+        if self.uniform:
+            return q @ self.T.T
+        return (self.T_map @ q[self.support_active]).reshape(self.nsub, self.ndof)
+
+    def held_values(self, q: np.ndarray) -> np.ndarray:
+        """Support targets ``(nsub, 3)`` as the constraint rows take them, flat: 0 in an unused slot."""
+        return q.reshape(-1) if self.uniform else np.where(self.support_active, q, 0.0).reshape(-1)
+
+    @property
+    def support_table(self) -> SupportTable:
+        if self.uniform:
+            flat = np.arange(self.spans * 3)
+            dead = np.tile(self.dead_load_reactions, self.spans)
+            names = np.array(list(SUPPORT_COMPONENTS) * self.spans, dtype=object)
+        else:
+            flat = np.flatnonzero(self.support_active.ravel())
+            dead = self.dead_load_global
+            names = np.array([COMPONENT_NAMES[c] for c in self.support_component.ravel()[flat]], dtype=object)
+        return SupportTable(flat, self.support_x_all.ravel()[flat], flat // 3, names, dead)
+
+    def reaction_at_supports(self, F: np.ndarray) -> np.ndarray:
+        """The support forces for the nodal force residual ``F`` (``nsub x ndof``) of the equations
+        of motion: at each active support, summed over the DOFs a link merges with it (the link
+        forces cancel), in the order of :attr:`support_table`."""
+        if self.uniform:
+            return F[:, self.support_dofs].reshape(-1)
+        total = np.bincount(self.global_dof.ravel(), weights=F.ravel(), minlength=self.nglobal)
+        return total[self.support_global]
+
+    # ----------------------------------------------------------------------------------------------
+    @property
+    def length(self) -> float:
+        return float(self.line_x[-1])
+
+    @property
+    def span_mass(self) -> float | np.ndarray:
+        """Mass per length of the spans: one value for the paper's bridge, else one per span."""
+        return self.mass_per_length if self.uniform else self.span_mass_per_length
+
+    @property
+    def contact_element_length(self) -> float | np.ndarray:
+        """Element length of the spans: one value for the paper's bridge, else one per span (the
+        contact kernels then evaluate each contact with its span's)."""
+        return self.element_length if self.uniform else self.span_element_length
+
+    def at_supports(self, X: np.ndarray) -> np.ndarray:
+        """The values of ``X`` (``nsub x ndof``) at the support slots, ``(nsub, 3)``."""
+        if self.uniform:
+            return X[:, self.support_dofs]
+        return X[np.arange(self.nsub)[:, None], self.support_dof]
+
+    @property
+    def support_vertical(self) -> np.ndarray:
+        """Mask of the vertical support constraints, shape ``(nsupport,)`` (uniform bridge)."""
+        return np.array([c == "vertical" for c in SUPPORT_COMPONENTS])
+
+    def locate(self, x: np.ndarray) -> Location:
+        """Span (``floor(x / L)``, so a point on a joint belongs to the span ahead), element
+        (clamped to the span) and local coordinate of the points ``x``. Off the bridge, span,
+        element and ``xi`` are clamped placeholders: always use them together with ``on``."""
+        x = np.asarray(x, dtype=float)
+        if self.uniform:
+            span_f = np.floor(x * (1.0 / self.span_length))
+            on = (span_f >= 0) & (span_f < self.spans)
+            span = np.clip(span_f, 0, self.spans - 1)
+            local = (x - span * self.span_length) * (1.0 / self.element_length)
+        else:
+            on = (x >= 0.0) & (x < self.length)
+            span = np.clip(np.searchsorted(self.line_x, x, side="right") - 1, 0, self.spans - 1)
+            local = (x - self.span_starts[span]) / self.span_element_length[span]
+        element = np.clip(np.floor(local), 0, self.elements - 1)
+        xi = np.clip(local - element, 0.0, 1.0)
+        return Location(x, on, span.astype(np.intp), element.astype(np.intp), xi)
+
+    def midspan_location(self) -> tuple[int, float]:
+        """Element and local coordinate of the midspan point (same for every span: every span has
+        ``elements_per_span`` equal elements)."""
+        local = 0.5 * self.elements
+        element = min(int(np.floor(local)), self.elements - 1)
+        return element, local - element

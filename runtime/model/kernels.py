@@ -1,0 +1,58 @@
+"""The generated NumPy kernel modules (``generated/<model>/numpy_kernels.py``), loaded by path.
+
+Built-in models load from the package's committed ``generated/`` tree; a user's topology file is
+derived and emitted once into the compile cache, keyed by its content
+(:func:`svbi.runtime.backends.compiler.python_module`), and loaded from there. The model folders have
+hyphens in their names, so a module is compiled from its file and run in a fresh namespace (which
+also leaves no ``__pycache__`` next to the committed files). Nothing here imports SymPy.
+"""
+
+from __future__ import annotations
+
+import re
+import types
+from functools import cache
+from pathlib import Path
+
+from svbi.codegen.plain_types import PYTHON_KERNELS_FILE, TopologyError, builtin_topologies
+
+FRAME2D = "frame2d"
+"""The bridge element model (``svbi.codegen.kernels.FRAME2D``)."""
+
+
+def module_path(model: str) -> Path:
+    """The file of a model's generated module: committed for ``frame2d`` and the built-in vehicles,
+    emitted into the cache for a topology file."""
+    from svbi.runtime.backends.compiler import generated_root, python_module
+
+    if model == FRAME2D or model in builtin_topologies():
+        committed = generated_root() / model / PYTHON_KERNELS_FILE
+        if committed.is_file():
+            return committed
+        if model == FRAME2D:
+            raise FileNotFoundError(f"{committed} is missing: run `svbi generate --all`")
+        from importlib import resources
+
+        with resources.as_file(resources.files("svbi.codegen.vehicles") / f"{model}.toml") as path:
+            return python_module(path)
+    path = Path(model)
+    if not path.is_file():
+        known = ", ".join(builtin_topologies())
+        raise TopologyError(model, "vehicle", f"not a built-in vehicle ({known}) and no such file")
+    return python_module(path)
+
+
+@cache
+def load(model: str) -> types.ModuleType:
+    """The generated module of ``model`` (a built-in name, ``frame2d`` or a topology file path)."""
+    path = module_path(model)
+    source = path.read_text(encoding="utf-8")
+    module = types.ModuleType(f"svbi.generated.{re.sub(r'[^A-Za-z0-9_]', '_', path.parent.name)}")
+    module.__file__ = str(path)
+    exec(compile(source, str(path), "exec"), module.__dict__)  # noqa: S102 - our own generated code
+    return module
+
+
+def frame2d() -> types.ModuleType:
+    """The bridge element's kernels: element matrices, contact-row tables, constraint masses, creep."""
+    return load(FRAME2D)

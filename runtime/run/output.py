@@ -1,0 +1,197 @@
+"""Where `svbi run` writes, checked before anything is computed, and how a run stops on a signal.
+
+* :func:`check_output` refuses, in one line, an output path that would lose data or fail only after
+  the whole run: empty, not a ``.nc`` name, an existing folder or special file, under a regular file,
+  in a folder that cannot take a new file, or one of the run's own inputs (:func:`run_inputs`:
+  scenario, records, vehicle topology), compared by resolved path and by inode, so that a symbolic
+  or hard link is caught too.
+* :func:`incomplete_path`: incomplete results (a diverged or interrupted run) go to
+  ``<stem>.incomplete.nc`` beside the requested file, never onto it: a file at ``-o`` is always a
+  complete run.
+* :func:`signals_interrupt`: while it is active, SIGINT and SIGTERM raise :class:`RunInterrupted`
+  in the main thread, so that ``finally`` clauses run (temporary files removed, compile folders
+  deleted) and the time loop can hand back what it computed. Python's default for SIGTERM is to die
+  on the spot, with no clean-up at all.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import os
+import signal
+import tempfile
+from collections.abc import Iterable, Iterator
+from pathlib import Path
+from typing import TYPE_CHECKING, Any
+
+if TYPE_CHECKING:
+    import xarray as xr
+    from svbi.runtime.scenario.schema import Scenario
+
+SUFFIX = ".nc"
+INCOMPLETE = ".incomplete"
+
+
+class OutputPathError(ValueError):
+    """The output path cannot take the results; the message is one line naming the path."""
+
+
+class RunInterrupted(KeyboardInterrupt):
+    """SIGINT or SIGTERM arrived. ``results`` holds what the time loop had computed (or None when
+    the signal came before or after the loop); ``exit_code`` is ``128 + signal number``."""
+
+    def __init__(self, signum: int, results: xr.Dataset | None = None) -> None:
+        super().__init__(signal.Signals(signum).name)
+        self.signum = int(signum)
+        self.results = results
+
+    @property
+    def signal_name(self) -> str:
+        return signal.Signals(self.signum).name
+
+    @property
+    def exit_code(self) -> int:
+        return 128 + self.signum
+
+
+def signal_name(exc: BaseException) -> str:
+    """SIGINT for a plain KeyboardInterrupt (Python's own Ctrl-C), else the signal that raised it."""
+    return exc.signal_name if isinstance(exc, RunInterrupted) else "SIGINT"
+
+
+# --------------------------------------------------------------------------------------------------
+# the output path
+
+
+def incomplete_path(path: str | os.PathLike[str]) -> Path:
+    """``run.nc`` -> ``run.incomplete.nc``: where incomplete results of a run go."""
+    p = Path(path)
+    return p.with_name(f"{p.stem}{INCOMPLETE}{SUFFIX}")
+
+
+def run_inputs(scenario: Scenario) -> dict[str, Path]:
+    """The files a run reads, by the key that names them (``scenario`` for the scenario file)."""
+    from svbi.codegen.plain_types import builtin_topologies
+
+    inputs: dict[str, Path] = {}
+    if scenario.source:
+        inputs["scenario file"] = Path(scenario.source)
+    vehicle = scenario.train.vehicle
+    if vehicle not in builtin_topologies():
+        inputs["train.vehicle"] = scenario.resolve_path(vehicle)
+    if scenario.track.is_profile:
+        inputs["track.irregularity"] = scenario.resolve_path(scenario.track.irregularity)
+    eq = scenario.earthquake
+    if eq is not None:
+        for comp in ("vertical", "longitudinal"):
+            names = eq.sources(comp)
+            for k, name in enumerate(names):
+                if name not in ("none", "synthetic"):
+                    key = (
+                        f"earthquake.{comp}[{k}]"
+                        if isinstance(getattr(eq, comp), list)
+                        else f"earthquake.{comp}"
+                    )
+                    inputs[key] = scenario.resolve_path(name)
+    return inputs
+
+
+def _same_file(a: Path, b: Path) -> bool:
+    """Same file by resolved path, or by device and inode (hard links)."""
+    try:
+        if a.resolve() == b.resolve():
+            return True
+    except OSError:
+        pass
+    try:
+        return os.path.samefile(a, b)
+    except OSError:
+        return False
+
+
+def _folder_problem(folder: Path) -> str | None:
+    """Why no new file can be created in ``folder`` (None if one can)."""
+    existing = folder
+    while not existing.exists():
+        if existing.parent == existing:
+            break
+        existing = existing.parent
+    if existing.exists() and not existing.is_dir():
+        return f"{existing} is a file, not a folder"
+    if existing != folder:  # write_atomic creates the missing folders: the first existing one decides
+        if not os.access(existing, os.W_OK | os.X_OK):
+            return f"folder {existing} is not writable"
+        return None
+    try:  # the only sure test (read-only file systems, root, ACLs): create a file and remove it
+        with tempfile.TemporaryFile(dir=folder):
+            pass
+    except OSError as exc:
+        return f"folder {folder} is not writable ({exc.strerror or exc})"
+    return None
+
+
+def check_output(raw: str | os.PathLike[str], inputs: dict[str, Path] | Iterable[tuple[str, Path]]) -> Path:
+    """The output path as given, if a run can write its results there; else :class:`OutputPathError`.
+
+    Checks both the path and its ``.incomplete.nc`` sibling (where a stopped run writes).
+    """
+    text = os.fspath(raw)
+    if not text.strip():
+        raise OutputPathError("-o: the output path is empty; give a file name ending in .nc")
+    path = Path(text).expanduser()
+    if path.suffix.lower() != SUFFIX:
+        raise OutputPathError(
+            f"-o {text}: results are written as NetCDF; give a file name ending in .nc "
+            f"(got {'no suffix' if not path.suffix else repr(path.suffix)})"
+        )
+    items = list(inputs.items()) if isinstance(inputs, dict) else list(inputs)
+    for target in (path, incomplete_path(path)):
+        if target.is_dir():
+            raise OutputPathError(f"-o {text}: {target} is a folder; give a file name ending in .nc")
+        if target.exists() and not target.is_file():
+            raise OutputPathError(f"-o {text}: {target} exists and is not a regular file")
+        for key, source in items:
+            if _same_file(target, source):
+                what = "the scenario file" if key == "scenario file" else f"the file of {key}"
+                raise OutputPathError(
+                    f"-o {text}: {target} is {what} ({source}), an input of this run; "
+                    "results would overwrite it"
+                )
+    problem = _folder_problem(path.parent if str(path.parent) else Path("."))
+    if problem is not None:
+        raise OutputPathError(f"-o {text}: {problem}")
+    return path
+
+
+# --------------------------------------------------------------------------------------------------
+# signals
+
+
+def _raise(signum: int, frame: Any) -> None:
+    raise RunInterrupted(signum)
+
+
+@contextlib.contextmanager
+def signals_interrupt() -> Iterator[None]:
+    """SIGINT and SIGTERM raise :class:`RunInterrupted` inside the block (main thread only).
+
+    A signal that the process inherited as ignored (``nohup``, a shell's background job) stays
+    ignored; the previous handlers come back on exit.
+    """
+    import threading
+
+    if threading.current_thread() is not threading.main_thread():
+        yield
+        return
+    previous: dict[int, Any] = {}
+    for signum in (signal.SIGINT, signal.SIGTERM):
+        current = signal.getsignal(signum)
+        if current is signal.SIG_IGN:
+            continue
+        previous[signum] = current
+        signal.signal(signum, _raise)
+    try:
+        yield
+    finally:
+        for signum, handler in previous.items():
+            signal.signal(signum, handler)

@@ -1,0 +1,790 @@
+"""Scenario files: the TOML contract of DESIGN.md section 3, validated with pydantic.
+
+``load_scenario(path)`` reads a file, applies ``--set``-style overrides, validates every key and
+returns a :class:`Scenario` with the defaults filled in. Unknown keys are errors. Every problem is
+reported with the dotted path of the offending key and the file and line where it was written, all
+problems at once::
+
+    bad.toml:7: bridge.span_length: must be greater than 0 (got -32.0)
+
+A time step too coarse for the vehicle is a :class:`ScenarioWarning`, not an error.
+"""
+
+from __future__ import annotations
+
+import math
+import re
+import tomllib
+import warnings
+from collections.abc import Iterable, Mapping, Sequence
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Annotated, Any, Literal
+
+import tomli_w
+from pydantic import BaseModel, ConfigDict, Field, PrivateAttr, ValidationError, model_validator
+
+METHODS = ("localized-dynamic", "coupled-dynamic", "coupled-classic")
+BACKENDS = ("numpy", "casadi", "c")
+IRREGULARITIES = ("none", "german-low", "german-high")
+HSLM_TRAINS = tuple(f"A{i}" for i in range(1, 11))
+KMH = 1.0 / 3.6
+
+TIME_STEP_RESOLUTION = 20
+"""Steps per period of the fastest vehicle mode below which a warning is given. Newmark's average
+acceleration lengthens a period by about (omega dt)^2 / 12: at 20 steps per period that is 0.8 %."""
+
+
+class ScenarioWarning(UserWarning):
+    """A scenario that runs but whose results may be inaccurate (e.g. a coarse time step)."""
+
+
+@dataclass(frozen=True)
+class Problem:
+    """One invalid key: its dotted path, what is wrong, and where it was written."""
+
+    key: str
+    message: str
+    where: str = ""
+
+    def __str__(self) -> str:
+        prefix = f"{self.where}: " if self.where else ""
+        return f"{prefix}{self.key}: {self.message}"
+
+
+class ScenarioError(ValueError):
+    """A scenario file (or override) is invalid. ``problems`` lists every offending key."""
+
+    def __init__(self, problems: Sequence[Problem], source: str = "") -> None:
+        self.problems = list(problems)
+        self.source = source
+        head = f"invalid scenario {source}" if source else "invalid scenario"
+        super().__init__(head + ":\n" + "\n".join(f"  {p}" for p in self.problems))
+
+
+# --------------------------------------------------------------------------------------------------
+# schema
+
+Positive = Annotated[float, Field(gt=0)]
+NonNegative = Annotated[float, Field(ge=0)]
+
+
+class _Table(BaseModel):
+    model_config = ConfigDict(extra="forbid", strict=True, allow_inf_nan=False, validate_default=True)
+
+
+_SECTION_FIELDS = ("mass_per_length", "youngs_modulus", "area", "second_moment", "damping_ratio")
+"""The section keys a girder or pier may give for itself (``[bridge]``'s otherwise)."""
+
+
+class GirderSpec(_Table):
+    """``[[bridge.girders]]``: one deck in the direction of travel, continuous over its interior
+    supports. Section keys left out take the ``[bridge]`` defaults."""
+
+    spans: Annotated[list[Positive], Field(min_length=1)]
+    """Span lengths (m) in the direction of travel; one entry is a simply supported span."""
+    fixed_support: Annotated[int, Field(ge=0)] = 0
+    """Which of the girder's support lines (0 = its first) carries the fixed bearing."""
+    mass_per_length: Positive | None = None
+    youngs_modulus: Positive | None = None
+    area: Positive | None = None
+    second_moment: Positive | None = None
+    damping_ratio: Annotated[float, Field(ge=0, lt=1)] | None = None
+    elements_per_span: Annotated[int, Field(ge=1)] | None = None
+
+
+class PierSpec(_Table):
+    """``[[bridge.piers]]``: a pier column under one support line, fixed at its base, carrying the
+    girders' bearings on that line at its top (rigid, or springs of the given stiffness)."""
+
+    support: Annotated[int, Field(ge=0)]
+    height: Positive
+    mass_per_length: Positive
+    youngs_modulus: Positive
+    area: Positive
+    second_moment: Positive
+    damping_ratio: Annotated[float, Field(ge=0, lt=1)] | None = None
+    """Rayleigh damping on the pier's first two sway modes; default ``[bridge] damping_ratio``."""
+    bearing_stiffness_vertical: Positive | None = None
+    bearing_stiffness_longitudinal: Positive | None = None
+
+
+class BridgeSpec(_Table):
+    """``[bridge]``: the section defaults and either the shorthand ``spans`` x ``span_length`` (a chain
+    of identical simply supported spans) or the long form ``[[bridge.girders]]``."""
+
+    spans: Annotated[int, Field(ge=1)] = 1
+    span_length: Positive | None = None
+    mass_per_length: Positive
+    youngs_modulus: Positive
+    area: Positive
+    second_moment: Positive
+    damping_ratio: Annotated[float, Field(ge=0, lt=1)] = 0.02
+    elements_per_span: Annotated[int, Field(ge=1)] = 16
+    rail_height: float = 0.0
+    track_form: Literal["ballasted", "direct"] = "ballasted"
+    """EN 1990 A2.4.4.2.1 deck acceleration limit of ``svbi check``: 3.5 m/s² ballasted, 5 m/s² direct."""
+    girders: list[GirderSpec] | None = None
+    piers: list[PierSpec] | None = None
+
+    @model_validator(mode="after")
+    def _one_form(self) -> BridgeSpec:
+        if self.girders is None:
+            if self.span_length is None:
+                raise ValueError("@bridge.span_length: required key is missing (or give [[bridge.girders]])")
+            return self
+        both = sorted({"spans", "span_length"} & self.model_fields_set)
+        if both:
+            raise ValueError(
+                f"@bridge.{both[0]}: the shorthand cannot be combined with the long form [[bridge.girders]]"
+            )
+        self.spans = sum(len(g.spans) for g in self.girders)
+        self.span_length = self.girders[0].spans[0]
+        return self
+
+    def long_form_problems(self) -> list[tuple[str, str]]:
+        """(key, message) for each long-form input the mechanics cannot build: every span has
+        ``elements_per_span`` elements (no per-girder override), one pier per support line inside
+        the bridge, a fixed bearing on one of the girder's lines. Refused, never approximated."""
+        out: list[tuple[str, str]] = []
+        lines = self.spans + 1
+        seen: dict[int, int] = {}
+        for i, p in enumerate(self.piers or []):
+            key = f"bridge.piers[{i}]"
+            if p.support >= lines:
+                out.append((f"{key}.support", f"support line {p.support} is not one of 0..{lines - 1}"))
+            if p.support in seen:
+                out.append((f"{key}.support", f"support line {p.support} already has pier {seen[p.support]}"))
+            seen.setdefault(p.support, i)
+        for i, g in enumerate(self.girders or []):
+            key = f"bridge.girders[{i}]"
+            if g.fixed_support > len(g.spans):
+                out.append(
+                    (
+                        f"{key}.fixed_support",
+                        f"{g.fixed_support} is not one of the girder's lines 0..{len(g.spans)}",
+                    )
+                )
+            if g.elements_per_span is not None and g.elements_per_span != self.elements_per_span:
+                out.append(
+                    (
+                        f"{key}.elements_per_span",
+                        "every span has [bridge] elements_per_span elements; no per-girder value",
+                    )
+                )
+        return out
+
+    def layout(self) -> tuple[list[Any], list[Any]]:
+        """The runtime's girders and piers (``svbi.runtime.model.bridge``) of the long form."""
+        from svbi.runtime.model.bridge import Girder, Pier, Section
+
+        def section(g: Any) -> Section:
+            def pick(name: str) -> float:
+                value = getattr(g, name, None)
+                return float(getattr(self, name) if value is None else value)
+
+            return Section(*(pick(n) for n in _SECTION_FIELDS))
+
+        girders = [
+            Girder(tuple(float(x) for x in g.spans), section(g), g.fixed_support) for g in self.girders or []
+        ]
+        piers = [
+            Pier(
+                p.support,
+                float(p.height),
+                section(p),
+                p.bearing_stiffness_vertical,
+                p.bearing_stiffness_longitudinal,
+            )
+            for p in self.piers or []
+        ]
+        return girders, piers
+
+    def line_positions(self) -> list[float]:
+        """Position (m) of every support line: 0, then the end of each span."""
+        lengths = (
+            [x for g in self.girders for x in g.spans] if self.girders else [self.span_length] * self.spans
+        )
+        out = [0.0]
+        for x in lengths:
+            out.append(out[-1] + float(x))
+        return out
+
+
+class TrainSpec(_Table):
+    """``[train]``: vehicle type, number of cars, speed and start position."""
+
+    vehicle: Annotated[str, Field(min_length=1)] = "pioneer-2d"
+    cars: Annotated[int, Field(ge=1)] = 1
+    speed_kmh: NonNegative | None = None
+    speed: NonNegative | None = None
+    """0 is a train standing still (on the bridge or the approach) and needs ``solver.duration``."""
+    start_position: float = 0.0
+    acceleration: float = 0.0
+    """m/s^2 along the track (negative: braking); the speed is ``v0 + a t``, and a braking train
+    stops and then stands."""
+    hslm: Literal[HSLM_TRAINS] | None = None  # type: ignore[valid-type]
+    parameters: dict[str, float | list[float]] = Field(default_factory=dict)
+    initial: Literal["auto", "static", "rigid-track"] = "auto"
+    """The state at t = 0: "static" the whole train-bridge system in static equilibrium (the train
+    resting on the deflected bridge), "rigid-track" the cars at rest on rigid level track and the
+    bridge unloaded; "auto" is "static" when a wheel stands on the bridge at t = 0, else
+    "rigid-track" (docs/scenario.md)."""
+
+    @model_validator(mode="after")
+    def _speed_given_once(self) -> TrainSpec:
+        if (self.speed is None) == (self.speed_kmh is None):
+            which = "both" if self.speed is not None else "neither"
+            raise ValueError(f"give exactly one of train.speed (m/s) and train.speed_kmh ({which} given)")
+        return self
+
+    @property
+    def speed_ms(self) -> float:
+        """Speed in m/s, whichever key gave it."""
+        return float(self.speed) if self.speed is not None else float(self.speed_kmh) * KMH
+
+
+class TrackSpec(_Table):
+    """``[track]``: rail irregularity: a built-in spectrum, or a measured profile file (x, r columns)."""
+
+    irregularity: Annotated[str, Field(min_length=1)] = "none"
+    seed: Annotated[int, Field(ge=0)] = 1
+    wavelength_min: Positive = 0.5
+    wavelength_max: Positive = 80.0
+
+    @property
+    def is_profile(self) -> bool:
+        """A measured profile (a file path) rather than one of :data:`IRREGULARITIES`."""
+        return self.irregularity not in IRREGULARITIES
+
+
+RecordName = Annotated[str, Field(min_length=1)]
+
+
+class EarthquakeSpec(_Table):
+    """``[earthquake]``: ground motion at the supports and under the approach track.
+
+    A component is ``"none"``, ``"synthetic"``, a record path, or a list of those with one entry per
+    support line (abutments and piers, ``bridge.spans + 1`` entries in the direction of travel).
+    """
+
+    vertical: RecordName | list[RecordName] = "none"
+    longitudinal: RecordName | list[RecordName] = "none"
+    scale: NonNegative = 1.0
+    vertical_scale: NonNegative = 1.0
+    longitudinal_scale: NonNegative = 1.0
+    target_pga: Positive | None = None
+    arrival: float = 0.0
+    apparent_velocity: Positive | None = None
+    seed: Annotated[int, Field(ge=0)] = 1
+    record_dt: Positive | None = None
+
+    def sources(self, component: str) -> list[str]:
+        """The record names of a component as a list (one entry when synchronous)."""
+        value = getattr(self, component)
+        return list(value) if isinstance(value, list) else [value]
+
+
+class ContactSpec(_Table):
+    """``[contact]``: the tangential (creep) wheel-rail contact, paper Section 2.4."""
+
+    normal: Literal["unilateral", "bilateral"] = "unilateral"
+    """Normal wheel-rail contact: a wheel may lift off and land again (docs/method.md section 12),
+    or the paper's rigid, bilateral contact."""
+    creep: bool = True
+    friction: Positive = 0.3
+    rail_head_radius: Positive = 0.3
+    youngs_modulus: Positive = 2.1e11
+    poisson_ratio: Annotated[float, Field(ge=0, le=0.5)] = 0.3
+
+
+class SolverSpec(_Table):
+    """``[solver]``: method, backend, time step and constraint coefficients."""
+
+    method: Literal[METHODS] = "localized-dynamic"  # type: ignore[valid-type]
+    backend: Literal[BACKENDS] = "c"  # type: ignore[valid-type]
+    time_step: Positive = 1.0e-4
+    duration: Positive | None = None
+    output_every: Annotated[int, Field(ge=1)] = 10
+    constraint_kappa: NonNegative = 1.0
+    constraint_zeta: NonNegative = 1.0
+    contact_split: Annotated[float, Field(gt=0, lt=1)] = 0.5
+    max_gap: Positive = 1.0
+    """Divergence guard: a constraint violation above this (m) stops the run as diverged."""
+
+
+class OutputSpec(_Table):
+    """``[output]``."""
+
+    force_filter_hz: Positive = 20.0
+
+
+class Scenario(_Table):
+    """A validated scenario (DESIGN.md section 3) with every default filled in."""
+
+    title: str = ""
+    bridge: BridgeSpec
+    train: TrainSpec
+    track: TrackSpec = Field(default_factory=TrackSpec)
+    earthquake: EarthquakeSpec | None = None
+    contact: ContactSpec = Field(default_factory=ContactSpec)
+    solver: SolverSpec = Field(default_factory=SolverSpec)
+    output: OutputSpec = Field(default_factory=OutputSpec)
+
+    _source: str = PrivateAttr(default="")
+    _base_dir: Path = PrivateAttr(default_factory=Path.cwd)
+
+    @property
+    def source(self) -> str:
+        """File the scenario came from ("" for one built in Python)."""
+        return self._source
+
+    @property
+    def base_dir(self) -> Path:
+        """Folder that relative paths (vehicle topology, records) are resolved against."""
+        return self._base_dir
+
+    def resolve_path(self, value: str) -> Path:
+        path = Path(value).expanduser()
+        return path if path.is_absolute() else self._base_dir / path
+
+    def to_dict(self) -> dict[str, Any]:
+        out = self.model_dump(mode="json", exclude_none=True)
+        if self.bridge.girders is not None:
+            # the long form echoes as written: spans/span_length are derived from the girders
+            out["bridge"].pop("spans", None)
+            out["bridge"].pop("span_length", None)
+        return out
+
+    def to_toml(self) -> str:
+        """Normalised TOML text: every key, defaults filled in (echoed into the results)."""
+        return tomli_w.dumps(self.to_dict())
+
+
+# --------------------------------------------------------------------------------------------------
+# loading
+
+
+def load_scenario(
+    path: str | Path, overrides: Sequence[str] | Mapping[str, Any] | None = None, check: bool = True
+) -> Scenario:
+    """Read, override, validate a scenario file. Raises :class:`ScenarioError` naming file and line."""
+    path = Path(path)
+    try:
+        text = path.read_text(encoding="utf-8")
+    except (OSError, UnicodeDecodeError) as exc:
+        raise ScenarioError([Problem("<file>", f"cannot read: {exc}", str(path))], str(path)) from None
+    return loads_scenario(
+        text, source=str(path), base_dir=path.resolve().parent, overrides=overrides, check=check
+    )
+
+
+def loads_scenario(
+    text: str,
+    source: str = "<string>",
+    base_dir: str | Path | None = None,
+    overrides: Sequence[str] | Mapping[str, Any] | None = None,
+    check: bool = True,
+) -> Scenario:
+    """Validate scenario TOML text (see :func:`load_scenario`)."""
+    try:
+        data = tomllib.loads(text)
+    except tomllib.TOMLDecodeError as exc:
+        line = getattr(exc, "lineno", None) or _line_from_message(str(exc))
+        where = f"{source}:{line}" if line else source
+        msg = getattr(exc, "msg", None) or re.sub(r"\s*\(at line \d+, column \d+\)", "", str(exc))
+        raise ScenarioError([Problem("<toml>", f"malformed TOML: {msg}", where)], source) from None
+    overridden = apply_overrides(data, overrides or [])
+    return validate_scenario(
+        data, source=source, base_dir=base_dir, text=text, overridden=overridden, check=check
+    )
+
+
+def validate_scenario(
+    data: Mapping[str, Any],
+    source: str = "<dict>",
+    base_dir: str | Path | None = None,
+    text: str = "",
+    overridden: Mapping[str, str] | None = None,
+    check: bool = True,
+) -> Scenario:
+    """Validate a scenario given as a (TOML-shaped) dictionary."""
+    lines = _key_lines(text) if text else {}
+    overridden = dict(overridden or {})
+
+    def where(key: str) -> str:
+        for k, spec in overridden.items():
+            if key == k or key.startswith(k + ".") or k.startswith(key + "."):
+                return f"--set {spec}"
+        parts = key.split(".")
+        while parts:
+            # a list member (spans[0]) is written on its key's line
+            line = lines.get(".".join(parts)) or lines.get(re.sub(r"\[\d+\]$", "", ".".join(parts)))
+            if line:
+                return f"{source}:{line}"
+            parts.pop()
+        return source
+
+    try:
+        scenario = Scenario.model_validate(dict(data))
+    except ValidationError as exc:
+        raise ScenarioError([_problem(err, where) for err in exc.errors()], source) from None
+    scenario._source = source if source not in ("<dict>", "<string>") else ""
+    scenario._base_dir = Path(base_dir) if base_dir is not None else Path.cwd()
+    if check:
+        problems = list(_semantic_problems(scenario))
+        if problems:
+            raise ScenarioError([Problem(k, m, where(k)) for k, m in problems], source)
+        from svbi.runtime.scenario.limits import creep_warnings
+
+        for message in time_step_warnings(scenario) + creep_warnings(scenario):
+            warnings.warn(f"{source}: {message}" if source else message, ScenarioWarning, stacklevel=3)
+    return scenario
+
+
+def apply_overrides(data: dict[str, Any], overrides: Sequence[str] | Mapping[str, Any]) -> dict[str, str]:
+    """Apply ``key.path=value`` overrides in place; values are parsed as TOML literals, and a value
+    that is not a valid literal (``coupled-dynamic``) is taken as a string. Returns key -> spec."""
+    items: Iterable[tuple[str, Any]]
+    if isinstance(overrides, Mapping):
+        items = [(k, v) for k, v in overrides.items()]
+        specs = {k: f"{k}={v!r}" for k, v in items}
+    else:
+        parsed = []
+        specs = {}
+        for spec in overrides:
+            if "=" not in spec:
+                raise ScenarioError([Problem(spec, "expected key.path=value", f"--set {spec}")])
+            key, raw = spec.split("=", 1)
+            key = key.strip()
+            parsed.append((key, parse_literal(raw.strip())))
+            specs[key] = spec
+        items = parsed
+    for key, value in items:
+        parts = key.split(".")
+        if not key or any(not p for p in parts):
+            raise ScenarioError([Problem(key, "empty key in override", f"--set {specs[key]}")])
+        node = data
+        for i, part in enumerate(parts[:-1]):
+            child = node.setdefault(part, {})
+            if not isinstance(child, dict):
+                where = ".".join(parts[: i + 1])
+                raise ScenarioError(
+                    [Problem(where, "is not a table; cannot set a key inside it", f"--set {specs[key]}")]
+                )
+            node = child
+        node[parts[-1]] = value
+    return specs
+
+
+def parse_literal(raw: str) -> Any:
+    """A TOML literal (``1e-4``, ``true``, ``[1, 2]``, ``"x"``), or the raw text as a string."""
+    try:
+        return tomllib.loads(f"v = {raw}")["v"]
+    except tomllib.TOMLDecodeError:
+        return raw
+
+
+# --------------------------------------------------------------------------------------------------
+# semantic checks that need more than one key, or the vehicle topology
+
+
+def _semantic_problems(s: Scenario) -> Iterable[tuple[str, str]]:
+    from svbi.codegen.plain_types import TopologyError
+
+    t, sol, trk = s.train, s.solver, s.track
+    bridge_problems = s.bridge.long_form_problems()
+    yield from bridge_problems
+    if bridge_problems:
+        return
+    if trk.wavelength_min >= trk.wavelength_max:
+        yield (
+            "track.wavelength_min",
+            (f"must be smaller than track.wavelength_max ({trk.wavelength_min:g} >= {trk.wavelength_max:g})"),
+        )
+    if t.speed_ms == 0.0 and t.acceleration <= 0.0 and sol.duration is None:
+        yield (
+            "train.speed_kmh" if t.speed is None else "train.speed",
+            "0 (a train standing still) needs solver.duration: the run has no crossing to end it",
+        )
+    if t.acceleration < 0.0 and t.speed_ms > 0.0 and sol.duration is None:
+        stop = t.speed_ms**2 / (-2.0 * t.acceleration)
+        way = s.bridge.line_positions()[-1] - t.start_position
+        if stop < way:  # the leading axle stops before the bridge's end (the last axle even sooner)
+            yield (
+                "train.acceleration",
+                f"braking at {-t.acceleration:g} m/s^2 the train stops after {stop:.4g} m, before it has "
+                "crossed the bridge: give solver.duration",
+            )
+    if sol.duration is not None and sol.duration < sol.time_step:
+        yield "solver.duration", f"shorter than one time step ({sol.duration:g} s < {sol.time_step:g} s)"
+    if s.earthquake is not None:
+        yield from _earthquake_problems(s)
+    if s.track.is_profile:
+        yield from _profile_problems(s)
+    try:
+        topo = vehicle_topology(s)
+    except TopologyError as exc:
+        yield "train.vehicle", exc.problem if exc.key == "vehicle" else str(exc)
+        return
+    if t.hslm is not None:
+        if topo.kind != "moving-load":
+            yield "train.hslm", f"needs train.vehicle = 'moving-load' (got {t.vehicle!r})"
+        if t.cars != 1:
+            yield "train.cars", f"an HSLM train is one unit: cars must be 1 with train.hslm (got {t.cars})"
+        clash = sorted(set(t.parameters) & {"axle_loads", "axle_offsets", "car_length"})
+        if clash:
+            yield f"train.parameters.{clash[0]}", "is set by train.hslm; remove it or remove train.hslm"
+    try:
+        values = topo.values(t.parameters, where="train.parameters")
+    except TopologyError as exc:
+        yield _parameter_key(topo, exc.key, t.parameters), exc.problem
+        return
+    from svbi.runtime.scenario.limits import size_problems
+
+    yield from size_problems(s, values)
+    if topo.kind == "moving-load":
+        loads = values.get("axle_loads", ())
+        if any(not (float(p) > 0) for p in loads):
+            yield "train.parameters.axle_loads", "axle loads must be positive (N, downward)"
+        return
+    yield from _vehicle_problems(s, values)
+
+
+def _profile_problems(s: Scenario) -> Iterable[tuple[str, str]]:
+    """A measured profile must be an existing, well-formed file (its lines are checked on reading);
+    whether it covers the wheels' path is checked with the run's extent (``limits.size_problems``)."""
+    from svbi.runtime.excitation.irregularity import read_profile_cached
+
+    path = s.resolve_path(s.track.irregularity)
+    if not path.is_file():
+        yield (
+            "track.irregularity",
+            f"not {', '.join(repr(k) for k in IRREGULARITIES)} or an existing profile file: {path}",
+        )
+        return
+    try:
+        read_profile_cached(path)
+    except ValueError as exc:
+        yield "track.irregularity", str(exc)
+
+
+def _earthquake_problems(s: Scenario) -> Iterable[tuple[str, str]]:
+    eq = s.earthquake
+    assert eq is not None
+    lines = s.bridge.spans + 1
+    for comp in ("vertical", "longitudinal"):
+        value = getattr(eq, comp)
+        per_support = isinstance(value, list)
+        if per_support and len(value) != lines:
+            yield (
+                f"earthquake.{comp}",
+                f"one record per support needs bridge.spans + 1 = {lines} entries (abutments and "
+                f"piers, in the direction of travel); got {len(value)}",
+            )
+        if per_support and eq.apparent_velocity is not None and comp == _first_list(eq):
+            yield (
+                "earthquake.apparent_velocity",
+                f"cannot be combined with one record per support (earthquake.{comp} is a list); "
+                "give one or the other",
+            )
+        for k, name in enumerate(eq.sources(comp)):
+            if name not in ("none", "synthetic") and not s.resolve_path(name).is_file():
+                key = f"earthquake.{comp}[{k}]" if per_support else f"earthquake.{comp}"
+                yield key, f"not 'none', 'synthetic' or an existing record file: {s.resolve_path(name)}"
+    if eq.arrival < 0:
+        yield (
+            "earthquake.arrival",
+            f"must be >= 0 (got {eq.arrival:g} s): a negative arrival would start the run in the "
+            "middle of the record, and the train starts in static equilibrium at t = 0",
+        )
+    elif s.solver.duration is not None and eq.arrival >= s.solver.duration:
+        names = ", ".join(n for c in ("vertical", "longitudinal") for n in eq.sources(c) if n != "none")
+        yield (
+            "earthquake.arrival",
+            f"the record ({names}) would start at {eq.arrival:g} s, not before the end of the run "
+            f"(solver.duration = {s.solver.duration:g} s): the earthquake would never act",
+        )
+
+
+def _first_list(eq: EarthquakeSpec) -> str:
+    return next(c for c in ("vertical", "longitudinal") if isinstance(getattr(eq, c), list))
+
+
+def _parameter_key(topo: Any, key: str, overrides: Mapping[str, Any]) -> str:
+    """Dotted key of the parameter behind a topology error such as ``bodies[0].mass``."""
+    if key.startswith("train.parameters"):
+        return key
+    m = re.match(r"(bodies|wheels)\[(\d+)\]\.(\w+)", key)
+    if m:
+        items = topo.bodies if m.group(1) == "bodies" else topo.wheels
+        expr = getattr(items[int(m.group(2))], m.group(3), None)
+        names = sorted(str(sym) for sym in getattr(expr, "free_symbols", ()))
+        given = [n for n in names if n in overrides] or names
+        if given:
+            return f"train.parameters.{given[0]}"
+    if key in topo.parameters:
+        return f"train.parameters.{key}"
+    return f"train.parameters ({key})"
+
+
+def _vehicle_problems(s: Scenario, values: dict[str, Any]) -> Iterable[tuple[str, str]]:
+    from svbi.codegen.plain_types import TopologyError
+    from svbi.runtime.model.train import vehicle_model
+
+    model = vehicle_model(vehicle_ref(s))
+    try:
+        vehicle = model.numeric(values)
+    except TopologyError as exc:  # a mechanism: of the topology itself, or made by the overrides
+        try:
+            model.numeric({})
+            key = "train.parameters"
+        except TopologyError:
+            key = "train.vehicle"
+        yield key, f"{model.name}: {exc.problem}"
+        return
+    if vehicle.nwheels and not (vehicle.wheel_masses > 0).all():
+        yield "train.parameters", "every wheel needs a positive mass (the contact constraint carries it)"
+    if not math.isfinite(float(abs(vehicle.M).sum())):
+        yield "train.parameters", "the vehicle mass matrix is not finite"
+
+
+def vehicle_topology(s: Scenario):  # noqa: ANN201 - Topology, imported lazily
+    from svbi.runtime.model.train import topology
+
+    return topology(vehicle_ref(s))
+
+
+def vehicle_ref(s: Scenario) -> str:
+    from svbi.codegen.plain_types import builtin_topologies
+
+    name = s.train.vehicle
+    return name if name in builtin_topologies() else str(s.resolve_path(name))
+
+
+def time_step_warnings(s: Scenario) -> list[str]:
+    """Warn when the time step does not resolve the fastest vehicle mode on rigid track."""
+    from svbi.runtime.model.modes import vehicle_modes
+    from svbi.runtime.model.train import vehicle_model
+
+    topo = vehicle_topology(s)
+    if topo.kind == "moving-load":
+        return []
+    vehicle = vehicle_model(vehicle_ref(s)).numeric(topo.values(s.train.parameters))
+    freqs = vehicle_modes(vehicle).frequencies_hz
+    if not len(freqs):
+        return []
+    f_max = float(freqs.max())
+    limit = 1.0 / (TIME_STEP_RESOLUTION * f_max)
+    if s.solver.time_step > limit:
+        steps = 1.0 / (f_max * s.solver.time_step)
+        err = (2 * math.pi / steps) ** 2 / 12 * 100
+        return [
+            f"solver.time_step = {s.solver.time_step:g} s resolves the fastest vehicle mode "
+            f"({f_max:.3g} Hz, period {1 / f_max:.3g} s) with only {steps:.1f} steps per period "
+            f"(period error about {err:.2g} %); use time_step <= {limit:.3g} s "
+            f"({TIME_STEP_RESOLUTION} steps per period)"
+        ]
+    return []
+
+
+# --------------------------------------------------------------------------------------------------
+# error reporting helpers
+
+_ALLOWED_BY_TABLE: dict[str, type[BaseModel]] = {
+    "": Scenario,
+    "bridge": BridgeSpec,
+    "bridge.girders": GirderSpec,
+    "bridge.piers": PierSpec,
+    "train": TrainSpec,
+    "track": TrackSpec,
+    "earthquake": EarthquakeSpec,
+    "contact": ContactSpec,
+    "solver": SolverSpec,
+    "output": OutputSpec,
+}
+
+
+def _dotted(loc: Sequence[Any]) -> str:
+    out = ""
+    for part in loc:
+        if isinstance(part, int):
+            out += f"[{part}]"
+        else:
+            out += f".{part}" if out else str(part)
+    return out
+
+
+def _problem(err: Mapping[str, Any], where: Any) -> Problem:
+    loc = [p for p in err.get("loc", ()) if p not in ("float", "int", "list[float]", "function-after")]
+    # drop pydantic's union-branch labels such as 'constrained-float' from the location
+    loc = [
+        p for p in loc if not (isinstance(p, str) and ("[" in p or p.startswith(("constrained", "literal"))))
+    ]
+    key = _dotted(loc) or "<root>"
+    kind = err.get("type", "")
+    value = err.get("input")
+    if kind == "extra_forbidden":
+        table = _dotted(loc[:-1])
+        model = _ALLOWED_BY_TABLE.get(re.sub(r"\[\d+\]", "", table))
+        allowed = f" (allowed: {', '.join(model.model_fields)})" if model else ""
+        message = f"unknown key{allowed}"
+    elif kind == "missing":
+        message = "required key is missing"
+    elif kind in ("model_type", "dict_type"):
+        message = f"must be a table ([{key}] or {key}.<key> = ...), got {value!r}"
+    elif kind == "value_error":
+        message = str(err.get("ctx", {}).get("error", err.get("msg", "")))
+        if message.startswith("@"):
+            # a check across keys names the key it is about: "@bridge.span_length: ..."
+            key, message = message[1:].split(": ", 1)
+    else:
+        message = err.get("msg", "invalid").replace("Input should be", "must be")
+        if value is not None and not isinstance(value, dict):
+            message += f" (got {value!r})"
+    return Problem(key, message, where(key))
+
+
+_HEADER = re.compile(r"^\s*\[\[?\s*([^\]\[]+?)\s*\]\]?\s*(?:#.*)?$")
+_KEY = re.compile(
+    r"^\s*((?:[A-Za-z0-9_\-]+|\"[^\"]*\"|'[^']*')(?:\s*\.\s*(?:[A-Za-z0-9_\-]+|\"[^\"]*\"|'[^']*'))*)\s*="
+)
+
+
+def _clean_key(raw: str) -> str:
+    return ".".join(p.strip().strip("\"'") for p in raw.split("."))
+
+
+def _key_lines(text: str) -> dict[str, int]:
+    """Line number of every table header and key in TOML text, by dotted path."""
+    lines: dict[str, int] = {}
+    table = ""
+    arrays: dict[str, int] = {}
+    for number, line in enumerate(text.splitlines(), start=1):
+        m = _HEADER.match(line)
+        if m:
+            table = _clean_key(m.group(1))
+            lines.setdefault(table, number)
+            if line.lstrip().startswith("[["):
+                # an array of tables: [[bridge.girders]] number i is bridge.girders[i] (pydantic's key)
+                index = arrays.get(table, 0)
+                arrays[table] = index + 1
+                table = f"{table}[{index}]"
+                lines.setdefault(table, number)
+            continue
+        m = _KEY.match(line)
+        if m:
+            key = _clean_key(m.group(1))
+            lines.setdefault(f"{table}.{key}" if table else key, number)
+    return lines
+
+
+def _line_from_message(message: str) -> int | None:
+    m = re.search(r"line (\d+)", message)
+    return int(m.group(1)) if m else None
+
+
+def key_lines(text: str) -> dict[str, int]:
+    """Line number of every table header and key of TOML text, by dotted path (for other files'
+    error messages, e.g. the study files of ``svbi sweep``)."""
+    return _key_lines(text)

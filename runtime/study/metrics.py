@@ -1,0 +1,334 @@
+"""Engineering metrics of one run: the quantities the codes limit, from a results Dataset.
+
+Every metric is a peak over the whole stored run, with the time at which it occurs (``<name>_time``):
+
+* ``peak_midspan_uz`` (span): max |``midspan_uz``|, the absolute vertical midspan displacement (m).
+* ``peak_deck_acceleration`` (span): max |a| of the vertical deck acceleration at midspan
+  (``deck_acceleration``) after the low-pass filter of EN 1990:2002+A1 A2.4.4.2.1(4): frequencies up
+  to the greater of 30 Hz, 1.5 f1 and f3 are kept, f1 and f3 the first and third bending frequencies
+  of the span (:func:`svbi.runtime.model.modes.span_modes`, from the generated span matrices). The filter is
+  a 4th-order Butterworth applied forwards and backwards (zero phase), as for the contact force
+  (``svbi.runtime.run.results``), at the output rate.
+* ``peak_carbody_az`` (car): max |``carbody_az``|, the vertical car-body acceleration (m/s²); NaN
+  for a train of moving loads, which has no car body.
+* ``max_unloading_ratio`` (car, wheel): max over time of ΔP/P0 = (P0 - P(t)) / P0, P the filtered
+  wheel force ``contact_force_filtered`` and P0 the static wheel load, the raw force at t = 0 (every
+  run starts from static equilibrium on rigid track).
+* ``min_contact_force_filtered`` (car, wheel): min over time of ``contact_force_filtered`` (N).
+* ``lift_offs`` and ``peak_uplift`` (car, wheel): only when the results carry unilateral contact
+  (``contact_state``, 1 in contact and 0 lifted, and ``wheel_uplift`` in m): the number of
+  contact-to-lifted transitions and the largest uplift.
+* ``peak_end_rotation`` (span, end): max |``end_rotation``|, the rotation of each span end (rad);
+  ``peak_joint_rotation`` (joint): max over time of the angle between consecutive decks at joint j
+  (between spans j and j + 1), |θ_right(j) - θ_left(j + 1)| (rad), the θ1 + θ2 of EN 1990
+  A2.4.4.2.3 (the two ends turn in opposite senses under load).
+* ``complete``: 1 when the run finished, 0 when it stopped early (then the peaks cover the stored
+  part).
+"""
+
+from __future__ import annotations
+
+import math
+import tomllib
+from dataclasses import dataclass
+from typing import TYPE_CHECKING, Any
+
+import numpy as np
+
+if TYPE_CHECKING:
+    import xarray as xr
+
+FILTER_ORDER = 4
+EN1990_MIN_CUTOFF_HZ = 30.0
+"""EN 1990 A2.4.4.2.1(4): the deck acceleration counts frequencies up to max(30 Hz, 1.5 f1, f3)."""
+
+METRIC_DIMS: dict[str, tuple[str, ...]] = {
+    "peak_midspan_uz": ("span",),
+    "peak_deck_acceleration": ("span",),
+    "peak_carbody_az": ("car",),
+    "max_unloading_ratio": ("car", "wheel"),
+    "min_contact_force_filtered": ("car", "wheel"),
+    "lift_offs": ("car", "wheel"),
+    "peak_uplift": ("car", "wheel"),
+    "peak_end_rotation": ("span", "end"),
+    "peak_joint_rotation": ("joint",),
+    "peak_pier_drift": ("pier",),
+    "complete": (),
+}
+"""Every metric and its dimensions (``lift_offs`` and ``peak_uplift`` only with unilateral contact)."""
+
+METRIC_UNITS = {
+    "peak_midspan_uz": "m",
+    "peak_deck_acceleration": "m/s^2",
+    "peak_carbody_az": "m/s^2",
+    "max_unloading_ratio": "1",
+    "min_contact_force_filtered": "N",
+    "lift_offs": "1",
+    "peak_uplift": "m",
+    "peak_end_rotation": "rad",
+    "peak_joint_rotation": "rad",
+    "peak_pier_drift": "m",
+    "complete": "1",
+}
+
+
+class MetricsError(ValueError):
+    """The results lack what a metric needs; the message names the variable."""
+
+
+@dataclass(frozen=True)
+class SpanFrequencies:
+    """First and third bending frequencies of a span (Hz) and the EN 1990 filter cutoff."""
+
+    f1: float
+    f3: float
+
+    @property
+    def cutoff_hz(self) -> float:
+        return max(EN1990_MIN_CUTOFF_HZ, 1.5 * self.f1, self.f3)
+
+
+def scenario_table(ds: xr.Dataset) -> dict[str, Any]:
+    """The normalised scenario echoed in the results (every default filled in)."""
+    text = ds.attrs.get("scenario")
+    if not isinstance(text, str):
+        raise MetricsError("results have no 'scenario' attribute (the echo of the scenario)")
+    try:
+        return tomllib.loads(text)
+    except tomllib.TOMLDecodeError as exc:
+        raise MetricsError(f"the 'scenario' attribute is not valid TOML ({exc})") from None
+
+
+def span_frequencies(bridge: dict[str, Any]) -> SpanFrequencies:
+    """f1 and f3 of one span of ``[bridge]`` from its generated mass and stiffness matrices. For the
+    long form, each girder's own vertical modes on rigid supports, the girder with the highest
+    cutoff ``max(1.5 f1, f3)`` taken (the filter keeps what any girder needs)."""
+    from svbi.runtime.model.modes import span_modes
+
+    if bridge.get("girders"):
+        from svbi.runtime.model.bridge import Bridge
+        from svbi.runtime.scenario.schema import BridgeSpec
+
+        spec = BridgeSpec.model_validate(bridge, strict=False)
+        girders, piers = spec.layout()
+        b = Bridge(0, 0.0, 1.0, 1.0, 1.0, 1.0, 0.0, spec.elements_per_span, spec.rail_height, girders, piers)
+        per_girder = [b.girder_frequencies(g) / (2 * np.pi) for g in girders]
+        return SpanFrequencies(
+            max(float(f[0]) for f in per_girder), max(float(f[min(2, f.size - 1)]) for f in per_girder)
+        )
+    bending, _ = span_modes(
+        float(bridge["span_length"]),
+        int(bridge.get("elements_per_span", 16)),
+        float(bridge["youngs_modulus"]),
+        float(bridge["area"]),
+        float(bridge["second_moment"]),
+        float(bridge["mass_per_length"]),
+    )
+    f1 = float(bending[0])
+    # a span of one or two elements has fewer than three bending modes: its highest stands in for f3
+    f3 = float(bending[min(2, bending.size - 1)])
+    return SpanFrequencies(f1, f3)
+
+
+def lowpass(values: np.ndarray, cutoff_hz: float, sample_hz: float) -> np.ndarray:
+    """Zero-phase Butterworth low-pass along axis 0 (unchanged when the cutoff is above Nyquist).
+
+    ``scipy.signal.sosfiltfilt`` of ``scipy.signal.butter``'s design, run by the contact forces'
+    compiled filter with the design cached per machine (``zero_phase``): the same bits, and no
+    ``scipy.signal`` import (0.38 s of a sweep worker's first run) once the filter was designed.
+    """
+    n = values.shape[0]
+    if n < 2 or cutoff_hz >= 0.5 * sample_hz:
+        return values
+    from svbi.runtime.run.force_filter import design, sosfiltfilt_rows
+
+    sos, zi = design(FILTER_ORDER, cutoff_hz, sample_hz)
+    # Odd padding (SciPy's default) over ten periods of the cutoff, not SciPy's 27 samples, which are
+    # shorter than the filter's memory at high sample rates. Odd padding keeps the end values: a run
+    # starts at rest and ends in free vibration, both inside the pass band.
+    padlen = min(max(3 * (2 * len(sos) + 1), int(10 * sample_hz / cutoff_hz)), n - 1)
+    rows = np.ascontiguousarray(np.asarray(values, dtype=float).reshape(n, -1))
+    return sosfiltfilt_rows(sos, rows, padlen, 1, n, zi).reshape(values.shape)
+
+
+def filtered_deck_acceleration(ds: xr.Dataset) -> tuple[np.ndarray, float]:
+    """The EN 1990 low-pass filtered ``deck_acceleration`` (time x span) and the cutoff used (Hz)."""
+    if "deck_acceleration" not in ds.variables:
+        raise MetricsError("results have no 'deck_acceleration' (written by svbi >= 0.1 with issue 14)")
+    acc = np.asarray(ds["deck_acceleration"].transpose("time", "span").values, dtype=float)
+    cutoff = span_frequencies(scenario_table(ds)["bridge"]).cutoff_hz
+    t = np.asarray(ds["time"].values, dtype=float)
+    if t.size < 2:
+        return acc, cutoff
+    return lowpass(acc, cutoff, 1.0 / float(np.median(np.diff(t)))), cutoff
+
+
+def _peak_abs(values: np.ndarray, t: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """max |values| over axis 0 and its time, NaN where nothing was stored."""
+    if values.shape[0] == 0:
+        nan = np.full(values.shape[1:], np.nan)
+        return nan, nan.copy()
+    a = np.abs(values)
+    idx = np.argmax(a, axis=0)
+    return np.take_along_axis(a, idx[None], 0)[0], t[idx]
+
+
+def _moving_load(ds: xr.Dataset) -> bool:
+    try:
+        return scenario_table(ds).get("train", {}).get("vehicle") == "moving-load"
+    except MetricsError:
+        return False
+
+
+METRIC_INPUTS = (
+    "midspan_uz",
+    "deck_acceleration",
+    "end_rotation",
+    "carbody_az",
+    "contact_force",
+    "contact_force_filtered",
+    "contact_state",
+    "wheel_uplift",
+    "pier_drift",
+)
+"""The results variables :func:`compute_metrics` reads (with ``time`` and the attributes): a sweep
+worker builds only these (``Recorder.dataset(variables=...)``) when it keeps no history."""
+
+
+def compute_metrics(ds: xr.Dataset) -> xr.Dataset:
+    """The metrics of one results Dataset (module docstring), with ``<name>_time`` for each peak.
+
+    Raises :class:`MetricsError` when a needed variable is missing.
+    """
+    import xarray as xr
+
+    for var in ("time", "midspan_uz", "contact_force", "contact_force_filtered"):
+        if var not in ds.variables:
+            raise MetricsError(f"results have no '{var}'")
+    t = np.asarray(ds["time"].values, dtype=float)
+    out: dict[str, tuple[tuple[str, ...], Any, dict[str, str]]] = {}
+
+    def put(name: str, value: np.ndarray, when: np.ndarray | None, doc: str) -> None:
+        dims = METRIC_DIMS[name]
+        out[name] = (dims, value, {"units": METRIC_UNITS[name], "long_name": doc})
+        if when is not None:
+            out[f"{name}_time"] = (dims, when, {"units": "s", "long_name": f"time of {name}"})
+
+    uz = np.asarray(ds["midspan_uz"].transpose("time", "span").values, dtype=float)
+    put("peak_midspan_uz", *_peak_abs(uz, t), "max |midspan_uz| (absolute vertical displacement)")
+
+    acc, cutoff = filtered_deck_acceleration(ds)
+    peak, when = _peak_abs(acc, t)
+    put(
+        "peak_deck_acceleration",
+        peak,
+        when,
+        f"max |deck_acceleration| at midspan, low-pass {cutoff:.4g} Hz (EN 1990 A2.4.4.2.1)",
+    )
+
+    ncar = ds.sizes["car"]
+    if "carbody_az" in ds.variables and not _moving_load(ds):
+        az = np.asarray(ds["carbody_az"].transpose("time", "car").values, dtype=float)
+        peak, when = _peak_abs(az, t)
+    else:
+        peak, when = np.full(ncar, np.nan), np.full(ncar, np.nan)
+    put("peak_carbody_az", peak, when, "max |carbody_az| (vertical car-body acceleration)")
+
+    raw = np.asarray(ds["contact_force"].transpose("time", "car", "wheel").values, dtype=float)
+    pf = np.asarray(ds["contact_force_filtered"].transpose("time", "car", "wheel").values, dtype=float)
+    shape = raw.shape[1:]
+    if raw.shape[0] == 0:
+        nan = np.full(shape, np.nan)
+        put("max_unloading_ratio", nan, nan, "max (P0 - P) / P0, P filtered, P0 static")
+        put("min_contact_force_filtered", nan, nan, "min contact_force_filtered")
+    else:
+        p0 = raw[0]
+        with np.errstate(divide="ignore", invalid="ignore"):
+            ratio = np.where(p0 > 0, (p0 - pf) / p0, np.nan)
+        idx = np.argmax(np.where(np.isnan(ratio), -np.inf, ratio), axis=0)
+        put(
+            "max_unloading_ratio",
+            np.take_along_axis(ratio, idx[None], 0)[0],
+            t[idx],
+            "max (P0 - P) / P0: P the filtered wheel force, P0 the static wheel load",
+        )
+        idx = np.argmin(pf, axis=0)
+        put(
+            "min_contact_force_filtered",
+            np.take_along_axis(pf, idx[None], 0)[0],
+            t[idx],
+            "min contact_force_filtered",
+        )
+
+    if "contact_state" in ds.variables:
+        state = np.asarray(ds["contact_state"].transpose("time", "car", "wheel").values)
+        on = state != 0
+        lifts = np.sum(on[:-1] & ~on[1:], axis=0) if on.shape[0] > 1 else np.zeros(shape, int)
+        put("lift_offs", lifts.astype(np.int64), None, "contact-to-lifted transitions")
+    if "wheel_uplift" in ds.variables:
+        up = np.asarray(ds["wheel_uplift"].transpose("time", "car", "wheel").values, dtype=float)
+        if up.shape[0]:
+            idx = np.argmax(up, axis=0)
+            peak, when = np.take_along_axis(up, idx[None], 0)[0], t[idx]
+        else:
+            peak = when = np.full(shape, np.nan)
+        put("peak_uplift", peak, when, "max wheel_uplift")
+
+    if "end_rotation" in ds.variables:
+        rot = np.asarray(ds["end_rotation"].transpose("time", "span", "end").values, dtype=float)
+        peak, when = _peak_abs(rot, t)
+        put("peak_end_rotation", peak, when, "max |end_rotation| of each span end")
+        kink = rot[:, :-1, 1] - rot[:, 1:, 0]  # right end of span j against left end of span j + 1
+        peak, when = _peak_abs(kink, t)
+        put("peak_joint_rotation", peak, when, "max angle between consecutive decks (theta1 + theta2)")
+
+    if "pier_drift" in ds.variables:
+        drift = np.asarray(ds["pier_drift"].transpose("time", "pier").values, dtype=float)
+        peak, when = _peak_abs(drift, t)
+        put("peak_pier_drift", peak, when, "max |pier_drift| (pier top relative to the ground at its base)")
+
+    complete = _complete(ds)
+    put("complete", np.int64(complete), None, "1: the run finished; 0: it stopped early")
+    coords = {d: ds.coords[d].values for d in ("span", "car", "wheel", "end", "pier") if d in ds.coords}
+    if "peak_joint_rotation" in out:
+        coords["joint"] = np.arange(1, ds.sizes["span"])
+    attrs = {"deck_acceleration_cutoff_hz": cutoff}
+    if not complete:
+        attrs["incomplete"] = str(ds.attrs.get("incomplete", ""))
+    return xr.Dataset(out, coords=coords, attrs=attrs)
+
+
+def _complete(ds: xr.Dataset) -> int:
+    flag = ds.attrs.get("complete", 1)
+    try:
+        return int(int(np.asarray(flag).ravel()[0]) != 0)
+    except (TypeError, ValueError, IndexError):
+        return 0 if str(flag).strip().lower() in ("0", "false", "no") else 1
+
+
+def metrics_text(metrics: xr.Dataset) -> str:
+    """One line per metric: the worst entry, where (span / car / wheel) and when."""
+    lines = []
+    for name in METRIC_DIMS:
+        if name not in metrics:
+            continue
+        da = metrics[name]
+        if name == "complete":
+            lines.append(f"{name:28s} {int(da.values)}")
+            continue
+        values = np.asarray(da.values, dtype=float)
+        if values.size == 0 or not np.isfinite(values).any():
+            lines.append(f"{name:28s} n/a")
+            continue
+        worst_is_min = name == "min_contact_force_filtered"
+        flat = np.nanargmin(values) if worst_is_min else np.nanargmax(values)
+        index = np.unravel_index(flat, values.shape)
+        where = ", ".join(f"{d} {metrics.coords[d].values[i]}" for d, i in zip(da.dims, index, strict=True))
+        value = values[index]
+        unit = METRIC_UNITS[name]
+        text = f"{value:.6g}" if not math.isnan(value) else "n/a"
+        when = ""
+        if f"{name}_time" in metrics:
+            when = f" at t = {float(metrics[f'{name}_time'].values[index]):.4g} s"
+        lines.append(f"{name:28s} {text} {unit} ({where}{when})")
+    return "\n".join(lines) + "\n"
