@@ -4,7 +4,7 @@
    Functions + C sources + templates (``c_emit.render_model``), then C compilation (``-O3``).
 2. Per-call cost of kernels at their sample inputs:
    * from C: a small timing harness linked against the generated sources (no Python at all);
-   * from Python: the ctypes wrapper of ``svbi.runtime.backends.compiler`` (C backend);
+   * from Python: the ctypes wrapper of ``svbi.runtime.toolchain`` (C backend);
    * from Python: the CasADi backend (the serialized Function in CasADi's virtual machine).
    Medians of repeated runs; the ratio columns are measured in the same run.
 """
@@ -25,7 +25,7 @@ from pathlib import Path
 import numpy as np
 from svbi.codegen import c_emit
 from svbi.codegen.kernels import builtin_models, model_spec
-from svbi.runtime.backends import compiler as kernel_cache
+from svbi.runtime import toolchain as kernel_cache
 
 KERNELS = [
     ("pioneer-2d", "mass_matrix"),

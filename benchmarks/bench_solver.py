@@ -35,8 +35,9 @@ from pathlib import Path
 
 import numpy as np
 from svbi.runtime.methods.initial import initial_state
+from svbi.runtime.methods.steppers import numpy_steppers
 from svbi.runtime.run.results import Recorder
-from svbi.runtime.run.simulate import DivergenceGuard, build_model, numpy_steppers
+from svbi.runtime.run.simulate import DivergenceGuard, build_model
 from svbi.runtime.scenario.schema import load_scenario, validate_scenario
 
 PAPER = Path(__file__).resolve().parents[1] / "examples" / "paper-2020.toml"

@@ -236,7 +236,7 @@ def render_model(model: ModelSpec, options: EmitOptions | None = None) -> dict[s
 
 
 def manifest(context: dict[str, Any]) -> dict[str, Any]:
-    """What the Python loader (``svbi.runtime.backends.compiler``) needs to call the kernels."""
+    """What the Python loader (``svbi.runtime.toolchain``) needs to call the kernels."""
     return {
         "generated_by": context["generator"],
         "inputs_sha256": context["input_hash"],

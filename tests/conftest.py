@@ -25,7 +25,7 @@ def c_compiler_works() -> bool:
     """Whether a C compiler works here (the C backend falls back to NumPy without one; tests of the
     C loop skip). Where one works, the loop must build: a build error of svbi's own sources fails
     the tests that ask, instead of skipping every test of the C loop."""
-    from svbi.runtime.backends import compiler as kernel_cache
+    from svbi.runtime import toolchain as kernel_cache
     from svbi.runtime.backends.c import build as c_solver_build
 
     try:
@@ -48,7 +48,7 @@ def export_and_run(tmp_path: Path, scenario: dict | None = None) -> tuple[Any, A
     import numpy as np
     import tomli_w
     import xarray as xr
-    from svbi.runtime.backends.c import export as solver_export
+    from svbi.runtime.run import export as solver_export
     from svbi.runtime.cli import app as cli
     from typer.testing import CliRunner
 

@@ -35,12 +35,13 @@ from pathlib import Path
 import numpy as np
 import pytest
 from conftest import c_compiler_works, export_and_run
-from svbi.runtime.backends import compiler as kernel_cache
+from svbi.runtime import toolchain as kernel_cache
 from svbi.runtime.backends.c import build as c_solver_build
 from svbi.runtime.backends.c import stepper as c_steppers
-from svbi.runtime.excitation.ground import RecordGround, ground_motion
+from svbi.runtime.excitation.ground import ground_motion
 from svbi.runtime.excitation.synthetic import synthetic_record
 from svbi.runtime.methods.initial import initial_state
+from svbi.runtime.model.ground import RecordGround
 from svbi.runtime.run.results import Recorder
 from svbi.runtime.run.simulate import BackendFallback, DivergenceGuard, build_model
 from svbi.runtime.scenario.schema import validate_scenario

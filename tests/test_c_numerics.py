@@ -21,7 +21,7 @@ import numpy as np
 import pytest
 import scipy.interpolate
 import scipy.linalg
-from svbi.runtime.backends import compiler as kernel_cache
+from svbi.runtime import toolchain as kernel_cache
 from svbi.runtime.backends.c import build as c_solver_build
 
 SW = 4  # spans per block of band_solve_blocked (runtime/csrc/band.h)

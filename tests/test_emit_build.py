@@ -18,7 +18,7 @@ import sympy as sp
 import typer
 from svbi.codegen import c_emit
 from svbi.codegen.kernels import model_spec
-from svbi.runtime.backends import compiler as kernel_cache
+from svbi.runtime import toolchain as kernel_cache
 from svbi.runtime.cli import generate as cli_codegen
 from typer.testing import CliRunner
 

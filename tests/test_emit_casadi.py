@@ -18,7 +18,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 from svbi.codegen.casadi_emit import SympyToCasadi, UnsupportedExpression, build_function, load_function
 from svbi.codegen.kernels import KernelError, KernelSpec, ModelSpec
-from svbi.runtime.backends import compiler as kernel_cache
+from svbi.runtime import toolchain as kernel_cache
 
 x, y = sp.symbols("x y", real=True)
 p = sp.Symbol("p", positive=True)

@@ -18,7 +18,7 @@ import sympy as sp
 from hypothesis import given, settings
 from hypothesis import strategies as st
 from svbi.codegen.kernels import KernelSpec, builtin_models, model_spec
-from svbi.runtime.backends import compiler as kernel_cache
+from svbi.runtime import toolchain as kernel_cache
 
 RTOL = 1e-12
 

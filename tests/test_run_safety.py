@@ -206,6 +206,7 @@ class _Exploding:
 
 def test_a_diverged_run_keeps_the_previous_results_and_writes_incomplete_beside(tmp_path: Path) -> None:
     import svbi.runtime.run.simulate as sim
+    from svbi.runtime.backends import registry
 
     sim.register_backend("casadi", {"localized-dynamic": _Exploding})
     try:
@@ -225,7 +226,7 @@ def test_a_diverged_run_keeps_the_previous_results_and_writes_incomplete_beside(
             ]
         )
     finally:
-        sim._BACKENDS.pop("casadi", None)
+        registry.unregister_backend("casadi")
     assert result.exit_code == 3
     assert out.read_bytes() == PREVIOUS
     partial = tmp_path / "run.incomplete.nc"
@@ -457,7 +458,7 @@ def test_a_compile_killed_part_way_leaves_no_build_folder_for_good(tmp_path: Pat
     cc.write_text(SLOW_CC, encoding="utf-8")
     code = textwrap.dedent(
         f"""
-        from svbi.runtime.backends import compiler as kernel_cache
+        from svbi.runtime import toolchain as kernel_cache
         source = {{"a.c": b"int f(void) {{ return 1; }}\\n"}}
         kernel_cache.build_library(source, "probe", cache_dir={str(cache)!r})
         """
@@ -482,7 +483,7 @@ def test_a_compile_killed_part_way_leaves_no_build_folder_for_good(tmp_path: Pat
     assert len(stale) == 1  # what the killed compile left
 
     # the next build in the same cache, with a working compiler, removes it
-    from svbi.runtime.backends import compiler as kernel_cache
+    from svbi.runtime import toolchain as kernel_cache
 
     path = kernel_cache.build_library({"a.c": b"int f(void) { return 1; }\n"}, "probe", cache_dir=cache)
     assert path.is_file()
@@ -491,7 +492,7 @@ def test_a_compile_killed_part_way_leaves_no_build_folder_for_good(tmp_path: Pat
 
 def test_a_live_build_folder_is_left_alone(tmp_path: Path) -> None:
     """A build of a running process (this one) is not stale, however the sweep is triggered."""
-    from svbi.runtime.backends import compiler as kernel_cache
+    from svbi.runtime import toolchain as kernel_cache
 
     live = kernel_cache.new_build_folder(tmp_path, "0123456789ab")
     kernel_cache.remove_stale_builds(tmp_path)
@@ -584,7 +585,9 @@ def test_the_estimate_of_the_stored_arrays_is_what_the_run_allocates(tmp_path: P
     try:
         # compile (if needed) and import the writer outside the traced run
         results.write_netcdf(simulate(sc), tmp_path / "run.nc")
-        sim._irregularity_table.cache_clear()  # the traced run tabulates the profile again
+        from svbi.runtime.scenario import build
+
+        build.irregularity_table.cache_clear()  # the traced run tabulates the profile again
         tracemalloc.start()
         base = tracemalloc.get_traced_memory()[0]
         results.write_netcdf(simulate(sc), tmp_path / "run.nc")  # what `svbi run` does

@@ -313,6 +313,7 @@ class _Exploding:
 
 def test_cli_run_stops_a_diverging_run_and_keeps_what_it_had(tmp_path):
     import svbi.runtime.run.simulate as sim
+    from svbi.runtime.backends import registry
     from svbi.runtime.cli.app import _register, app
 
     _register()
@@ -335,7 +336,7 @@ def test_cli_run_stops_a_diverging_run_and_keeps_what_it_had(tmp_path):
             ],
         )
     finally:
-        sim._BACKENDS.pop("casadi", None)
+        registry.unregister_backend("casadi")
     assert result.exit_code == 3
     assert "diverged at t = 0.026 s" in result.output and "contact_force" in result.output
     assert "time step" in result.output  # the likely cause

@@ -213,7 +213,7 @@ def test_compiled_run_imports_the_results_modules_during_the_loop():
     (``zero_phase.design``, cached) and compiled, the run does not import scipy.signal at all.
     Recorded in a fresh interpreter by a meta-path hook that notes which thread first asked for
     each module."""
-    from svbi.runtime.backends import compiler as kernel_cache
+    from svbi.runtime import toolchain as kernel_cache
     from svbi.runtime.backends.c import build as c_solver_build
     from svbi.runtime.run import force_filter as zero_phase
     from svbi.runtime.run.results import FILTER_ORDER

@@ -16,6 +16,8 @@ from functools import cache
 from typing import Any
 
 import numpy as np
+from svbi.runtime.backends.c.build import METHOD_CODES
+from svbi.runtime.methods.steppers import numpy_steppers
 from svbi.runtime.model.contact_rows import ContactRows
 from svbi.runtime.model.system import Model, State
 
@@ -25,7 +27,7 @@ UNIT_INPUTS = 2 + 6 + 6 + 3
 
 @cache
 def _functions() -> tuple[Any, Any]:
-    from svbi.runtime.backends.compiler import load_kernels
+    from svbi.runtime.toolchain import load_kernels
 
     k = load_kernels("frame2d", backend="casadi")
     return k["contact_rows"].function, k["discrete_bridge_row"].function
@@ -87,8 +89,6 @@ def casadi_stepper(method: str) -> Any:
     """Stepper factory: the NumPy stepper of ``method`` with CasADi-evaluated contact rows."""
 
     def make(model: Model, state: State) -> Any:
-        from svbi.runtime.run.simulate import numpy_steppers
-
         stepper = numpy_steppers()[method](model, state)
         old = stepper.rows
         kappa, zeta = (
@@ -105,9 +105,6 @@ def casadi_stepper(method: str) -> Any:
     return make
 
 
-def register() -> None:
-    """Register the ``"casadi"`` backend with :func:`svbi.runtime.run.simulate.register_backend`."""
-    from svbi.runtime.backends.c.build import METHOD_CODES
-    from svbi.runtime.run.simulate import register_backend
-
-    register_backend("casadi", {m: casadi_stepper(m) for m in METHOD_CODES})
+def steppers() -> dict[str, Any]:
+    """The ``"casadi"`` backend's steppers by method (``svbi.runtime.backends.registry``)."""
+    return {m: casadi_stepper(m) for m in METHOD_CODES}

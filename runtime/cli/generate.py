@@ -12,7 +12,7 @@ MAX_DIFF_LINES = 400
 
 
 def _generated_root() -> Path:
-    from svbi.runtime.backends.compiler import generated_root
+    from svbi.runtime.toolchain import generated_root
 
     return generated_root()
 
@@ -225,7 +225,7 @@ def export(
         c_emit.write_files(exported, folder, prune=False)
         typer.echo(f"exported {name} to {folder} ({len(exported)} files): build with `make -C {folder}`")
         return
-    from svbi.runtime.backends.c.export import PROGRAM, write_solver
+    from svbi.runtime.run.export import PROGRAM, write_solver
     from svbi.runtime.scenario.schema import ScenarioError, load_scenario
 
     # the solver's example replaces the kernels' example program and build files

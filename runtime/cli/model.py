@@ -337,7 +337,7 @@ def _scenario_modes(path: str, sets: list[str]) -> tuple[str, dict[str, Any], di
     if sc.train.hslm is not None:
         loads, offsets, length = hslm_axles(sc.train.hslm)
         parameters.update(axle_loads=list(loads), axle_offsets=list(offsets), car_length=length)
-    from svbi.runtime.run.simulate import bridge_from_scenario
+    from svbi.runtime.scenario.build import bridge_from_scenario
 
     b = sc.bridge
     built = bridge_from_scenario(sc)

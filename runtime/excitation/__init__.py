@@ -13,8 +13,6 @@ from svbi.runtime.excitation.ground import (
     COMPONENTS,
     ComponentMotion,
     GroundMotion,
-    RecordGround,
-    ground_from_scenario,
     ground_motion,
 )
 from svbi.runtime.excitation.irregularity import (
@@ -53,11 +51,9 @@ __all__ = [
     "Processing",
     "Record",
     "RecordError",
-    "RecordGround",
     "SampledIrregularity",
     "SpectralIrregularity",
     "StochasticModel",
-    "ground_from_scenario",
     "ground_motion",
     "horner",
     "integrate",

@@ -36,6 +36,7 @@ about 400 m). A table that gives N = D for every train is a transcription error.
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
@@ -116,3 +117,9 @@ def hslm_axles(name: str) -> tuple[NDArray[np.float64], NDArray[np.float64], flo
     parameters ``axle_loads``, ``axle_offsets`` and ``car_length`` of a one-unit train."""
     loads, offsets = hslm_train(name)
     return loads, offsets, float(offsets[-1])
+
+
+def hslm_parameters(name: str) -> dict[str, Any]:
+    """Axle layout of an EN 1991-2 HSLM-A train (:func:`hslm_axles`) as moving-load parameters."""
+    loads, offsets, length = hslm_axles(name)
+    return {"axle_loads": tuple(loads), "axle_offsets": tuple(offsets), "car_length": length}

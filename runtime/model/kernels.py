@@ -2,7 +2,7 @@
 
 Built-in models load from the package's committed ``generated/`` tree; a user's topology file is
 derived and emitted once into the compile cache, keyed by its content
-(:func:`svbi.runtime.backends.compiler.python_module`), and loaded from there. The model folders have
+(:func:`svbi.runtime.toolchain.python_module`), and loaded from there. The model folders have
 hyphens in their names, so a module is compiled from its file and run in a fresh namespace (which
 also leaves no ``__pycache__`` next to the committed files). Nothing here imports SymPy.
 """
@@ -23,7 +23,7 @@ FRAME2D = "frame2d"
 def module_path(model: str) -> Path:
     """The file of a model's generated module: committed for ``frame2d`` and the built-in vehicles,
     emitted into the cache for a topology file."""
-    from svbi.runtime.backends.compiler import generated_root, python_module
+    from svbi.runtime.toolchain import generated_root, python_module
 
     if model == FRAME2D or model in builtin_topologies():
         committed = generated_root() / model / PYTHON_KERNELS_FILE

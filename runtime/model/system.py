@@ -22,11 +22,13 @@ from dataclasses import dataclass, field
 from typing import Any, Protocol
 
 import numpy as np
-from svbi.runtime.model.bridge import LONGITUDINAL, VERTICAL, Bridge, Location
+from svbi.runtime.model.bridge import Bridge, Location
 from svbi.runtime.model.creep_law import CreepParameters
+from svbi.runtime.model.ground import FunctionGround, Ground, GroundAtRest, Triple
 from svbi.runtime.model.train import Train
 
-Triple = tuple[np.ndarray, np.ndarray, np.ndarray]
+__all__ = ["Contacts", "FunctionGround", "Ground", "GroundAtRest", "Model", "Settings", "State"]
+"""The ground classes are re-exported: :class:`Model` holds a :class:`Ground`."""
 
 
 class IrregularityLike(Protocol):
@@ -46,136 +48,6 @@ class FlatTrack:
             z = self._zeros[shape] = np.zeros(shape)
             z.flags.writeable = False
         return z, z, z
-
-
-def seen_moving(
-    q: np.ndarray, q1: np.ndarray, q2: np.ndarray, c: float | None, speed: float, acceleration: float = 0.0
-) -> Triple:
-    """A ground motion ``q(t - x/c)`` (``c`` None: uniform) and its total time derivatives at points
-    moving with ``x' = speed``, ``x'' = acceleration``: ``(1 - v/c) q'`` and
-    ``(1 - v/c)^2 q'' - (a/c) q'``; ``q1``, ``q2`` are the partial time derivatives at fixed x."""
-    if c:
-        f = 1.0 - speed / c
-        if acceleration:
-            return q, f * q1, f * f * q2 - (acceleration / c) * q1
-        return q, f * q1, f * f * q2
-    return q, q1, q2
-
-
-class Ground:
-    """Ground motion as seen by the solver. The base class is the ground at rest.
-
-    ``motion(t, x)`` returns the vertical and longitudinal ground displacement, velocity and
-    acceleration at time t and positions x (partial time derivatives at fixed x), as two triples.
-    ``apparent_velocity`` (m/s) is set for a travelling (asynchronous) motion ``q(t - x/c)``.
-    """
-
-    apparent_velocity: float | None = None
-    uniform: bool = True
-
-    def motion(self, t: float, x: np.ndarray) -> tuple[Triple, Triple]:
-        z = np.zeros_like(np.asarray(x, dtype=float))
-        return (z, z, z), (z, z, z)
-
-    def supports(self, t: float, bridge: Bridge) -> Triple:
-        """Targets ``q, q', q''`` of every support constraint, shape ``(spans, nsupport)`` (the
-        paper's bridge) or ``(nsub, 3)`` (``Bridge.support_component``; a pier base does not
-        rotate)."""
-        if not bridge.uniform:
-            x = bridge.support_x_all
-            comp = bridge.support_component
-            vert, lon = self.motion(t, x.reshape(-1))
-            return tuple(  # type: ignore[return-value]
-                np.where(
-                    comp == VERTICAL,
-                    v.reshape(x.shape),
-                    np.where(comp == LONGITUDINAL, h.reshape(x.shape), 0.0),
-                )
-                for v, h in zip(vert, lon, strict=True)
-            )
-        x = bridge.support_x
-        vert, lon = self.motion(t, x.reshape(-1))
-        mask = bridge.support_vertical[None, :]
-        return tuple(  # type: ignore[return-value]
-            np.where(mask, v.reshape(x.shape), h.reshape(x.shape)) for v, h in zip(vert, lon, strict=True)
-        )
-
-    def under(self, t: float, x: np.ndarray, speed: float, acceleration: float = 0.0) -> Triple:
-        """Vertical ground motion under points moving at ``speed`` (total time derivatives).
-
-        For a travelling motion ``q(t - x/c)`` seen from a point with ``x' = v``, ``x'' = a``, d/dt
-        carries the factor ``(1 - v/c)`` and d2/dt2 adds ``-(a/c) q'``; a uniform motion has none.
-        """
-        (q, q1, q2), _ = self.motion(t, x)
-        return seen_moving(q, q1, q2, self.apparent_velocity, speed, acceleration)
-
-    def under_longitudinal(self, t: float, x: np.ndarray, speed: float, acceleration: float = 0.0) -> Triple:
-        """Longitudinal ground motion under points moving at ``speed`` (total time derivatives):
-        the rigid approach track the off-bridge wheels creep against."""
-        _, (q, q1, q2) = self.motion(t, x)
-        return seen_moving(q, q1, q2, self.apparent_velocity, speed, acceleration)
-
-    def recorded(self, t: float, bridge: Bridge) -> tuple[np.ndarray, np.ndarray]:
-        """``ground_uz`` and ``ground_ux`` of the results: at x = 0 when uniform, else at every
-        support constraint (``bridge.support_x``, span by span)."""
-        if self.uniform:
-            (qz, _, _), (qx, _, _) = self.motion(t, np.zeros(1))
-            return qz[0], qx[0]
-        (qz, _, _), (qx, _, _) = self.motion(t, bridge.support_table.x)
-        return qz, qx
-
-
-class GroundAtRest(Ground):
-    """No earthquake: every target is zero (cached, the loop asks at every step)."""
-
-    def __init__(self) -> None:
-        self._zeros: dict[tuple[int, ...], Triple] = {}
-
-    def _z(self, shape: tuple[int, ...]) -> Triple:
-        if shape not in self._zeros:
-            z = np.zeros(shape)
-            z.flags.writeable = False
-            self._zeros[shape] = (z, z, z)
-        return self._zeros[shape]
-
-    def motion(self, t: float, x: np.ndarray) -> tuple[Triple, Triple]:
-        z = self._z(np.shape(x))
-        return z, z
-
-    def supports(self, t: float, bridge: Bridge) -> Triple:
-        return self._z(bridge.support_x_all.shape)
-
-    def under(self, t: float, x: np.ndarray, speed: float, acceleration: float = 0.0) -> Triple:
-        return self._z(np.shape(x))
-
-    def under_longitudinal(self, t: float, x: np.ndarray, speed: float, acceleration: float = 0.0) -> Triple:
-        return self._z(np.shape(x))
-
-
-class FunctionGround(Ground):
-    """Ground motion from two functions ``f(t, x) -> (q, q', q'')`` (vertical, longitudinal)."""
-
-    def __init__(
-        self, vertical: Any = None, longitudinal: Any = None, apparent_velocity: float | None = None
-    ) -> None:
-        self._v, self._h = vertical, longitudinal
-        self.apparent_velocity = apparent_velocity
-        self.uniform = apparent_velocity is None
-
-    def motion(self, t: float, x: np.ndarray) -> tuple[Triple, Triple]:
-        x = np.asarray(x, dtype=float)
-        zero = np.zeros_like(x)
-        vert = (
-            tuple(np.broadcast_to(a, x.shape).astype(float) for a in self._v(t, x))
-            if self._v
-            else (zero, zero, zero)
-        )
-        lon = (
-            tuple(np.broadcast_to(a, x.shape).astype(float) for a in self._h(t, x))
-            if self._h
-            else (zero, zero, zero)
-        )
-        return vert, lon  # type: ignore[return-value]
 
 
 @dataclass

@@ -18,6 +18,7 @@ from typing import Any
 import numpy as np
 from svbi.codegen.plain_types import GRAVITY, NumericVehicle
 from svbi.runtime.model.vehicle import GeneratedVehicle, VehicleTopology, vehicle
+from svbi.runtime.model.vehicle_static import vehicle_static_on_rigid_track
 
 
 @cache
@@ -126,8 +127,6 @@ class Train:
         # Vehicle DOFs are measured from the static equilibrium on rigid level track, u = u_s + d
         # (an exact change of variables: the model is linear). W^T u_s = 0 there, so wheel heights
         # and gaps are unchanged, and the small d keeps digits that Newmark's a0 u would lose.
-        from svbi.runtime.methods.initial import vehicle_static_on_rigid_track
-
         u_s, _ = vehicle_static_on_rigid_track(self, np.zeros((1, self.wheels)))
         self.u_static = u_s[0]
         self.F_full = v.F_gravity - v.K @ self.u_static
@@ -174,7 +173,5 @@ class Train:
         """Static wheel loads on rigid level track (N, compression positive), per contact."""
         if self.moving_load:
             return self.axle_loads.copy()
-        from svbi.runtime.methods.initial import vehicle_static_on_rigid_track
-
         _, loads = vehicle_static_on_rigid_track(self, np.zeros((self.cars, self.wheels)))
         return loads.reshape(-1)

@@ -29,7 +29,7 @@ SOURCE = "zero_phase.c"
 
 def _design_path(order: int, cutoff_hz: float, fs: float) -> Path:
     import scipy
-    from svbi.runtime.backends.compiler import cache_root
+    from svbi.runtime.toolchain import cache_root
 
     key = hashlib.sha256(f"butter-sos|{scipy.__version__}|{order}|{cutoff_hz!r}|{fs!r}".encode()).hexdigest()
     return cache_root() / "filters" / f"{key}.npz"
@@ -70,7 +70,7 @@ def design(order: int, cutoff_hz: float, fs: float) -> tuple[np.ndarray, np.ndar
 @cache
 def _library() -> ctypes.CDLL | None:
     from svbi.codegen.c_flags import STRICT_FLAGS
-    from svbi.runtime.backends import compiler as kernel_cache
+    from svbi.runtime import toolchain as kernel_cache
     from svbi.runtime.backends.c.build import simd_flags
 
     source = resources.files("svbi.runtime").joinpath("csrc_filter", SOURCE).read_bytes()

@@ -127,7 +127,7 @@ class MemoryEstimate:
 
 def estimate_memory(scenario: Scenario) -> MemoryEstimate:
     """The memory a run of ``scenario`` will need (see the module docstring)."""
-    from svbi.runtime.run.simulate import run_extent
+    from svbi.runtime.scenario.build import run_extent
 
     bridge, train, duration, steps = run_extent(scenario)
     ss = scenario.solver
@@ -215,7 +215,7 @@ def _irregularity_bytes(scenario: Scenario, train: object, duration: float, step
         except (OSError, ValueError):
             return 0, 0
         return 5 * points * F64, 2 * points * F64
-    from svbi.runtime.run.simulate import IRREGULARITY_TABLE_DIVISIONS
+    from svbi.runtime.scenario.build import IRREGULARITY_TABLE_DIVISIONS
 
     speed = float(getattr(train, "speed", 0.0))
     dx = spec.wavelength_min / IRREGULARITY_TABLE_DIVISIONS

@@ -66,8 +66,8 @@ def _geometry(s: Scenario, values: Mapping[str, Any]) -> tuple[list[float], floa
     """Wheel offsets behind the car's leading axle, the car length and the wheel radii (m), as
     ``Train`` places them; ``None`` when the vehicle cannot be evaluated (its own check says why)."""
     from svbi.codegen.plain_types import TopologyError
+    from svbi.runtime.model.hslm import hslm_parameters
     from svbi.runtime.model.train import vehicle_model
-    from svbi.runtime.run.simulate import hslm_parameters
     from svbi.runtime.scenario.schema import vehicle_ref
 
     vals = dict(values)

@@ -18,7 +18,7 @@ point rows (supports, off-bridge contacts) as their coefficients, the constraint
 the two polynomials of its ratio. The loop itself is Newmark's average-acceleration scheme and
 linear algebra.
 
-The library is compiled through :mod:`svbi.runtime.backends.compiler` (per-user cache keyed by the content
+The library is compiled through :mod:`svbi.runtime.toolchain` (per-user cache keyed by the content
 hash of every source and the flags, ``-O3``), with the strict warning set of the kernels
 (``-std=c99 -Wall -Wextra -Werror``). On an x86-64 CPU with AVX2 the loop is built with ``-mavx2``
 (its lanes of four doubles fill one register; :func:`simd_flags`) and ``-ffp-contract=off``, so that
@@ -591,7 +591,7 @@ def static_sources() -> dict[str, bytes]:
 
 def _committed(folder: str, names: tuple[str, ...]) -> dict[str, bytes] | None:
     """Files of ``generated/<folder>/``, or None when one is missing."""
-    from svbi.runtime.backends.compiler import generated_root
+    from svbi.runtime.toolchain import generated_root
 
     root = generated_root() / folder
     paths = [root / n for n in names]
@@ -703,10 +703,10 @@ def simd_flags() -> tuple[str, ...]:
 def load_loop(spec: LoopSpec) -> LoopLibrary:
     """Collect the sources, compile them (cached) and load the loop library of a topology.
 
-    Raises :class:`svbi.runtime.backends.compiler.CompilerError` when no C compiler works.
+    Raises :class:`svbi.runtime.toolchain.CompilerError` when no C compiler works.
     """
     if spec not in _LIBRARIES:
-        from svbi.runtime.backends import compiler as kernel_cache
+        from svbi.runtime import toolchain as kernel_cache
 
         flags = (*LOOP_FLAGS, *simd_flags(), *shlex.split(os.environ.get("SVBI_CFLAGS", "")))
         library = kernel_cache.load_library(render_sources(spec), f"svbi_{spec.c_name}_solver", flags=flags)

@@ -34,10 +34,14 @@ from typing import Any
 
 import numpy as np
 from svbi.codegen.plain_types import GRAVITY
+from svbi.runtime.backends.base import BackendFallback
 from svbi.runtime.backends.c import build as c_solver_build
+from svbi.runtime.methods.guard import Diverged
 from svbi.runtime.methods.newmark import Newmark
+from svbi.runtime.methods.steppers import numpy_steppers
 from svbi.runtime.model.contact_rows import AxialShapeKernel, ShapeKernel
 from svbi.runtime.model.system import FlatTrack, GroundAtRest, Model, State
+from svbi.runtime.toolchain import CompilerError
 
 CHUNK_SECONDS = 0.1
 """Target wall time of one call into C: progress and Ctrl-C are handled between calls."""
@@ -330,8 +334,6 @@ class CStepper:
     backend = "c"
 
     def __init__(self, model: Model, state: State, method: str) -> None:
-        from svbi.runtime.run.simulate import numpy_steppers
-
         self.model = model
         self.name = method
         self.method = method
@@ -916,8 +918,6 @@ class CStepper:
         return None
 
     def _stop(self, status: int, recorder: Any, guard: Any) -> None:
-        from svbi.runtime.run.simulate import Diverged
-
         info, st = self.info, self.state
         st.t = self.cstate.t
         if status in (c_solver_build.STATUS_NOT_FINITE, c_solver_build.STATUS_FORCE_LIMIT):
@@ -980,9 +980,6 @@ def c_stepper(method: str) -> Callable[[Model, State], Any]:
 
     def make(model: Model, state: State) -> Any:
         global _FALLBACK_WARNED
-        from svbi.runtime.backends.compiler import CompilerError
-        from svbi.runtime.run.simulate import BackendFallback, numpy_steppers
-
         try:
             c_solver_build.load_loop(c_solver_build.loop_spec(model.train))
         except CompilerError as exc:
@@ -1004,8 +1001,6 @@ def c_stepper(method: str) -> Callable[[Model, State], Any]:
     return make
 
 
-def register() -> None:
-    """Register the ``"c"`` backend with :func:`svbi.runtime.run.simulate.register_backend`."""
-    from svbi.runtime.run.simulate import register_backend
-
-    register_backend("c", {m: c_stepper(m) for m in c_solver_build.METHOD_CODES})
+def steppers() -> dict[str, Callable[[Model, State], Any]]:
+    """The ``"c"`` backend's steppers by method (``svbi.runtime.backends.registry``)."""
+    return {m: c_stepper(m) for m in c_solver_build.METHOD_CODES}

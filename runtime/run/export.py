@@ -21,7 +21,7 @@ from typing import Any
 import numpy as np
 from svbi.runtime.backends.c import build as c_solver_build
 
-GENERATOR = "svbi.runtime.backends.c.export"
+GENERATOR = "svbi.runtime.run.export"
 PER_LINE = 4
 PROGRAM = "svbi_solver_example"
 OUTPUT_NAMES = c_solver_build.OUTPUT_NAMES
