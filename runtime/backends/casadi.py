@@ -16,10 +16,12 @@ from functools import cache
 from typing import Any
 
 import numpy as np
-from svbi.runtime.backends.c.build import METHOD_CODES
-from svbi.runtime.methods.steppers import numpy_steppers
-from svbi.runtime.model.contact_rows import ContactRows
-from svbi.runtime.model.system import Model, State
+
+from ..methods.steppers import numpy_steppers
+from ..model.contact_rows import ContactRows
+from ..model.system import Model, State
+from ..toolchain import load_kernels
+from .c.build import METHOD_CODES
 
 UNIT_INPUTS = 2 + 6 + 6 + 3
 """history (P_ug, Q_ug), P_ue, Q_ue, track (r, r', r''): the inputs ``h_B`` is linear in."""
@@ -27,8 +29,6 @@ UNIT_INPUTS = 2 + 6 + 6 + 3
 
 @cache
 def _functions() -> tuple[Any, Any]:
-    from svbi.runtime.toolchain import load_kernels
-
     k = load_kernels("frame2d", backend="casadi")
     return k["contact_rows"].function, k["discrete_bridge_row"].function
 

@@ -1,5 +1,5 @@
 """``python -m svbi.runtime.cli``: the ``svbi`` command."""
 
-from svbi.runtime.cli.app import main
+from .app import main
 
 main()

@@ -64,7 +64,7 @@ def _register(command: str | None = None) -> None:
         else list(dict.fromkeys(COMMAND_MODULES.values()))
     )
     if "model" in names:
-        from svbi.runtime.cli import model as cli_model
+        from . import model as cli_model
 
         cli_model.register(app)
         names.remove("model")

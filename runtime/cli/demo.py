@@ -22,6 +22,11 @@ from typing import Annotated
 
 import typer
 
+from ..run.atomic import write_atomic
+from ..run.results import write_netcdf
+from ..run.simulate import SimulationIncomplete, simulate
+from ..scenario.schema import ScenarioError, load_scenario
+
 METHODS = ("localized-dynamic", "coupled-dynamic", "coupled-classic")
 EXAMPLE = "paper-2020.toml"
 QUICK = (
@@ -56,11 +61,7 @@ def demo(
     quiet: Annotated[bool, typer.Option("--quiet", "-q", help="No progress bars.")] = False,
 ) -> None:
     """Run the paper example with the three methods; write results, figures and a summary."""
-    from svbi.runtime.plots.results import plot_results, summary_text
-    from svbi.runtime.run.atomic import write_atomic
-    from svbi.runtime.run.results import write_netcdf
-    from svbi.runtime.run.simulate import SimulationIncomplete, simulate
-    from svbi.runtime.scenario.schema import ScenarioError, load_scenario
+    from ..plots.results import plot_results, summary_text
 
     path = scenario or example_path()
     overrides = list(QUICK) if quick else []
@@ -112,10 +113,7 @@ def demo(
 
 def _strong_shaking(path: Path, overrides: list[str], backend: str | None, out: Path, quiet: bool) -> str:
     """The strong-shaking run (module docstring); returns its summary text."""
-    from svbi.runtime.plots.results import plot_results, summary_text
-    from svbi.runtime.run.results import write_netcdf
-    from svbi.runtime.run.simulate import simulate
-    from svbi.runtime.scenario.schema import load_scenario
+    from ..plots.results import plot_results, summary_text
 
     extra = list(STRONG)
     started = time.perf_counter()

@@ -8,12 +8,14 @@ from pathlib import Path
 
 import typer
 
+from ..run.export import PROGRAM, write_solver
+from ..scenario.schema import ScenarioError, load_scenario
+from ..toolchain import generated_root
+
 MAX_DIFF_LINES = 400
 
 
 def _generated_root() -> Path:
-    from svbi.runtime.toolchain import generated_root
-
     return generated_root()
 
 
@@ -29,7 +31,8 @@ def _render(target: str, embedded: bool = False) -> tuple[str, dict[str, bytes]]
     topology header."""
     from svbi.codegen import c_emit, python_emit
     from svbi.codegen.kernels import FRAME2D, frame2d_model_spec, skip_reason, vehicle_model_spec
-    from svbi.runtime.backends.c import glue as c_glue
+
+    from ..backends.c import glue as c_glue
 
     if skip_reason(target) is not None:
         name, source = python_emit.render_target(target)
@@ -60,7 +63,7 @@ def _targets() -> list[str]:
 def _builtin_tree() -> dict[str, dict[str, bytes]]:
     """``{folder: files}`` of the whole committed tree: every built-in model and the loop's
     ``solver/`` folder, which belongs to no model."""
-    from svbi.runtime.backends.c import glue as c_glue
+    from ..backends.c import glue as c_glue
 
     tree = dict(_render(model) for model in _targets())
     tree[c_glue.SOLVER_FOLDER] = c_glue.solver_types()
@@ -217,7 +220,7 @@ def export(
     exported: dict[str, bytes] = {}
     name = model
     if not reason:
-        from svbi.runtime.backends.c.glue import GLUE_NAMES
+        from ..backends.c.glue import GLUE_NAMES
 
         name, files = _render(model, embedded=embedded)
         exported = {n: d for n, d in files.items() if n.endswith(EXPORTED_SUFFIXES) and n not in GLUE_NAMES}
@@ -225,9 +228,6 @@ def export(
         c_emit.write_files(exported, folder, prune=False)
         typer.echo(f"exported {name} to {folder} ({len(exported)} files): build with `make -C {folder}`")
         return
-    from svbi.runtime.run.export import PROGRAM, write_solver
-    from svbi.runtime.scenario.schema import ScenarioError, load_scenario
-
     # the solver's example replaces the kernels' example program and build files
     kernels = {n: d for n, d in exported.items() if n not in ("main.c", "Makefile", "CMakeLists.txt")}
     try:

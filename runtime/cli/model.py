@@ -11,6 +11,11 @@ from typing import TYPE_CHECKING, Any, NoReturn
 import typer
 from svbi.codegen.plain_types import TopologyError, spin_dofs
 
+from ..model.hslm import hslm_axles
+from ..model.modes import span_modes, vehicle_modes
+from ..scenario.build import bridge_from_scenario
+from ..scenario.schema import ScenarioError, load_scenario, vehicle_ref
+
 if TYPE_CHECKING:
     from svbi.codegen.vehicle import VehicleModel
 
@@ -204,7 +209,6 @@ def modes(
 
     Given a scenario file, its vehicle (with ``train.parameters``) and its bridge's spans."""
     import numpy as np
-    from svbi.runtime.model.modes import span_modes, vehicle_modes
 
     scenario = _scenario_modes(model, set_)
     spans = ""
@@ -325,9 +329,6 @@ def _scenario_modes(path: str, sets: list[str]) -> tuple[str, dict[str, Any], di
         return None  # not a scenario: the topology loader says what is wrong with it
     if not ("bridge" in data and "train" in data):
         return None
-    from svbi.runtime.model.hslm import hslm_axles
-    from svbi.runtime.scenario.schema import ScenarioError, load_scenario, vehicle_ref
-
     try:
         sc = load_scenario(p, overrides=sets)
     except ScenarioError as exc:
@@ -337,8 +338,6 @@ def _scenario_modes(path: str, sets: list[str]) -> tuple[str, dict[str, Any], di
     if sc.train.hslm is not None:
         loads, offsets, length = hslm_axles(sc.train.hslm)
         parameters.update(axle_loads=list(loads), axle_offsets=list(offsets), car_length=length)
-    from svbi.runtime.scenario.build import bridge_from_scenario
-
     b = sc.bridge
     built = bridge_from_scenario(sc)
     if not built.uniform:  # continuous girders, unequal spans, piers: the whole bridge's modes

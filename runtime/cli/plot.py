@@ -6,7 +6,9 @@ from pathlib import Path
 from typing import TYPE_CHECKING
 
 import typer
-from svbi.runtime.run.atomic import write_atomic
+
+from ..run.atomic import write_atomic
+from ..study.sweep import is_store, read_store
 
 if TYPE_CHECKING:
     import xarray as xr
@@ -16,7 +18,7 @@ SUMMARY_NAME = "summary.txt"
 
 def _read(paths: list[Path]) -> list[xr.Dataset]:
     # matplotlib and xarray load here, not when the CLI starts (every `svbi` command registers us)
-    from svbi.runtime.plots.results import ResultsFileError, read_results
+    from ..plots.results import ResultsFileError, read_results
 
     try:
         return [read_results(p) for p in paths]
@@ -26,7 +28,7 @@ def _read(paths: list[Path]) -> list[xr.Dataset]:
 
 
 def _draw(paths: list[Path], out_dir: Path) -> None:
-    from svbi.runtime.plots.results import default_labels, plot_results, summary_text
+    from ..plots.results import default_labels, plot_results, summary_text
 
     datasets = _read(paths)
     if out_dir.exists() and not out_dir.is_dir():
@@ -60,8 +62,6 @@ def plot(
 ) -> None:
     """Figures of a results file (Fig. 4 panels, gaps, summary) or of a sweep store (metric, fragility)."""
     out_dir = out if out is not None else results.with_name(f"{results.stem}-figures")
-    from svbi.runtime.study.sweep import is_store
-
     if results.is_file() and is_store(results):
         _draw_store(results, out_dir, metric, axis, by, limit, intensity)
         return
@@ -77,8 +77,7 @@ def _draw_store(
     limit: float | None,
     intensity: str | None,
 ) -> None:
-    from svbi.runtime.plots.study import plot_store
-    from svbi.runtime.study.sweep import read_store
+    from ..plots.study import plot_store
 
     try:
         written, text = plot_store(read_store(path), out_dir, metric, axis, by, limit, intensity)

@@ -16,6 +16,19 @@ from typing import Annotated
 
 import typer
 
+from ..run.memory import check_memory
+from ..run.output import (
+    RunInterrupted,
+    check_output,
+    incomplete_path,
+    run_inputs,
+    signal_name,
+    signals_interrupt,
+)
+from ..run.results import write_netcdf
+from ..run.simulate import SimulationIncomplete, simulate
+from ..scenario.schema import ScenarioError, ScenarioWarning, load_scenario
+
 EXIT_INVALID = 2
 EXIT_DIVERGED = 3
 EXIT_WRITE = 4
@@ -61,8 +74,6 @@ def run(
     previous file is kept); 130 / 143 interrupted by SIGINT (Ctrl-C) / SIGTERM.
     """
     started = time.perf_counter()  # set-up counts from here: the scenario load is part of it
-    from svbi.runtime.run.output import RunInterrupted, signal_name, signals_interrupt
-
     with signals_interrupt():  # from here on SIGTERM, like Ctrl-C, unwinds: finally clauses clean up
         try:
             _run(scenario, output, set_ or [], max_memory, quiet, started)
@@ -77,10 +88,6 @@ def run(
 def _run(
     scenario: Path, output: str, set_: list[str], max_memory: str | None, quiet: bool, started: float
 ) -> None:
-    from svbi.runtime.run.memory import check_memory
-    from svbi.runtime.run.output import RunInterrupted, check_output, incomplete_path, run_inputs
-    from svbi.runtime.scenario.schema import ScenarioError, ScenarioWarning, load_scenario
-
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always")
         try:
@@ -144,8 +151,6 @@ def _run(
 
 
 def _simulate(sc, quiet: bool, started: float):  # noqa: ANN001, ANN202 - Scenario -> Dataset, lazily imported
-    from svbi.runtime.run.simulate import SimulationIncomplete, simulate
-
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always")
         try:
@@ -162,9 +167,6 @@ def _simulate(sc, quiet: bool, started: float):  # noqa: ANN001, ANN202 - Scenar
 def _write(ds, path: Path) -> Path:  # noqa: ANN001 - xarray.Dataset, imported lazily
     """Write the results atomically; a failed write (full disk...) or a signal during it is one line,
     and whatever was at ``path`` before stays."""
-    from svbi.runtime.run.output import RunInterrupted
-    from svbi.runtime.run.results import write_netcdf
-
     try:
         return write_netcdf(ds, path)
     except OSError as exc:

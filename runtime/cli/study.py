@@ -12,6 +12,11 @@ from typing import TYPE_CHECKING, Annotated
 
 import typer
 
+from ..run.results import write_netcdf
+from ..study.en1990 import checks_table, en1990_checks
+from ..study.metrics import MetricsError, compute_metrics, metrics_text, scenario_table
+from ..study.sweep import StudyError, load_study, run_sweep
+
 if TYPE_CHECKING:
     import xarray as xr
 
@@ -25,8 +30,7 @@ def _fail(message: str) -> typer.Exit:
 
 
 def _metrics_of(path: Path) -> tuple[xr.Dataset, xr.Dataset]:
-    from svbi.runtime.plots.results import ResultsFileError, read_results
-    from svbi.runtime.study.metrics import MetricsError, compute_metrics
+    from ..plots.results import ResultsFileError, read_results
 
     try:
         ds = read_results(path)
@@ -42,12 +46,8 @@ def metrics(
     ] = None,
 ) -> None:
     """Print the engineering metrics of one run (peaks, when and where; docs/sweep.md)."""
-    from svbi.runtime.study.metrics import metrics_text
-
     _, m = _metrics_of(results)
     if output is not None:
-        from svbi.runtime.run.results import write_netcdf
-
         write_netcdf(m, output)
     typer.echo(f"metrics of {results}")
     typer.echo(metrics_text(m), nl=False)
@@ -72,9 +72,6 @@ def check(
     """EN 1990 Annex A2 checks of one run: value, limit, where, when, pass or fail.
 
     Exit status 0 when every limit is met, 3 when one is exceeded, 2 on bad input."""
-    from svbi.runtime.study.en1990 import checks_table, en1990_checks
-    from svbi.runtime.study.metrics import MetricsError, scenario_table
-
     ds, m = _metrics_of(results)
     try:
         table = scenario_table(ds)
@@ -115,8 +112,6 @@ def sweep(
     import gc
 
     gc.enable()  # the client runs as long as the study, on Dask's event loop (cli.main turned it off)
-    from svbi.runtime.study.sweep import StudyError, load_study, run_sweep
-
     if workers is not None and workers < 1:
         raise _fail("--workers must be at least 1")
     try:

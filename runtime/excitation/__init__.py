@@ -9,13 +9,8 @@ The runtime calls:
 Conventions and choices are documented in ``docs/excitations.md``.
 """
 
-from svbi.runtime.excitation.ground import (
-    COMPONENTS,
-    ComponentMotion,
-    GroundMotion,
-    ground_motion,
-)
-from svbi.runtime.excitation.irregularity import (
+from .ground import COMPONENTS, ComponentMotion, GroundMotion, ground_motion
+from .irregularity import (
     GermanSpectrum,
     Irregularity,
     NoIrregularity,
@@ -26,15 +21,9 @@ from svbi.runtime.excitation.irregularity import (
     make_irregularity,
     read_profile,
 )
-from svbi.runtime.excitation.processing import MotionHistory, Processing, integrate, process_record
-from svbi.runtime.excitation.records import G, Record, RecordError, read_record
-from svbi.runtime.excitation.synthetic import (
-    HORIZONTAL,
-    VERTICAL,
-    StochasticModel,
-    synthetic_motion,
-    synthetic_record,
-)
+from .processing import MotionHistory, Processing, integrate, process_record
+from .records import G, Record, RecordError, read_record
+from .synthetic import HORIZONTAL, VERTICAL, StochasticModel, synthetic_motion, synthetic_record
 
 __all__ = [
     "COMPONENTS",

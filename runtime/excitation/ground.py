@@ -25,9 +25,10 @@ from pathlib import Path
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
-from svbi.runtime.excitation.processing import MotionHistory, Processing, process_record
-from svbi.runtime.excitation.records import Record, RecordError, read_record
-from svbi.runtime.excitation.synthetic import DEFAULT_SEED, synthetic_motion, synthetic_record
+
+from .processing import MotionHistory, Processing, process_record
+from .records import Record, RecordError, read_record
+from .synthetic import DEFAULT_SEED, synthetic_motion, synthetic_record
 
 COMPONENTS = ("vertical", "longitudinal")
 Triple = tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]]

@@ -32,7 +32,8 @@ from typing import Literal, Protocol
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
-from svbi.runtime.excitation.piecewise import Pieces, PiecewisePolynomial, horner
+
+from .piecewise import Pieces, PiecewisePolynomial, horner
 
 Level = Literal["low", "high"]
 Component = Literal["vertical", "alignment"]

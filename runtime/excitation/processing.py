@@ -50,8 +50,9 @@ from functools import cached_property
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
-from svbi.runtime.excitation.piecewise import PiecewisePolynomial
-from svbi.runtime.excitation.records import Record
+
+from .piecewise import PiecewisePolynomial
+from .records import Record
 
 Triple = tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]]
 

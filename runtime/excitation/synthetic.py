@@ -34,8 +34,9 @@ from dataclasses import dataclass
 
 import numpy as np
 from numpy.typing import NDArray
-from svbi.runtime.excitation.processing import MotionHistory, Processing, process_record
-from svbi.runtime.excitation.records import G, Record
+
+from .processing import MotionHistory, Processing, process_record
+from .records import G, Record
 
 DEFAULT_SEED = 1
 """Seed of the synthetic record when the scenario gives none."""

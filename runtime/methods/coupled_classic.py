@@ -17,9 +17,10 @@ from __future__ import annotations
 from typing import Any
 
 import numpy as np
-from svbi.runtime.methods.monolithic import Monolithic, Triplets, solve_sparse
-from svbi.runtime.methods.unilateral import ActiveSet, Impact, is_unilateral
-from svbi.runtime.model.system import Contacts, Model, State
+
+from ..model.system import Contacts, Model, State
+from .monolithic import Monolithic, Triplets, solve_sparse
+from .unilateral import ActiveSet, Impact, is_unilateral
 
 
 class CoupledClassic(Monolithic):

@@ -29,11 +29,12 @@ from typing import Any
 
 import numpy as np
 from svbi.codegen.plain_types import GRAVITY
-from svbi.runtime.methods.monolithic import Monolithic, Triplets, solve_sparse
-from svbi.runtime.methods.reactions import constraint_forces
-from svbi.runtime.methods.unilateral import ActiveSet, Impact, is_unilateral
-from svbi.runtime.model.contact_rows import BridgeConstraintMass, vehicle_constraint_masses
-from svbi.runtime.model.system import Contacts, Model, State
+
+from ..model.contact_rows import BridgeConstraintMass, vehicle_constraint_masses
+from ..model.system import Contacts, Model, State
+from .monolithic import Monolithic, Triplets, solve_sparse
+from .reactions import constraint_forces
+from .unilateral import ActiveSet, Impact, is_unilateral
 
 
 class CoupledDynamic(Monolithic):

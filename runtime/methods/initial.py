@@ -30,14 +30,11 @@ from dataclasses import dataclass
 import numpy as np
 import scipy.sparse as sps
 from svbi.codegen.plain_types import GRAVITY
-from svbi.runtime.methods.monolithic import Triplets
-from svbi.runtime.model.contact_rows import ShapeKernel
-from svbi.runtime.model.system import Model, State
-from svbi.runtime.model.vehicle_static import (
-    free_modes,
-    refined_solve,
-    vehicle_static_on_rigid_track,
-)
+
+from ..model.contact_rows import ShapeKernel
+from ..model.system import Model, State
+from ..model.vehicle_static import free_modes, refined_solve, vehicle_static_on_rigid_track
+from .monolithic import Triplets
 
 
 def resolved_start(model: Model, start: str) -> str:

@@ -24,11 +24,12 @@ from __future__ import annotations
 import numpy as np
 import scipy.linalg as sla
 from svbi.codegen.plain_types import GRAVITY
-from svbi.runtime.methods.newmark import Newmark
-from svbi.runtime.methods.substructures import SubstructureCompliance
-from svbi.runtime.methods.unilateral import ActiveSet, Impact, is_unilateral, landing_rows, predicted_uplift
-from svbi.runtime.model.contact_rows import ContactRowKernel, ContactRows, ShapeKernel, point_row
-from svbi.runtime.model.system import Contacts, Model, State
+
+from ..model.contact_rows import ContactRowKernel, ContactRows, ShapeKernel, point_row
+from ..model.system import Contacts, Model, State
+from .newmark import Newmark
+from .substructures import SubstructureCompliance
+from .unilateral import ActiveSet, Impact, is_unilateral, landing_rows, predicted_uplift
 
 
 def _solve(A: np.ndarray, b: np.ndarray) -> np.ndarray:

@@ -15,9 +15,10 @@ from dataclasses import dataclass
 import numpy as np
 import scipy.sparse as sps
 import scipy.sparse.linalg as spla
-from svbi.runtime.methods.newmark import Newmark
-from svbi.runtime.model.contact_rows import ContactRowKernel, point_row, support_constraint_masses
-from svbi.runtime.model.system import Contacts, Model, State
+
+from ..model.contact_rows import ContactRowKernel, point_row, support_constraint_masses
+from ..model.system import Contacts, Model, State
+from .newmark import Newmark
 
 
 class Triplets:

@@ -12,8 +12,9 @@ bridge DOFs are measured from the dead-load state, so the deck's own weight is
 from __future__ import annotations
 
 import numpy as np
-from svbi.runtime.model.contact_rows import ShapeKernel
-from svbi.runtime.model.system import Contacts, Model, State
+
+from ..model.contact_rows import ShapeKernel
+from ..model.system import Contacts, Model, State
 
 
 def support_reactions(model: Model, state: State, contacts: Contacts, P: np.ndarray) -> np.ndarray:

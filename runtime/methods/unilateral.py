@@ -26,9 +26,10 @@ from dataclasses import dataclass
 import numpy as np
 import scipy.linalg as sla
 from svbi.codegen.plain_types import GRAVITY
-from svbi.runtime.methods.substructures import SubstructureCompliance
-from svbi.runtime.model.contact_rows import ShapeKernel
-from svbi.runtime.model.system import Contacts, Model, State
+
+from ..model.contact_rows import ShapeKernel
+from ..model.system import Contacts, Model, State
+from .substructures import SubstructureCompliance
 
 PIVOT_TRIES = 3
 """Block pivots allowed without fewer infeasible wheels before the single-wheel rule takes over

@@ -22,7 +22,8 @@ from typing import Any
 import numpy as np
 import scipy.linalg as sla
 from svbi.codegen.plain_types import GRAVITY
-from svbi.runtime.model.modes import column_matrices, span_matrices
+
+from .modes import column_matrices, span_matrices
 
 SUPPORT_COMPONENTS = ("longitudinal", "vertical", "vertical")
 """Component of each support constraint of a span of the shorthand bridge, in the order of

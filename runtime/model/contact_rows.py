@@ -17,7 +17,9 @@ from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
-from svbi.runtime.model.kernels import frame2d
+
+from .kernels import frame2d
+from .train import vehicle_model
 
 
 class XiPolynomials:
@@ -315,6 +317,4 @@ def support_constraint_masses(le: float, mu: float, element_dofs: list[int]) -> 
 
 def vehicle_constraint_masses(topology: str, values: dict[str, Any], a: float) -> np.ndarray:
     """Eq. (27): ``m_N^V`` of each wheel-aux constraint, with the active vehicle mass."""
-    from svbi.runtime.model.train import vehicle_model
-
     return vehicle_model(topology).constraint_masses(values, a)

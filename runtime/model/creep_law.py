@@ -24,7 +24,8 @@ from typing import Any
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
-from svbi.runtime.model.kernels import frame2d
+
+from .kernels import frame2d
 
 # Kalker (1990), Table E.3, column C11 for ν = 0, 0.25, 0.5. Rows: g = 0.1, 0.2, ..., 1.0, where
 # g = a/b for a <= b (first block) and g = b/a for a > b (second block); a is along the rolling

@@ -16,6 +16,8 @@ from pathlib import Path
 
 from svbi.codegen.plain_types import PYTHON_KERNELS_FILE, TopologyError, builtin_topologies
 
+from ..toolchain import generated_root, python_module
+
 FRAME2D = "frame2d"
 """The bridge element model (``svbi.codegen.kernels.FRAME2D``)."""
 
@@ -23,8 +25,6 @@ FRAME2D = "frame2d"
 def module_path(model: str) -> Path:
     """The file of a model's generated module: committed for ``frame2d`` and the built-in vehicles,
     emitted into the cache for a topology file."""
-    from svbi.runtime.toolchain import generated_root, python_module
-
     if model == FRAME2D or model in builtin_topologies():
         committed = generated_root() / model / PYTHON_KERNELS_FILE
         if committed.is_file():

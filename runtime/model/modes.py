@@ -12,7 +12,8 @@ from dataclasses import dataclass
 import numpy as np
 import scipy.linalg as sla
 from svbi.codegen.plain_types import NumericVehicle
-from svbi.runtime.model.kernels import frame2d
+
+from .kernels import frame2d
 
 
 @dataclass(frozen=True)

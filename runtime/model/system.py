@@ -22,10 +22,12 @@ from dataclasses import dataclass, field
 from typing import Any, Protocol
 
 import numpy as np
-from svbi.runtime.model.bridge import Bridge, Location
-from svbi.runtime.model.creep_law import CreepParameters
-from svbi.runtime.model.ground import FunctionGround, Ground, GroundAtRest, Triple
-from svbi.runtime.model.train import Train
+
+from .bridge import Bridge, Location
+from .creep_law import CreepParameters
+from .ground import FunctionGround, Ground, GroundAtRest, Triple
+from .train import Train
+from .wheel_creep import CreepForces
 
 __all__ = ["Contacts", "FunctionGround", "Ground", "GroundAtRest", "Model", "Settings", "State"]
 """The ground classes are re-exported: :class:`Model` holds a :class:`Ground`."""
@@ -161,8 +163,6 @@ class Model:
         """The :class:`~svbi.runtime.model.wheel_creep.CreepForces` of this run, or None (no creep: not
         asked for, a moving load, a held train, or no wheel spin DOF in the vehicle)."""
         if self._creep is None and self.creep_parameters is not None:
-            from svbi.runtime.model.wheel_creep import CreepForces
-
             self._creep = CreepForces(self, self.creep_parameters) if CreepForces.applies(self) else False
         return self._creep or None
 

@@ -17,8 +17,9 @@ from typing import Any
 
 import numpy as np
 from svbi.codegen.plain_types import GRAVITY, NumericVehicle
-from svbi.runtime.model.vehicle import GeneratedVehicle, VehicleTopology, vehicle
-from svbi.runtime.model.vehicle_static import vehicle_static_on_rigid_track
+
+from .vehicle import GeneratedVehicle, VehicleTopology, vehicle
+from .vehicle_static import vehicle_static_on_rigid_track
 
 
 @cache

@@ -21,7 +21,8 @@ from svbi.codegen.plain_types import (
     mechanism_problem,
     validate_split,
 )
-from svbi.runtime.model.kernels import load
+
+from .kernels import load
 
 
 @dataclass(frozen=True)

@@ -31,11 +31,16 @@ refuses ``k dt > 1`` at the static wheel load.
 from __future__ import annotations
 
 from dataclasses import replace
+from typing import TYPE_CHECKING
 
 import numpy as np
-from svbi.runtime.model.contact_rows import TangentialKernel
-from svbi.runtime.model.creep_law import CreepLaw, CreepParameters
-from svbi.runtime.model.system import Contacts, Model, State
+
+from .contact_rows import TangentialKernel
+from .creep_law import CreepLaw, CreepParameters
+from .ground import GroundAtRest
+
+if TYPE_CHECKING:  # the model builds its creep forces from this module: types only here
+    from .system import Contacts, Model, State
 
 STABILITY_LIMIT = 1.0
 """Largest ``k dt`` (creep damping rate of a wheelset spin times the time step, at the static wheel
@@ -154,8 +159,6 @@ class CreepForces:
 
 
 def _at_rest(ground: object, component: str) -> bool:
-    from svbi.runtime.model.system import GroundAtRest
-
     if isinstance(ground, GroundAtRest):
         return True
     comps = getattr(ground, "components", None)

@@ -27,7 +27,8 @@ import xarray as xr
 from matplotlib.axes import Axes
 from matplotlib.figure import Figure
 from matplotlib.lines import Line2D
-from svbi.runtime.run.atomic import write_atomic
+
+from ..run.atomic import write_atomic
 
 try:
     import tomllib

@@ -19,8 +19,9 @@ from pathlib import Path
 import numpy as np
 import xarray as xr
 from matplotlib.figure import Figure
-from svbi.runtime.run.atomic import write_atomic
-from svbi.runtime.study.en1990 import COMFORT_LEVELS, DECK_ACCELERATION_LIMIT, UNLOADING_LIMITS
+
+from ..run.atomic import write_atomic
+from ..study.en1990 import COMFORT_LEVELS, DECK_ACCELERATION_LIMIT, UNLOADING_LIMITS
 
 DPI = 150
 WORST_IS_MIN = {"min_contact_force_filtered"}

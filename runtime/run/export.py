@@ -19,7 +19,13 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
-from svbi.runtime.backends.c import build as c_solver_build
+
+from ..backends.c import build as c_solver_build
+from ..backends.c.stepper import CStepper
+from ..methods.initial import initial_state
+from ..scenario.schema import validate_scenario
+from .results import Recorder
+from .simulate import DivergenceGuard, build_model
 
 GENERATOR = "svbi.runtime.run.export"
 PER_LINE = 4
@@ -116,19 +122,12 @@ def scenario_files(
 ) -> tuple[dict[str, bytes], Any]:
     """``{file name: bytes}`` of the exported solver for ``scenario`` (plus ``extra`` files, which the
     Makefile builds too), and the validated scenario."""
-    from svbi.runtime.methods.initial import initial_state
-    from svbi.runtime.run.results import Recorder
-    from svbi.runtime.run.simulate import DivergenceGuard, build_model
-    from svbi.runtime.scenario.schema import validate_scenario
-
     if isinstance(scenario, dict):
         scenario = validate_scenario(scenario)
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", UserWarning)
         model = build_model(scenario)
     state = initial_state(model, scenario.train.initial)
-    from svbi.runtime.backends.c.stepper import CStepper
-
     stepper = CStepper(model, state, model.settings.method)
     if stepper.excitation.streamed:
         raise ValueError(
@@ -259,7 +258,7 @@ def scenario_files(
     }
     if spec.model != model_name and Path(spec.model).name != model_name:
         raise ValueError(f"the scenario's vehicle is {spec.model!r}, not the exported model {model_name!r}")
-    from svbi.runtime.backends.c.glue import environment
+    from ..backends.c.glue import environment
 
     env = environment()
     files = {**(extra or {}), **c_solver_build.render_sources(spec, embedded=embedded)}

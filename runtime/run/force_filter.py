@@ -24,12 +24,16 @@ from pathlib import Path
 
 import numpy as np
 
+from .. import toolchain as kernel_cache
+from ..backends.c.build import simd_flags
+from ..toolchain import cache_root
+from .atomic import write_atomic
+
 SOURCE = "zero_phase.c"
 
 
 def _design_path(order: int, cutoff_hz: float, fs: float) -> Path:
     import scipy
-    from svbi.runtime.toolchain import cache_root
 
     key = hashlib.sha256(f"butter-sos|{scipy.__version__}|{order}|{cutoff_hz!r}|{fs!r}".encode()).hexdigest()
     return cache_root() / "filters" / f"{key}.npz"
@@ -56,8 +60,6 @@ def design(order: int, cutoff_hz: float, fs: float) -> tuple[np.ndarray, np.ndar
 
     sos = sig.butter(order, cutoff_hz, btype="low", fs=fs, output="sos")
     zi = sig.sosfilt_zi(sos)
-    from svbi.runtime.run.atomic import write_atomic
-
     stored = io.BytesIO()
     np.savez(stored, sos=sos, zi=zi)
     try:
@@ -70,8 +72,6 @@ def design(order: int, cutoff_hz: float, fs: float) -> tuple[np.ndarray, np.ndar
 @cache
 def _library() -> ctypes.CDLL | None:
     from svbi.codegen.c_flags import STRICT_FLAGS
-    from svbi.runtime import toolchain as kernel_cache
-    from svbi.runtime.backends.c.build import simd_flags
 
     source = resources.files("svbi.runtime").joinpath("csrc_filter", SOURCE).read_bytes()
     try:

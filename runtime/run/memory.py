@@ -20,8 +20,12 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
+from ..excitation.irregularity import read_profile_cached
+from ..scenario.build import IRREGULARITY_TABLE_DIVISIONS, run_extent
+from .results import stored_columns
+
 if TYPE_CHECKING:
-    from svbi.runtime.scenario.schema import Scenario
+    from ..scenario.schema import Scenario
 
 DEFAULT_SHARE = 0.5
 """Default limit: this share of the memory available (``MemAvailable``, else physical memory)."""
@@ -127,8 +131,6 @@ class MemoryEstimate:
 
 def estimate_memory(scenario: Scenario) -> MemoryEstimate:
     """The memory a run of ``scenario`` will need (see the module docstring)."""
-    from svbi.runtime.scenario.build import run_extent
-
     bridge, train, duration, steps = run_extent(scenario)
     ss = scenario.solver
     every = ss.output_every
@@ -137,8 +139,6 @@ def estimate_memory(scenario: Scenario) -> MemoryEstimate:
     nsup = len(bridge.support_table.flat)
     nsub = bridge.nsub
     uniform = _uniform_ground(scenario)
-    from svbi.runtime.run.results import stored_columns
-
     columns = stored_columns(
         spans=spans,
         supports=nsup,
@@ -208,15 +208,11 @@ def _irregularity_bytes(scenario: Scenario, train: object, duration: float, step
     if spec.irregularity == "none":
         return 0, 0
     if spec.is_profile:  # the cubic spline of the measured points: x and 4 coefficients per piece
-        from svbi.runtime.excitation.irregularity import read_profile_cached
-
         try:
             points = read_profile_cached(scenario.resolve_path(spec.irregularity))[0].size
         except (OSError, ValueError):
             return 0, 0
         return 5 * points * F64, 2 * points * F64
-    from svbi.runtime.scenario.build import IRREGULARITY_TABLE_DIVISIONS
-
     speed = float(getattr(train, "speed", 0.0))
     dx = spec.wavelength_min / IRREGULARITY_TABLE_DIVISIONS
     end_time = steps * scenario.solver.time_step

@@ -26,7 +26,8 @@ from typing import TYPE_CHECKING, Any
 
 if TYPE_CHECKING:
     import xarray as xr
-    from svbi.runtime.scenario.schema import Scenario
+
+    from ..scenario.schema import Scenario
 
 SUFFIX = ".nc"
 INCOMPLETE = ".incomplete"

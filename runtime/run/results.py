@@ -19,11 +19,15 @@ from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
-from svbi.runtime.methods.reactions import support_reactions
-from svbi.runtime.model.contact_rows import AxialShapeKernel, ShapeKernel
-from svbi.runtime.model.system import Contacts, Model, State
-from svbi.runtime.run.atomic import write_atomic
-from svbi.runtime.run.body_outputs import body_variables
+
+from ..methods.reactions import support_reactions
+from ..methods.unilateral import ContactWarning
+from ..model.contact_rows import AxialShapeKernel, ShapeKernel
+from ..model.system import Contacts, Model, State
+from . import force_filter as zero_phase
+from .atomic import write_atomic
+from .body_outputs import body_variables
+from .force_filter import compiled, design, sosfiltfilt_rows
 
 if TYPE_CHECKING:
     import xarray as xr
@@ -193,8 +197,6 @@ class Recorder:
     def _design_cached(self) -> bool:
         """Whether the force filter's design is in the cache and the compiled filter is built, so
         that filtering imports no ``scipy.signal`` (``zero_phase.design``)."""
-        from svbi.runtime.run import force_filter as zero_phase
-
         cutoff, fs = self.model.settings.force_filter_hz, 1.0 / self.model.dt
         return zero_phase.design_cached(FILTER_ORDER, cutoff, fs) and zero_phase.compiled()
 
@@ -555,8 +557,6 @@ class Recorder:
                 c0, w0 = np.argwhere(filtered[first] < 0)[0]
                 import warnings
 
-                from svbi.runtime.methods.unilateral import ContactWarning
-
                 warnings.warn(
                     f"bilateral contact: the filtered contact force goes tensile (the rail pulls the "
                     f"wheel) first at t = {t[first]:.4g} s, car {c0 + 1}, wheel {w0 + 1}; lowest "
@@ -604,8 +604,6 @@ class Recorder:
         fc = m.settings.force_filter_hz
         if n < 2 or not self._filters():
             return raw[::every][:k].reshape(-1, tr.cars, tr.wheels).copy()  # no view of the full-rate array
-        from svbi.runtime.run.force_filter import compiled, design, sosfiltfilt_rows
-
         sos, zi = design(FILTER_ORDER, fc, fs)  # SciPy's butter, cached: no scipy.signal import
         padlen = min(3 * (2 * len(sos) + 1), n - 1)
         rows = raw[::every][:k]

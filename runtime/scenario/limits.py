@@ -13,8 +13,14 @@ import math
 from collections.abc import Iterable, Mapping
 from typing import TYPE_CHECKING, Any
 
+from svbi.codegen.plain_types import builtin_topologies
+
+from ..excitation.irregularity import read_profile_cached
+from ..model.hslm import hslm_parameters
+from ..model.train import Kinematics, vehicle_model
+
 if TYPE_CHECKING:
-    from svbi.runtime.scenario.schema import Scenario
+    from .schema import Scenario
 
 MAX_STEPS = 20_000_000
 """Time steps of one run: 2000 s of simulated time at 1e-4 s (the paper's run has 71,460). The
@@ -66,9 +72,6 @@ def _geometry(s: Scenario, values: Mapping[str, Any]) -> tuple[list[float], floa
     """Wheel offsets behind the car's leading axle, the car length and the wheel radii (m), as
     ``Train`` places them; ``None`` when the vehicle cannot be evaluated (its own check says why)."""
     from svbi.codegen.plain_types import TopologyError
-    from svbi.runtime.model.hslm import hslm_parameters
-    from svbi.runtime.model.train import vehicle_model
-    from svbi.runtime.scenario.schema import vehicle_ref
 
     vals = dict(values)
     if s.train.hslm is not None:
@@ -87,8 +90,6 @@ def _geometry(s: Scenario, values: Mapping[str, Any]) -> tuple[list[float], floa
 def size_problems(s: Scenario, values: Mapping[str, Any]) -> Iterable[tuple[str, str]]:
     """(key, message) for every limit the scenario ``s`` exceeds; ``values`` are its vehicle
     parameters (for the car length of the default duration)."""
-    from svbi.runtime.model.train import Kinematics
-
     b, sol, trk, t = s.bridge, s.solver, s.track, s.train
     speed = t.speed_ms
     speed_key = "train.speed" if t.speed is not None else "train.speed_kmh"
@@ -251,8 +252,6 @@ def creep_warnings(s: Scenario) -> list[str]:
     """With ``contact.creep`` on, name the wheels that have no spin DOF: no creep force acts there
     (``wheel_creep.CreepForces``: a wheel creeps only through a non-zero column of ``W_T^V``)."""
     from svbi.codegen.plain_types import TopologyError
-    from svbi.runtime.model.train import vehicle_model
-    from svbi.runtime.scenario.schema import vehicle_ref
 
     if not s.contact.creep:
         return []
@@ -280,8 +279,6 @@ def _profile_coverage(
 ) -> Iterable[tuple[str, str]]:
     """Every wheel's path must lie inside a measured profile: from the last axle at t = 0 to the
     leading axle at the last step (a profile is used as given, nothing is extrapolated)."""
-    from svbi.runtime.excitation.irregularity import read_profile_cached
-
     path = s.resolve_path(s.track.irregularity)
     try:
         xs, _ = read_profile_cached(path)
@@ -289,8 +286,6 @@ def _profile_coverage(
         return  # reported by the scenario's own check of the file
     steps = max(math.ceil(duration / s.solver.time_step - 1e-9), 1)
     lo = s.train.start_position - train_length
-    from svbi.runtime.model.train import Kinematics
-
     hi = s.train.start_position + Kinematics(speed, s.train.acceleration).travel(steps * s.solver.time_step)
     if lo < xs[0] or hi > xs[-1]:
         yield (
@@ -299,3 +294,9 @@ def _profile_coverage(
             f"{hi:.6g} m (train.start_position, the train's {train_length:.6g} m from leading to last "
             f"axle, {speed_key} x {duration_from}): extend the profile or shorten the run",
         )
+
+
+def vehicle_ref(s: Scenario) -> str:
+    """The scenario's vehicle: a built-in topology's name, or its topology file's resolved path."""
+    name = s.train.vehicle
+    return name if name in builtin_topologies() else str(s.resolve_path(name))

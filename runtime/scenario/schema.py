@@ -24,6 +24,12 @@ from typing import Annotated, Any, Literal
 import tomli_w
 from pydantic import BaseModel, ConfigDict, Field, PrivateAttr, ValidationError, model_validator
 
+from ..excitation.irregularity import read_profile_cached
+from ..model.bridge import Girder, Pier, Section
+from ..model.modes import vehicle_modes
+from ..model.train import topology, vehicle_model
+from .limits import creep_warnings, size_problems, vehicle_ref
+
 METHODS = ("localized-dynamic", "coupled-dynamic", "coupled-classic")
 BACKENDS = ("numpy", "casadi", "c")
 IRREGULARITIES = ("none", "german-low", "german-high")
@@ -176,7 +182,6 @@ class BridgeSpec(_Table):
 
     def layout(self) -> tuple[list[Any], list[Any]]:
         """The runtime's girders and piers (``svbi.runtime.model.bridge``) of the long form."""
-        from svbi.runtime.model.bridge import Girder, Pier, Section
 
         def section(g: Any) -> Section:
             def pick(name: str) -> float:
@@ -435,8 +440,6 @@ def validate_scenario(
         problems = list(_semantic_problems(scenario))
         if problems:
             raise ScenarioError([Problem(k, m, where(k)) for k, m in problems], source)
-        from svbi.runtime.scenario.limits import creep_warnings
-
         for message in time_step_warnings(scenario) + creep_warnings(scenario):
             warnings.warn(f"{source}: {message}" if source else message, ScenarioWarning, stacklevel=3)
     return scenario
@@ -540,8 +543,6 @@ def _semantic_problems(s: Scenario) -> Iterable[tuple[str, str]]:
     except TopologyError as exc:
         yield _parameter_key(topo, exc.key, t.parameters), exc.problem
         return
-    from svbi.runtime.scenario.limits import size_problems
-
     yield from size_problems(s, values)
     if topo.kind == "moving-load":
         loads = values.get("axle_loads", ())
@@ -554,8 +555,6 @@ def _semantic_problems(s: Scenario) -> Iterable[tuple[str, str]]:
 def _profile_problems(s: Scenario) -> Iterable[tuple[str, str]]:
     """A measured profile must be an existing, well-formed file (its lines are checked on reading);
     whether it covers the wheels' path is checked with the run's extent (``limits.size_problems``)."""
-    from svbi.runtime.excitation.irregularity import read_profile_cached
-
     path = s.resolve_path(s.track.irregularity)
     if not path.is_file():
         yield (
@@ -630,7 +629,6 @@ def _parameter_key(topo: Any, key: str, overrides: Mapping[str, Any]) -> str:
 
 def _vehicle_problems(s: Scenario, values: dict[str, Any]) -> Iterable[tuple[str, str]]:
     from svbi.codegen.plain_types import TopologyError
-    from svbi.runtime.model.train import vehicle_model
 
     model = vehicle_model(vehicle_ref(s))
     try:
@@ -650,23 +648,11 @@ def _vehicle_problems(s: Scenario, values: dict[str, Any]) -> Iterable[tuple[str
 
 
 def vehicle_topology(s: Scenario):  # noqa: ANN201 - Topology, imported lazily
-    from svbi.runtime.model.train import topology
-
     return topology(vehicle_ref(s))
-
-
-def vehicle_ref(s: Scenario) -> str:
-    from svbi.codegen.plain_types import builtin_topologies
-
-    name = s.train.vehicle
-    return name if name in builtin_topologies() else str(s.resolve_path(name))
 
 
 def time_step_warnings(s: Scenario) -> list[str]:
     """Warn when the time step does not resolve the fastest vehicle mode on rigid track."""
-    from svbi.runtime.model.modes import vehicle_modes
-    from svbi.runtime.model.train import vehicle_model
-
     topo = vehicle_topology(s)
     if topo.kind == "moving-load":
         return []

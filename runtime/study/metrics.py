@@ -35,6 +35,11 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
+from ..model.bridge import Bridge
+from ..model.modes import span_modes
+from ..run.force_filter import design, sosfiltfilt_rows
+from ..scenario.schema import BridgeSpec
+
 if TYPE_CHECKING:
     import xarray as xr
 
@@ -103,12 +108,7 @@ def span_frequencies(bridge: dict[str, Any]) -> SpanFrequencies:
     """f1 and f3 of one span of ``[bridge]`` from its generated mass and stiffness matrices. For the
     long form, each girder's own vertical modes on rigid supports, the girder with the highest
     cutoff ``max(1.5 f1, f3)`` taken (the filter keeps what any girder needs)."""
-    from svbi.runtime.model.modes import span_modes
-
     if bridge.get("girders"):
-        from svbi.runtime.model.bridge import Bridge
-        from svbi.runtime.scenario.schema import BridgeSpec
-
         spec = BridgeSpec.model_validate(bridge, strict=False)
         girders, piers = spec.layout()
         b = Bridge(0, 0.0, 1.0, 1.0, 1.0, 1.0, 0.0, spec.elements_per_span, spec.rail_height, girders, piers)
@@ -140,8 +140,6 @@ def lowpass(values: np.ndarray, cutoff_hz: float, sample_hz: float) -> np.ndarra
     n = values.shape[0]
     if n < 2 or cutoff_hz >= 0.5 * sample_hz:
         return values
-    from svbi.runtime.run.force_filter import design, sosfiltfilt_rows
-
     sos, zi = design(FILTER_ORDER, cutoff_hz, sample_hz)
     # Odd padding (SciPy's default) over ten periods of the cutoff, not SciPy's 27 samples, which are
     # shorter than the filter's memory at high sample rates. Odd padding keeps the end values: a run

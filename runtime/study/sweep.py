@@ -42,8 +42,12 @@ from pydantic import (
     StrictStr,
     ValidationError,
 )
-from svbi.runtime.run.atomic import write_atomic
-from svbi.runtime.scenario.schema import Problem, ScenarioError, key_lines, load_scenario
+
+from ..run.atomic import write_atomic
+from ..run.results import write_netcdf
+from ..run.simulate import simulate
+from ..scenario.schema import Problem, ScenarioError, key_lines, load_scenario, loads_scenario
+from .metrics import METRIC_INPUTS, compute_metrics
 
 if TYPE_CHECKING:
     import xarray as xr
@@ -256,10 +260,6 @@ def run_one(scenario_path: str, overrides: dict[str, Any], part: str, history: s
     t0 = time.perf_counter()
     _WORKER["runs"] += 1
     import xarray as xr
-    from svbi.runtime.run.results import write_netcdf
-    from svbi.runtime.run.simulate import simulate
-    from svbi.runtime.scenario.schema import loads_scenario
-    from svbi.runtime.study.metrics import METRIC_INPUTS, compute_metrics
 
     texts = _WORKER.setdefault("scenarios", {})
     if scenario_path not in texts:
@@ -505,7 +505,6 @@ def assemble(study: Study, out: Path) -> xr.Dataset:
     """The store: every run's part in a grid with one dimension per axis; written atomically to
     ``out``. A run without a part (lost) is marked ``missing``."""
     import xarray as xr
-    from svbi.runtime.run.results import write_netcdf
 
     parts: list[xr.Dataset] = []
     status, message = [], []

@@ -40,6 +40,11 @@ import numpy as np
 from svbi.codegen.c_flags import CASADI_WARNING_EXCEPTION, STRICT_FLAGS
 from svbi.codegen.plain_types import c_identifier
 
+from ... import toolchain as kernel_cache
+from ...model.contact_rows import bridge_row_tables, bridge_row_tables_changing_speed, shape_tables
+from ...model.kernels import frame2d
+from ...toolchain import generated_root
+
 ROW_BLOCKS = ("N0", "W_hat", "c_P_ue", "c_Q_ue", "T0", "T1")
 """Six-column blocks of the contact-row table, in column order; then ``ROW_SCALARS``. ``N0`` is
 ``W_N^B``, ``W_hat`` and the ``c_*`` columns the discrete aux-bridge row, ``T0`` and ``T1`` the
@@ -488,8 +493,6 @@ columns."""
 def row_structure() -> tuple[int, tuple[bool, ...]]:
     """Polynomial degree in xi and the structurally non-zero columns of the row table (plain data
     of the generated bridge module)."""
-    from svbi.runtime.model.kernels import frame2d
-
     data = frame2d().DATA
     nonzero = tuple(flag for name in _ROW_TABLES for flag in data["nonzero_columns"][name])
     return int(data["xi_degree"]), nonzero
@@ -505,8 +508,6 @@ def row_coefficients(
 ) -> np.ndarray:
     """``(degree + 1, ROW_COLUMNS)`` coefficients of every column in ascending powers of xi, from
     the generated tables of the bridge element (``svbi.runtime.model.contact_rows``)."""
-    from svbi.runtime.model.contact_rows import bridge_row_tables, shape_tables
-
     return _row_table(bridge_row_tables(le, speed, dt, kappa, zeta)[1], shape_tables(le, rail_height))
 
 
@@ -524,8 +525,6 @@ def row_coefficients_changing_speed(
     """``(4, degree + 1, ROW_COLUMNS)``: the tables ``T0, T1, T2, Ta`` with which the contact rows of
     a train at speed v and acceleration a are ``T0 + v T1 + v^2 T2 + a Ta``
     (``contact_rows.bridge_row_tables_changing_speed``; the shape rows are in ``T0`` alone)."""
-    from svbi.runtime.model.contact_rows import bridge_row_tables_changing_speed, shape_tables
-
     parts = bridge_row_tables_changing_speed(le, dt, kappa, zeta)
     return np.stack(
         [_row_table(p, shape_tables(le, rail_height) if k == 0 else None) for k, p in enumerate(parts)]
@@ -591,8 +590,6 @@ def static_sources() -> dict[str, bytes]:
 
 def _committed(folder: str, names: tuple[str, ...]) -> dict[str, bytes] | None:
     """Files of ``generated/<folder>/``, or None when one is missing."""
-    from svbi.runtime.toolchain import generated_root
-
     root = generated_root() / folder
     paths = [root / n for n in names]
     if not all(p.is_file() for p in paths):
@@ -612,13 +609,13 @@ def glue_sources(spec: LoopSpec, embedded: bool = False) -> dict[str, bytes]:
     (rendered now)."""
     files = _committed(SOLVER_FOLDER, (TYPES_HEADER,))
     if files is None:
-        from svbi.runtime.backends.c import glue as c_glue
+        from . import glue as c_glue
 
         files = c_glue.solver_types()
     bridge_names = (ROWS_HEADER,) if spec.moving_load else (ROWS_HEADER, *CREEP_FILES)
     bridge = None if embedded and not spec.moving_load else _committed(BRIDGE_FOLDER, bridge_names)
     if bridge is None:
-        from svbi.runtime.backends.c import glue as c_glue
+        from . import glue as c_glue
 
         bridge = c_glue.contact_rows()
         if not spec.moving_load:
@@ -627,7 +624,7 @@ def glue_sources(spec: LoopSpec, embedded: bool = False) -> dict[str, bytes]:
     folder = MOVING_LOAD_FOLDER if spec.moving_load else spec.model
     topology = _committed(folder, (TOPOLOGY_HEADER,)) if "/" not in folder else None
     if topology is None or not _topology_matches(topology[TOPOLOGY_HEADER], spec):
-        from svbi.runtime.backends.c import glue as c_glue
+        from . import glue as c_glue
 
         topology = c_glue.topology(spec.model, spec.nv, spec.nw)
     files.update(topology)
@@ -706,8 +703,6 @@ def load_loop(spec: LoopSpec) -> LoopLibrary:
     Raises :class:`svbi.runtime.toolchain.CompilerError` when no C compiler works.
     """
     if spec not in _LIBRARIES:
-        from svbi.runtime import toolchain as kernel_cache
-
         flags = (*LOOP_FLAGS, *simd_flags(), *shlex.split(os.environ.get("SVBI_CFLAGS", "")))
         library = kernel_cache.load_library(render_sources(spec), f"svbi_{spec.c_name}_solver", flags=flags)
         _LIBRARIES[spec] = LoopLibrary(spec, library)

@@ -25,7 +25,9 @@ from typing import Any
 
 import jinja2
 import sympy as sp
-from svbi.runtime.backends.c.build import (
+
+from . import build as c_solver_build
+from .build import (
     BRIDGE_FOLDER,
     CREEP_FILES,
     GLUE_NAMES,
@@ -117,8 +119,6 @@ def _render(template: str, context: dict[str, Any]) -> bytes:
 
 def solver_types() -> dict[str, bytes]:
     """``svbi_solver_types.h``: the structs (``c_solver_build.STRUCTS``) and status codes."""
-    from svbi.runtime.backends.c import build as c_solver_build
-
     structs = {
         k: [{"name": f.name, "ctype": c_solver_build.C_TYPES[f.kind], "doc": f.doc} for f in v]
         for k, v in c_solver_build.STRUCTS.items()
@@ -128,8 +128,6 @@ def solver_types() -> dict[str, bytes]:
 
 def contact_rows() -> dict[str, bytes]:
     """``svbi_contact_rows.h``: the contact-row table of the bridge element."""
-    from svbi.runtime.backends.c import build as c_solver_build
-
     degree, nonzero = c_solver_build.row_structure()
     powers = row_powers()
     blocks = c_solver_build.ROW_BLOCKS
@@ -155,7 +153,6 @@ def creep_split_sources(embedded: bool = False) -> dict[str, bytes]:
     from svbi.codegen import c_emit
     from svbi.codegen import creep as law
     from svbi.codegen.kernels import CREEP_SAMPLE, KernelSpec, ModelSpec, column
-    from svbi.runtime.backends.c import build as c_solver_build
 
     coefs, reduced, symbols = law.split_creep_force()
     sample = {k: v for k, v in CREEP_SAMPLE.items() if k not in ("xi_x", "N_c")}

@@ -34,14 +34,18 @@ from typing import Any
 
 import numpy as np
 from svbi.codegen.plain_types import GRAVITY
-from svbi.runtime.backends.base import BackendFallback
-from svbi.runtime.backends.c import build as c_solver_build
-from svbi.runtime.methods.guard import Diverged
-from svbi.runtime.methods.newmark import Newmark
-from svbi.runtime.methods.steppers import numpy_steppers
-from svbi.runtime.model.contact_rows import AxialShapeKernel, ShapeKernel
-from svbi.runtime.model.system import FlatTrack, GroundAtRest, Model, State
-from svbi.runtime.toolchain import CompilerError
+
+from ...excitation.ground import GroundMotion
+from ...excitation.irregularity import NoIrregularity, SampledIrregularity
+from ...excitation.piecewise import horner
+from ...methods.guard import Diverged
+from ...methods.newmark import Newmark
+from ...methods.steppers import numpy_steppers
+from ...model.contact_rows import AxialShapeKernel, ShapeKernel, shape_tables
+from ...model.system import FlatTrack, GroundAtRest, Model, State
+from ...toolchain import CompilerError
+from ..base import BackendFallback
+from . import build as c_solver_build
 
 CHUNK_SECONDS = 0.1
 """Target wall time of one call into C: progress and Ctrl-C are handled between calls."""
@@ -187,9 +191,6 @@ class ExcitationInput:
 
     # ----------------------------------------------------------------------------------------------
     def _irregularity(self) -> None:
-        from svbi.runtime.excitation.irregularity import NoIrregularity, SampledIrregularity
-        from svbi.runtime.excitation.piecewise import horner
-
         irr, e = self.model.irregularity, self.struct
         if isinstance(irr, FlatTrack | NoIrregularity):
             e.irr_mode = 0
@@ -299,8 +300,6 @@ class ExcitationInput:
 
 def _ground_motion(ground: Any) -> Any:
     """The ``GroundMotion`` behind a ``FunctionGround`` built by ``ground_from_scenario``, or None."""
-    from svbi.runtime.excitation.ground import GroundMotion
-
     direct = getattr(ground, "source", None) or getattr(ground, "motion_source", None)
     if isinstance(direct, GroundMotion):
         return direct
@@ -575,7 +574,6 @@ class CStepper:
         ``L S_M L^T`` in the C loop's link order (a spring passes no impulse: a zero column and an
         identity row that keeps its force at 0)."""
         import scipy.sparse as sps
-        from svbi.runtime.model.contact_rows import shape_tables
 
         imp, b = self.reference.impact, self.model.bridge
         S.I_MinvW, S.I_MinvC, S.I_GV = self._arr(imp.MinvW), self._arr(imp.MinvC), self._arr(imp.GV)

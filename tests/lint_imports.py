@@ -1,0 +1,44 @@
+"""Check the runtime's architecture with import-linter (``make lint``; contracts in pyproject.toml).
+
+svbi installs its folders under one namespace through ``package-dir`` (``runtime/`` is
+``svbi.runtime``), which import-linter cannot follow: it walks the ``svbi`` package's folder. So the
+package is staged as it installs, ``svbi/{runtime,codegen,...}`` as links to the repository's
+folders, in a temporary folder put first on the path, and ``lint-imports`` runs there.
+"""
+
+from __future__ import annotations
+
+import os
+import shutil
+import subprocess
+import sys
+import tempfile
+from pathlib import Path
+
+REPO = Path(__file__).resolve().parents[1]
+FOLDERS = ("runtime", "codegen", "templates", "generated", "examples")
+
+
+def lint(repo: Path = REPO, quiet: bool = False) -> int:
+    """``lint-imports`` over ``repo``'s folders staged as the ``svbi`` package; its exit status."""
+    with tempfile.TemporaryDirectory(prefix="svbi-lint-") as stage:
+        package = Path(stage) / "svbi"
+        package.mkdir()
+        shutil.copy(REPO / "svbi" / "__init__.py", package / "__init__.py")
+        for name in FOLDERS:
+            (package / name).symlink_to(repo / name, target_is_directory=True)
+        env = dict(os.environ, PYTHONPATH=os.pathsep.join([stage, os.environ.get("PYTHONPATH", "")]))
+        lint_imports = Path(sys.executable).with_name("lint-imports")
+        # run from the stage: lint-imports puts its working folder first on the path
+        done = subprocess.run(
+            [str(lint_imports), str(REPO / "pyproject.toml"), "--no-cache"],
+            cwd=stage,
+            env=env,
+            check=False,
+            capture_output=quiet,
+        )
+        return done.returncode
+
+
+if __name__ == "__main__":
+    sys.exit(lint())
