@@ -36,7 +36,7 @@ import sympy as sp
 xi = sp.Symbol("xi_x", real=True)
 """Longitudinal creepage ξ (dimensionless)."""
 normal_load = sp.Symbol("N_c", real=True)
-"""Normal contact force N (N), positive in compression (DESIGN §2)."""
+"""Normal contact force N (N), positive in compression (docs/design.md section 2)."""
 N_CBRT = sp.Symbol("N_cbrt", positive=True)
 """The cube root of the normal load: an input of the split law (:func:`split_creep_force`)."""
 v = sp.Symbol("v", positive=True)

@@ -171,10 +171,10 @@ class ModelSpec:
 # ---------------------------------------------------------------------------------------------
 
 GRAVITY = sp.Rational(981, 100)
-"""g = 9.81 m/s^2 (DESIGN.md section 2), substituted exactly into the gravity load."""
+"""g = 9.81 m/s^2 (docs/design.md section 2), substituted exactly into the gravity load."""
 
 BEAM_SAMPLE: dict[str, float] = {
-    # Scenario defaults of DESIGN.md section 3 (32 m span, 16 elements), with a nonzero rail height
+    # Scenario defaults of docs/scenario.md (32 m span, 16 elements), with a nonzero rail height
     # and contact position so that the sample exercises every term.
     "E": 35.5e9,
     "A": 8.63,

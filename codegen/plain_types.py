@@ -19,7 +19,7 @@ PYTHON_KERNELS_FILE = "numpy_kernels.py"
 """Name of a model's generated NumPy module (``svbi.codegen.python_emit``) in its folder."""
 
 GRAVITY = 9.81
-"""g in m/s^2 (DESIGN.md section 2); the symbolic kernels substitute it exactly as 981/100."""
+"""g in m/s^2 (docs/design.md section 2); the symbolic kernels substitute it exactly as 981/100."""
 
 
 class TopologyError(ValueError):
@@ -134,7 +134,7 @@ def mechanism_problem(
 
     The motions that neither the suspensions (``K``) nor the wheel contacts (``W_N^T``) resist are the
     null space of ``[K; W_N^T]``; every such motion must be a wheel spin (:func:`spin_dofs`), otherwise
-    the static start (DESIGN.md section 2) has no solution. Also rejected: wheel contacts that repeat one
+    the static start (docs/design.md section 2) has no solution. Also rejected: wheel contacts that repeat one
     another (``W_N`` without full column rank), which make the constraint masses of Eq. (27) singular.
     The message names the bodies that move, and a wheel that sits away from its body's reference point
     on a body whose rotation is then not a spin, and the suspensions of zero stiffness that touch a

@@ -27,7 +27,7 @@ from svbi.codegen.plain_types import GRAVITY, NumericVehicle, TopologyError, mec
 from svbi.codegen.topology import Topology, load_topology
 
 g = sp.Symbol("g", positive=True)
-"""Gravitational acceleration (m/s^2); 9.81 in the runtime (DESIGN.md section 2)."""
+"""Gravitational acceleration (m/s^2); 9.81 in the runtime (docs/design.md section 2)."""
 a_split = sp.Symbol("a", positive=True)
 """Split coefficient: share of each wheel mass given to its auxiliary contact point, 0 < a < 1."""
 

@@ -1,8 +1,8 @@
 """The C backend (the whole Newmark loop in C, ``svbi.runtime.backends.c.stepper``) against the NumPy
 reference.
 
-The NumPy backend is the truth: the C loop must reproduce every output variable of DESIGN.md section
-4 (and the creep and irregularity outputs) to round-off, for every method, on multi-car, multi-span
+The NumPy backend is the truth: the C loop must reproduce every output variable of docs/design.md
+section 7 (and the creep and irregularity outputs) to round-off, for every method, on multi-car, multi-span
 runs with rail irregularity, an earthquake (synchronous, travelling, one record per support line)
 and creep forces; for the sprung mass and the moving loads; when a run diverges (same step, same
 message, same partial results); and whatever the chunks Python runs it in.

@@ -22,7 +22,7 @@ def test_vehicle_b_vectors_and_masses(name: str) -> None:
         stacked = sp.Matrix.vstack(model.contact_normal[:, i], -e)
         assert sp.simplify((b.T * stacked)[0, 0]) == 1  # b_i . [W_i; -E_i] = 1
         mbar = c.mass_vehicle_constraint(b, active, aux)
-        # Rigid wheel contact: the constraint mass does not depend on the split a (DESIGN §6.1),
+        # Rigid wheel contact: the constraint mass does not depend on the split a (docs/method.md.1),
         # and equals a quarter of the wheel mass for a unit contact direction.
         assert sp.diff(mbar, a_split) == 0
         assert sp.simplify(mbar - model.wheel_masses[i] / 4) == 0
@@ -85,7 +85,7 @@ def test_bridge_gap_derivatives_are_exact_time_derivatives() -> None:
 
 
 def test_discrete_row_matches_method_notes_closed_forms() -> None:
-    # method-notes §2b: kappa = 2, zeta = 1 gives W_hat = N + (v dt/2) N' + (v dt)^2/16 N'';
+    # docs/design.md section 4b: kappa = 2, zeta = 1 gives W_hat = N + (v dt/2) N' + (v dt)^2/16 N'';
     # kappa = 0 gives N + v dt N' + (v dt)^2/4 N''.
     row, _ = c.discrete_bridge_row()
     n0, n1, n2 = (beam.normal_row(k) for k in range(3))

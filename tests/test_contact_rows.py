@@ -1,7 +1,7 @@
 """The runtime's numeric evaluation of the symbolic core, and the bridge assembly.
 
 * the polynomial-in-xi evaluation of the codegen rows equals SymPy's own evaluation;
-* the discrete aux-bridge row equals the closed form of method-notes section 2b, which the notes
+* the discrete aux-bridge row equals the closed form of docs/design.md section 4b, which the notes
   derived by hand (an independent check of both codegen and its evaluation);
 * span frequencies against (n pi / L)^2 sqrt(EI/m), Rayleigh damping ratios on the first two modes,
   and the quasi-static support field is strain-free.
@@ -74,7 +74,7 @@ def test_contact_rows_equal_sympy(kappa, zeta):
 
 
 def test_discrete_row_matches_the_hand_derivation():
-    """method-notes 2b: W_hat = [d N + (2 v a1 + 2 zeta omega v) N' + v^2 N''] / d; with kappa = 2,
+    """docs/design.md section 4: W_hat = [d N + (2 v a1 + 2 zeta omega v) N' + v^2 N''] / d; with kappa = 2,
     zeta = 1 that is N + (v dt / 2) N' + (v dt)^2 / 16 N''."""
     xi = np.linspace(0, 1, 7)
     N0, N1, N2 = ShapeKernel(LE, (0, 1, 2))(xi)

@@ -1,9 +1,9 @@
-"""The three methods against each other (DESIGN.md section 6, step 4).
+"""The three methods against each other (docs/method.md, step 4).
 
 * localized-dynamic and coupled-dynamic solve the same discrete equations, one partitioned and one
   monolithic with dynamic multipliers: they agree to round-off, for any split ``a``, over a run
   where two cars enter, cross span joints and leave, with an earthquake and track irregularity;
-* the split ``a`` does not change the results (method-notes section 0.2);
+* the split ``a`` does not change the results (docs/method.md);
 * coupled-dynamic with ``kappa = 0`` is the classic acceleration-level method;
 * over 1e5 steps the dynamic methods keep the gaps at round-off while classic multipliers drift.
 """
@@ -98,7 +98,7 @@ def test_coupled_dynamic_with_kappa_zero_is_classic():
 
     The partitioned solve (forces as unknowns) reproduces classic to round-off. The monolithic
     coupled-dynamic keeps the paper's multipliers lambda as unknowns; with kappa = 0, lambda grows
-    like t^2 (method-notes pitfall 7). Solving for their increments
+    like t^2 (docs/design.md pitfall 7). Solving for their increments
     (runtime/methods/coupled_dynamic.py) leaves lambda' growing like t in ``a0 dlambda - a2 lambda'``:
     measured over this 1000-step run, 1e-11 on the bridge and the contact force, 1.5e-9 on the
     car-body pitch (5e-7 in the total form).

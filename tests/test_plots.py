@@ -1,7 +1,7 @@
 """`svbi plot` / `svbi compare` and the figures and summary of runtime/plots/results.py.
 
-Results files here are synthetic but follow the DESIGN §4 contract exactly; the summary is checked
-against peaks computed in the test straight from the arrays that went into the file.
+Results files here are synthetic but follow the docs/design.md section 7 contract exactly; the
+summary is checked against peaks computed in the test straight from the arrays that went into the file.
 """
 
 from __future__ import annotations
@@ -47,7 +47,7 @@ def make_results(
     complete: int | None = None,
     seed: int = 0,
 ) -> xr.Dataset:
-    """A results Dataset with every variable, dim and attribute of DESIGN §4.
+    """A results Dataset with every variable, dim and attribute of docs/design.md section 7.
 
     The bridge response is the same for every method (as in the paper), the car body drifts by
     `drift` m/s² · t², and the gaps are noise of size `gap_scale`, so that methods differ as in Fig. 4.

@@ -1,4 +1,4 @@
-"""Scenario files (DESIGN.md section 3): defaults, echo, overrides and every kind of bad input.
+"""Scenario files (docs/scenario.md): defaults, echo, overrides and every kind of bad input.
 
 Each bad input must fail with the dotted path of the offending key and the file and line where it
 was written.

@@ -1,4 +1,4 @@
-"""Honest timings (DESIGN.md section 4) and deferred heavy imports.
+"""Honest timings (docs/design.md section 7) and deferred heavy imports.
 
 * results carry ``setup_time_s`` (everything before the first step), ``loop_time_s`` (the time loop)
   and ``wall_time_s`` (all of it): positive, and set-up plus loop within the wall time;

@@ -39,7 +39,7 @@ NETCDF_MODULES = ("netCDF4", "xarray.backends.netCDF4_", "dask.distributed")
 
 
 def run(
-    scenario: Annotated[Path, typer.Argument(help="Scenario file (TOML, DESIGN.md section 3).")],
+    scenario: Annotated[Path, typer.Argument(help="Scenario file (TOML, docs/scenario.md).")],
     output: Annotated[
         str,
         typer.Option(

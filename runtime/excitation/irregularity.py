@@ -9,7 +9,7 @@ Two sources, both behind the same ``evaluate(x) -> (r, dr, ddr)``:
   two-column file, or a tabulated spectral sample), interpolated by a C2 spline.
 
 Every profile is multiplied by a C2 :class:`OnsetRamp`, so that r = r' = r'' = 0 where the train
-stands at t = 0 (the static start of DESIGN §5).
+stands at t = 0 (the static start of docs/design.md section 3).
 
 Convention (pinned by ``tests/test_irregularity.py``): ``S(Ω)`` is one-sided in the spatial
 angular frequency Ω (rad/m), so that the variance of the profile is ``σ² = ∫ S(Ω) dΩ`` over the
@@ -182,7 +182,7 @@ class SpectralIrregularity:
         Track length (m) over which the profile is used, counted from ``ramp.start``. The sample
         repeats its statistics after 2π/ΔΩ; that period must exceed ``length``.
     wavelength_min, wavelength_max:
-        The band, in m (default 0.5 to 80 m, as DESIGN §3).
+        The band, in m (default 0.5 to 80 m, as docs/scenario.md).
     n_frequencies:
         Number of frequencies N. ``None`` (default) chooses it: the smallest power of two, at least
         1024, whose period covers ``length``. Powers of two keep the profile of a given seed the

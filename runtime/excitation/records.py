@@ -10,7 +10,8 @@ Supported layouts (detected from the file, not its name):
   t). Lines starting with ``#`` are comments.
 
 AT2 units come from the header (``... IN UNITS OF G``); plain text units from ``units`` (default
-``"g"``, the PEER convention). Accelerations are returned in m/s², with g = 9.81 m/s² (DESIGN §2).
+``"g"``, the PEER convention). Accelerations are returned in m/s², with g = 9.81 m/s² (docs/design.md
+section 2).
 Every error names the file and, where there is one, the line.
 """
 
@@ -25,7 +26,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 G = 9.81
-"""Standard gravity used to convert records in g (DESIGN §2)."""
+"""Standard gravity used to convert records in g (docs/design.md section 2)."""
 
 UNITS = {
     "g": G,

@@ -4,11 +4,11 @@ No auxiliary points: the wheel (full mass) touches the rail directly. Unknowns
 ``[u_V, u_B, P, R_G]``. Each constraint is imposed as ``g'' = 0`` at t_{n+1`` — the discrete row of the
 dynamic methods with ``kappa = 0`` (``omega = 0``), convective terms included. The multipliers are
 the forces themselves. Nothing pulls a gap back once it has opened, so the gaps drift, mostly at
-the slope kinks of span joints and bridge ends (method-notes section 0.4); that drift is the point of
+the slope kinks of span joints and bridge ends (docs/method.md); that drift is the point of
 offering this method. Position-level (index-3) multipliers diverge with this Newmark scheme and are
 not offered.
 
-Rows and multiplier columns are scaled by ``a0 m_ref`` (method-notes pitfall 11): otherwise the
+Rows and multiplier columns are scaled by ``a0 m_ref`` (docs/design.md pitfall 11): otherwise the
 constraint rows are ~1 against ~a0 M in the dynamic rows and the LU pivots badly.
 """
 

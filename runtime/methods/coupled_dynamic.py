@@ -18,7 +18,7 @@ localized method avoids. In exact arithmetic both solve the same discrete equati
 The multiplier unknowns are the increments ``dlambda = lambda_{n+1} - lambda_n`` with the increment
 histories ``P~``, ``Q~`` of ``Newmark.increment_history`` (like the vehicles): in the total form
 ``D lambda - H`` both terms grow like ``a0 |lambda|``, and with ``kappa = 0`` lambda grows like t^2
-(method-notes pitfall 7), so the force lost digits with every step.
+(docs/design.md pitfall 7), so the force lost digits with every step.
 
 Sign convention: ``lambda`` has the sign of the force it generates (compression positive).
 """
@@ -57,7 +57,7 @@ class CoupledDynamic(Monolithic):
         self.n = self.oLG + self.NS
         self.mG = self.support_masses
         self.DG = self.d * self.mG
-        # multipliers start consistent with the initial forces (method-notes section 5)
+        # multipliers start consistent with the initial forces (docs/method.md)
         c0 = model.contacts(0.0)
         RG0 = constraint_forces(model, state, c0, np.where(c0.on, state.P, 0.0))
         self.lamG = self._initial_lambda(RG0, self.mG)

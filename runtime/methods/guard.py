@@ -19,7 +19,7 @@ class Diverged(RuntimeError):
 
 FORCE_LIMIT_FACTOR = 1.0e3
 """A contact force beyond this multiple of the largest static wheel load stops the run. Joint
-impulses give peaks of tens of static loads at dt = 1e-4 s (method-notes section 4)."""
+impulses give peaks of tens of static loads at dt = 1e-4 s (docs/method.md section 3c)."""
 
 
 MECHANISM_HZ = 0.05

@@ -1,4 +1,4 @@
-"""Initial state: static start and consistent initial accelerations (method-notes pitfall 6).
+"""Initial state: static start and consistent initial accelerations (docs/design.md pitfall 6).
 
 By default a train that starts off the bridge has its vehicles in static equilibrium on rigid, level
 track and the bridge at rest in its dead-load state. Newmark never damps an inconsistent initial

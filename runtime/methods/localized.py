@@ -8,14 +8,14 @@ which with Newmark becomes one linear row per constraint (``svbi.codegen.constra
 Everything constant is factored once: each car's effective matrix and its wheel flexibility, the aux
 compliance, and the bridge compliance with the supports held (``S``) together with the effect of
 the support targets (``R``). Each step then solves one small interface system for the contact forces
-``P`` (method-notes section 2, step 3)::
+``P`` (docs/design.md section 4, step 3)::
 
     (F_B + F*) P = h_B - p~ + W_hat^T u~_B - c_g B d_V
 
 with ``F* = c_g - c_g B c_g`` (the full-vehicle wheel flexibility) and ``F_B = W_hat^T S N`` (the bridge
 flexibility between contacts on the same span). It is non-symmetric: the force acts along ``N`` but
 the constraint row is ``W_hat``, which carries the convective terms. We solve for forces, not for the
-dynamic multipliers, which lose digits (method-notes pitfall 7). Sign convention: ``P`` is the
+dynamic multipliers, which lose digits (docs/design.md pitfall 7). Sign convention: ``P`` is the
 compression in the contact; it pushes the wheel (or aux point) up and the bridge down.
 """
 

@@ -1,6 +1,6 @@
 """Newmark's average-acceleration scheme (gamma = 1/2, beta = 1/4) in the form used by every method.
 
-For any variable ``y`` at t_{n+1} (method-notes section 2)::
+For any variable ``y`` at t_{n+1} (docs/design.md section 4)::
 
     y''_{n+1} = a0 y_{n+1} - P[y],   P[y] = a0 y_n + (4/dt) y'_n + y''_n
     y'_{n+1}  = a1 y_{n+1} - Q[y],   Q[y] = a1 y_n + y'_n

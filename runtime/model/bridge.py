@@ -11,7 +11,7 @@ supports held. It acts on the motion *relative to the ground*: the damping force
 ``C (u' - T q')``, where ``T q`` is the quasi-static (rigid-body) displacement field that the support
 motion ``q`` imposes on a simply supported span. ``K T = 0``, so only ``C T q'`` (in practice
 ``alpha M T q'``) appears as a known load. Damping in absolute coordinates would resist the
-earthquake itself (method-notes pitfall 9).
+earthquake itself (docs/design.md pitfall 9).
 """
 
 from __future__ import annotations

@@ -151,7 +151,7 @@ class ContactRowKernel:
 
     ``W_hat`` and ``h_B`` are ``constraints.discrete_bridge_row()``: the aux-bridge gap (Eqs. 20-21,
     with the convective terms ``v W'`` and ``v^2 W''``) inserted into ``g'' + 2 zeta omega g' +
-    omega^2 g = 0`` with Newmark's relations at t_{n+1} (method-notes section 2b).
+    omega^2 g = 0`` with Newmark's relations at t_{n+1} (docs/design.md section 4b).
     """
 
     def __init__(
@@ -278,8 +278,8 @@ class PointRow:
 
 
 def point_row(dt: float, kappa: float, zeta: float) -> PointRow:
-    """The generated ``point_row_coefficients`` (``constraints.discrete_point_row()``, method-notes
-    section 2c)."""
+    """The generated ``point_row_coefficients`` (``constraints.discrete_point_row()``,
+    docs/design.md section 4)."""
     d, c = frame2d().point_row_coefficients((dt, kappa, zeta))
     return PointRow(float(d), *(float(x) for x in c))
 

@@ -102,7 +102,7 @@ def hslm_train(name: str) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
     """Axle loads (N) and axle offsets (m behind the leading axle) of HSLM-``name``.
 
     ``name`` is ``"A1"`` ... ``"A10"`` (``"HSLM-A1"`` and lower case are accepted too). The result
-    feeds the ``moving-load`` vehicle (DESIGN §3: ``axle_loads``, ``axle_offsets``).
+    feeds the ``moving-load`` vehicle (docs/scenario.md: ``axle_loads``, ``axle_offsets``).
     """
     key = name.strip().upper().removeprefix("HSLM-").removeprefix("HSLM")
     if key not in HSLM_A:

@@ -240,7 +240,7 @@ def newmark_targets(h0: np.ndarray, h1: np.ndarray, h2: np.ndarray, dt: float) -
 
 
 def crossing_duration(bridge: Bridge, train: Train) -> float:
-    """Time until the last axle leaves the last span (DESIGN.md section 3, solver.duration)."""
+    """Time until the last axle leaves the last span (docs/scenario.md, solver.duration)."""
     if train.speed <= 0 and train.acceleration <= 0:
         return math.inf
     return train.time_to_travel(max(bridge.length + train.length - train.start_position, 0.0))

@@ -1,4 +1,4 @@
-"""The train: identical cars coupled only through the track (DESIGN.md section 2).
+"""The train: identical cars coupled only through the track (docs/design.md section 2).
 
 Car k (0-based here, 1-based in the results) has its leading axle ``k * car_length`` behind the
 train's leading axle, which is at ``start_position`` at t = 0 and moves at ``speed``, changing by

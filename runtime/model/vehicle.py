@@ -178,7 +178,7 @@ class GeneratedVehicle:
             wheel_radii=_shaped(radii, (nw,)),
             **common,
         )
-        # a mechanism has no static start (DESIGN.md section 2): refuse it here, naming the bodies
+        # a mechanism has no static start (docs/design.md section 2): refuse it here, naming the bodies
         problem = mechanism_problem(numeric, tuple(w.name for w in self.topology.wheels))
         if problem:
             raise TopologyError(self.name, "bodies", problem)

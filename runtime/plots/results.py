@@ -8,7 +8,7 @@ the DAE solution (`coupled-classic`), whose drift dwarfs the others. Here every 
 each panel, and a further figure shows the constraint violations (the gaps of Eqs. 18, 20-21, 23)
 that the dynamic multipliers keep at round-off while the classic ones drift.
 
-Input is the results Dataset of DESIGN §4. Figures are drawn with matplotlib's object interface
+Input is the results Dataset of docs/design.md section 7. Figures are drawn with matplotlib's object interface
 (`Figure`, no pyplot), which renders with Agg and never opens a window. Files are written atomically.
 """
 
@@ -41,11 +41,12 @@ DRIFTING_METHOD = "coupled-classic"
 # Gaps of the dynamic methods sit at round-off and can be exactly zero; a log axis cannot show zero,
 # so values below this floor are drawn on it (and the axes say so).
 GAP_FLOOR_M = 1e-18
-DEFAULT_FILTER_HZ = 20.0  # DESIGN §3 default of output.force_filter_hz
+DEFAULT_FILTER_HZ = 20.0  # docs/scenario.md default of output.force_filter_hz
 MESSAGE_CHARS = 70  # of a stopped run's `incomplete` message, in panel titles
 NOTE_CHARS = 80  # line length of the notes under a panel title
 
-# Variables without which a file is not a results file worth plotting, with their dims (DESIGN §4).
+# Variables without which a file is not a results file worth plotting, with their dims (docs/design.md
+# section 7).
 REQUIRED_VARIABLES: dict[str, tuple[str, ...]] = {
     "time": ("time",),
     "midspan_uz": ("time", "span"),
@@ -176,7 +177,7 @@ def read_results(path: str | os.PathLike[str]) -> xr.Dataset:
     if not path.is_file():
         raise ResultsFileError(f"{path}: not a file")
     try:
-        # Time is seconds from the start of the run (DESIGN §4); a units attribute such as
+        # Time is seconds from the start of the run (docs/design.md section 7); a units attribute such as
         # "seconds" must not turn it into timedeltas or dates.
         with xr.open_dataset(path, decode_times=False, decode_timedelta=False) as ds:
             data = ds.load()
@@ -192,7 +193,7 @@ def check_results(ds: xr.Dataset, name: str = "results") -> None:
         if var not in ds.variables:
             raise ResultsFileError(
                 f"{name}: required variable '{var}' is missing (a results file has "
-                f"{', '.join(REQUIRED_VARIABLES)}; see DESIGN §4)"
+                f"{', '.join(REQUIRED_VARIABLES)}; see docs/design.md section 7)"
             )
     for var, dims in EXPECTED_DIMS.items():
         if var in ds.variables and set(ds[var].dims) != set(dims):
@@ -244,7 +245,7 @@ def _scalar(da: xr.DataArray | None) -> float | None:
 
 
 def _filter_hz(ds: xr.Dataset) -> float | None:
-    """The contact-force filter cutoff from the scenario text (DESIGN §3 `output.force_filter_hz`)."""
+    """The contact-force filter cutoff from the scenario text (docs/scenario.md `output.force_filter_hz`)."""
     text = ds.attrs.get("scenario")
     if not isinstance(text, str):
         return None
@@ -394,9 +395,9 @@ def panel_contact_force(ax: Axes, runs: Sequence[Run]) -> None:
     """Fig. 4(c): normal contact force of the first wheel of the last car, raw (thin) and filtered (bold)."""
     select = {"car": -1, "wheel": 0}
     missing: list[str] = []
-    # Raw forces first, all of them, so that they lie underneath and fill the legend's first column.
-    # The impulses at slope kinks (DESIGN §5) are real, so the raw force is shown, but light and thin
-    # behind the filtered force that a railway engineer reads.
+    # Raw forces first, all of them, so that they lie underneath and fill the legend's first
+    # column. The impulses at slope kinks (docs/design.md section 3) are real, so the raw force is
+    # shown, but light and thin behind the filtered force that a railway engineer reads.
     for run in runs:
         raw = _series(run.data, "contact_force", select)
         if raw is None:
@@ -434,8 +435,8 @@ def panel_contact_force(ax: Axes, runs: Sequence[Run]) -> None:
 def _clip_impulses(ax: Axes, runs: Sequence[Run], select: dict[str, int], notes: list[str]) -> None:
     """Keep the filtered force readable: the raw impulses at slope kinks are clipped, and said so.
 
-    The joint impulses are physical (DESIGN §5) but their peaks scale as 1/dt and would squash the
-    filtered force, which is what the engineer reads, into a flat line.
+    The joint impulses are physical (docs/design.md section 3) but their peaks scale as 1/dt and
+    would squash the filtered force, which is what the engineer reads, into a flat line.
     """
     filtered = [_series(r.data, "contact_force_filtered", select) for r in runs]
     raw = [_series(r.data, "contact_force", select) for r in runs]

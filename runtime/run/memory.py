@@ -1,6 +1,6 @@
 """How much memory a run needs, estimated from the scenario before anything large is built.
 
-:func:`estimate_memory` adds up the arrays whose size grows with the scenario (DESIGN.md section 4
+:func:`estimate_memory` adds up the arrays whose size grows with the scenario (docs/design.md section 7
 and ``svbi.runtime.run.results``): the stored output rows, the per-step contact-force buffer (the force
 filter runs at the full step rate) and the filter's working copies, the NetCDF image built in memory
 before the write, the rail-irregularity table and the spectral sum behind it, the ground-motion

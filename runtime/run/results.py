@@ -1,9 +1,9 @@
-"""Results: the xarray Dataset of DESIGN.md section 4, and its atomic NetCDF file.
+"""Results: the xarray Dataset of docs/design.md section 7, and its atomic NetCDF file.
 
 A :class:`Recorder` stores every ``output_every``-th step while the run goes on. Contact forces are
 also kept at *every* step, because the filtered force ``contact_force_filtered`` must be computed at
 the full rate: the raw force has impulses at the slope kinks of span joints and bridge ends whose
-peaks scale as 1/dt (DESIGN.md section 5), and subsampling them first would alias. The filter is a
+peaks scale as 1/dt (docs/design.md section 3), and subsampling them first would alias. The filter is a
 4th-order Butterworth low-pass applied forwards and backwards (zero phase), cutoff
 ``output.force_filter_hz`` (20 Hz by default), in the spirit of EN 14363 wheel-force processing.
 """

@@ -71,7 +71,7 @@ def simulate(
     import_ahead: Sequence[str] = (),
     variables: Sequence[str] | None = None,
 ) -> xr.Dataset:
-    """Run a scenario and return the results (DESIGN.md section 4).
+    """Run a scenario and return the results (docs/design.md section 7).
 
     ``scenario`` is a :class:`Scenario`, a path to a scenario file, or a TOML-shaped dict.
     Python-API-only options: ``hold_train`` keeps the train at its start position (speed 0, needs
@@ -84,7 +84,7 @@ def simulate(
     background with the results' own while a compiled loop runs (``results.ImportAhead``);
     ``variables`` keeps only those results variables (a sweep's metrics need a few of them).
 
-    Timing attributes (DESIGN.md section 4): ``setup_time_s`` from the start (``clock_start`` or
+    Timing attributes (docs/design.md section 7): ``setup_time_s`` from the start (``clock_start`` or
     the call) to the first step (scenario, model build, initial state, stepper set-up),
     ``loop_time_s`` the time loop alone, ``wall_time_s`` everything until the results exist.
     """

@@ -1,4 +1,4 @@
-"""Scenario files: the TOML contract of DESIGN.md section 3, validated with pydantic.
+"""Scenario files: the TOML contract of docs/scenario.md, validated with pydantic.
 
 ``load_scenario(path)`` reads a file, applies ``--set``-style overrides, validates every key and
 returns a :class:`Scenario` with the defaults filled in. Unknown keys are errors. Every problem is
@@ -325,7 +325,7 @@ class OutputSpec(_Table):
 
 
 class Scenario(_Table):
-    """A validated scenario (DESIGN.md section 3) with every default filled in."""
+    """A validated scenario (docs/scenario.md) with every default filled in."""
 
     title: str = ""
     bridge: BridgeSpec
