@@ -13,6 +13,7 @@ from __future__ import annotations
 import argparse
 import time
 
+from svbi.examples import paper_section_keys
 from svbi.runtime.methods.initial import initial_state
 from svbi.runtime.run.simulate import build_model, stepper_class
 from svbi.runtime.scenario.schema import validate_scenario
@@ -26,10 +27,7 @@ def scenario(method: str, elements: int):
             "bridge": dict(
                 spans=10,
                 span_length=32.0,
-                mass_per_length=22.4e3,
-                youngs_modulus=35.5e9,
-                area=8.63,
-                second_moment=6.58,
+                **paper_section_keys(),
                 elements_per_span=elements,
             ),
             "train": dict(vehicle="pioneer-2d", cars=10, speed_kmh=300.0, start_position=250.0),

@@ -34,6 +34,7 @@ import warnings
 from pathlib import Path
 
 import numpy as np
+from svbi.examples import paper_section_keys
 from svbi.runtime.methods.initial import initial_state
 from svbi.runtime.methods.steppers import numpy_steppers
 from svbi.runtime.run.results import Recorder
@@ -58,10 +59,7 @@ def on_bridge(cars: int, spans: int, elements: int, method: str, backend: str, d
             "bridge": dict(
                 spans=spans,
                 span_length=32.0,
-                mass_per_length=22.4e3,
-                youngs_modulus=35.5e9,
-                area=8.63,
-                second_moment=6.58,
+                **paper_section_keys(),
                 elements_per_span=elements,
                 rail_height=2.0,
             ),

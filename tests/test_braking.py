@@ -16,6 +16,7 @@ import numpy as np
 import pytest
 from conftest import c_compiler_works
 from scipy.integrate import solve_ivp
+from svbi.examples import paper_section_keys
 from svbi.runtime.run.simulate import build_model
 from svbi.runtime.scenario.schema import validate_scenario
 
@@ -231,10 +232,7 @@ def test_c_loop_brakes_to_a_stop_as_numpy_does():
                 "bridge": dict(
                     spans=3,
                     span_length=32.0,
-                    mass_per_length=22.4e3,
-                    youngs_modulus=35.5e9,
-                    area=8.63,
-                    second_moment=6.58,
+                    **paper_section_keys(),
                     rail_height=2.0,
                 ),
                 "train": dict(

@@ -14,18 +14,13 @@ import warnings
 import numpy as np
 import pytest
 from conftest import c_compiler_works
+from svbi.examples import paper_section_keys
 from svbi.runtime.run.simulate import build_model
 from svbi.runtime.scenario.schema import ScenarioError, load_scenario, loads_scenario
 
 import svbi
 
-SECTION = """\
-mass_per_length = 22.4e3
-youngs_modulus = 35.5e9
-area = 8.63
-second_moment = 6.58
-elements_per_span = 6
-"""
+SECTION = "".join(f"{k} = {v!r}\n" for k, v in paper_section_keys().items()) + "elements_per_span = 6\n"
 
 TAIL = """
 [train]

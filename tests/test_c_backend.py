@@ -35,6 +35,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 from conftest import c_compiler_works, export_and_run
+from svbi.examples import paper_section_keys
 from svbi.runtime import toolchain as kernel_cache
 from svbi.runtime.backends.c import build as c_solver_build
 from svbi.runtime.backends.c import stepper as c_steppers
@@ -91,10 +92,7 @@ def scenario(
         "bridge": dict(
             spans=spans,
             span_length=32.0,
-            mass_per_length=22.4e3,
-            youngs_modulus=35.5e9,
-            area=8.63,
-            second_moment=6.58,
+            **paper_section_keys(),
             elements_per_span=8,
         ),
         "train": dict(vehicle=vehicle, cars=cars, speed_kmh=300.0),

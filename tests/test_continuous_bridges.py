@@ -19,6 +19,7 @@ import numpy as np
 import pytest
 from scipy.integrate import solve_ivp
 from scipy.optimize import brentq
+from svbi.examples import paper_section
 from svbi.runtime.model.bridge import Bridge, Girder, Section
 from svbi.runtime.model.system import FunctionGround
 from svbi.runtime.run.simulate import build_model
@@ -26,7 +27,7 @@ from svbi.runtime.scenario.schema import validate_scenario
 
 import svbi
 
-L, MU, E, AREA, Iy = 32.0, 22.4e3, 35.5e9, 8.63, 6.58
+L, MU, E, AREA, Iy = paper_section()
 P = 170.0e3
 C_BEND = np.sqrt(E * Iy / MU)
 DECK = Section(MU, E, AREA, Iy, 0.0)

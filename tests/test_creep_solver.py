@@ -20,6 +20,7 @@ from functools import cache
 import numpy as np
 import pytest
 from scipy.integrate import solve_ivp
+from svbi.examples import paper_section_keys
 from svbi.runtime.model.creep_law import CreepLaw, CreepParameters, kalker_coefficient
 from svbi.runtime.model.system import FunctionGround
 from svbi.runtime.run.simulate import build_model
@@ -35,10 +36,7 @@ def bridge(spans: int = 1, **kw: float) -> dict:
     data = dict(
         spans=spans,
         span_length=32.0,
-        mass_per_length=22.4e3,
-        youngs_modulus=35.5e9,
-        area=8.63,
-        second_moment=6.58,
+        **paper_section_keys(),
         elements_per_span=4,
     )
     data.update(kw)

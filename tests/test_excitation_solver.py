@@ -27,6 +27,7 @@ import numpy as np
 import pytest
 import scipy.signal as sig
 from scipy.integrate import solve_ivp
+from svbi.examples import paper_section
 from svbi.runtime.excitation import make_irregularity, process_record, read_record, synthetic_record
 from svbi.runtime.excitation.synthetic import synthetic_motion
 from svbi.runtime.model.hslm import hslm_train
@@ -36,7 +37,7 @@ from svbi.runtime.scenario.schema import ScenarioError, validate_scenario
 
 import svbi
 
-L, MU, E, A, IY = 32.0, 22.40e3, 35.5e9, 8.63, 6.58
+L, MU, E, A, IY = paper_section()
 ZETA = 0.02
 
 

@@ -25,6 +25,7 @@ import pytest
 import scipy.linalg as sla
 import scipy.sparse as sps
 import scipy.sparse.linalg as spla
+from svbi.examples import paper_section_keys
 from svbi.runtime.methods import initial
 from svbi.runtime.model.contact_rows import ShapeKernel
 from svbi.runtime.model.system import FunctionGround, Model
@@ -59,10 +60,7 @@ def make_model(vehicle: str, cars: int, spans: int, start_position: float, excit
             "bridge": dict(
                 spans=spans,
                 span_length=32.0,
-                mass_per_length=22.4e3,
-                youngs_modulus=35.5e9,
-                area=8.63,
-                second_moment=6.58,
+                **paper_section_keys(),
                 damping_ratio=0.02,
                 elements_per_span=8,
             ),

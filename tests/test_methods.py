@@ -14,6 +14,7 @@ from functools import cache
 
 import numpy as np
 import pytest
+from svbi.examples import paper_section_keys
 from svbi.runtime.scenario.schema import validate_scenario
 
 import svbi
@@ -34,10 +35,7 @@ def paper_like(
         "bridge": dict(
             spans=spans,
             span_length=32.0,
-            mass_per_length=22.4e3,
-            youngs_modulus=35.5e9,
-            area=8.63,
-            second_moment=6.58,
+            **paper_section_keys(),
             elements_per_span=8,
         ),
         "train": dict(vehicle="pioneer-2d", cars=cars, speed_kmh=300.0),

@@ -14,11 +14,12 @@ import json
 
 import numpy as np
 import pytest
+from svbi.examples import paper_section
 from svbi.runtime.run.simulate import simulate
 from svbi.runtime.scenario.schema import validate_scenario
 from typer.testing import CliRunner
 
-SPAN, E, MU, AREA, I_Y = 32.0, 35.5e9, 22.4e3, 8.63, 6.58
+SPAN, MU, E, AREA, I_Y = paper_section()
 
 
 def quake_only(backend: str, stiffening: float, apparent_velocity: float | None) -> dict:
@@ -72,8 +73,8 @@ def test_modes_of_a_scenario_print_its_vehicle_and_spans(tmp_path) -> None:
 
     _register()
     text = (
-        "[bridge]\nspans = 3\nspan_length = 32.0\nmass_per_length = 22.4e3\nyoungs_modulus = 35.5e9\n"
-        "area = 8.63\nsecond_moment = 6.58\nelements_per_span = 16\n\n"
+        f"[bridge]\nspans = 3\nspan_length = {SPAN!r}\nmass_per_length = {MU!r}\nyoungs_modulus = {E!r}\n"
+        f"area = {AREA!r}\nsecond_moment = {I_Y!r}\nelements_per_span = 16\n\n"
         '[train]\nvehicle = "sprung-mass"\nspeed_kmh = 200.0\n\n[train.parameters]\nstiffness = 2.0e6\n\n'
         "[contact]\ncreep = false\n"
     )
@@ -87,8 +88,8 @@ def test_modes_of_a_scenario_print_its_vehicle_and_spans(tmp_path) -> None:
     f1 = np.pi / (2 * SPAN**2) * np.sqrt(E * I_Y / MU)
     assert got["span_frequencies_hz"][0] == pytest.approx(f1, rel=1e-4)
     # the same as the vehicle's name with the scenario's values given one by one
-    bridge = ("span_length=32.0", "mass_per_length=22.4e3", "youngs_modulus=35.5e9", "area=8.63")
-    bridge += ("second_moment=6.58", "elements_per_span=16")
+    bridge = (f"span_length={SPAN!r}", f"mass_per_length={MU!r}", f"youngs_modulus={E!r}", f"area={AREA!r}")
+    bridge += (f"second_moment={I_Y!r}", "elements_per_span=16")
     sets = [a for k in ("stiffness=2.0e6", *bridge) for a in ("--set", k)]
     same = runner.invoke(app, ["modes", "sprung-mass", "--json", *sets])
     assert json.loads(same.output)["frequencies_hz"] == got["frequencies_hz"]

@@ -12,10 +12,12 @@ from __future__ import annotations
 import numpy as np
 import pytest
 from svbi.codegen.plain_types import GRAVITY
+from svbi.examples import paper_section, paper_section_keys
 from svbi.runtime.run.simulate import simulate
 from svbi.runtime.scenario.schema import validate_scenario
 
-SPAN, MU, LOAD, SPEED = 32.0, 22.4e3, 200.0e3, 4.0
+SPAN, MU, _, _, _ = paper_section()
+LOAD, SPEED = 200.0e3, 4.0
 
 
 def bridge(spans: int, elements: int, damping: float = 0.02) -> dict:
@@ -23,10 +25,7 @@ def bridge(spans: int, elements: int, damping: float = 0.02) -> dict:
     return dict(
         spans=spans,
         span_length=SPAN,
-        mass_per_length=MU,
-        youngs_modulus=35.5e9,
-        area=8.63,
-        second_moment=6.58,
+        **paper_section_keys(),
         damping_ratio=damping,
         elements_per_span=elements,
     )

@@ -20,6 +20,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from svbi.examples import paper_section_keys
 from svbi.runtime.excitation import process_record, read_record
 from svbi.runtime.model.system import newmark_targets, support_hat
 from svbi.runtime.scenario.schema import validate_scenario
@@ -75,10 +76,7 @@ def _run(shared: str, method: str, backend: str, velocity: float | None):
             "bridge": dict(
                 spans=2,
                 span_length=32.0,
-                mass_per_length=22.4e3,
-                youngs_modulus=35.5e9,
-                area=8.63,
-                second_moment=6.58,
+                **paper_section_keys(),
                 damping_ratio=0.02,
                 elements_per_span=8,
             ),

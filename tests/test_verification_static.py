@@ -11,11 +11,12 @@ from __future__ import annotations
 import numpy as np
 import pytest
 from svbi.codegen.topology import load_topology
+from svbi.examples import paper_section
 from svbi.runtime.scenario.schema import validate_scenario
 
 import svbi
 
-L, MU, E, Iy = 32.0, 22.40e3, 35.5e9, 6.58
+L, MU, E, _, Iy = paper_section()
 G = 9.81
 
 

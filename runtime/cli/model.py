@@ -11,6 +11,7 @@ from typing import TYPE_CHECKING, Any, NoReturn
 import typer
 from svbi.codegen.plain_types import TopologyError, spin_dofs
 
+from ...examples import paper_section_keys
 from ..model.hslm import hslm_axles
 from ..model.modes import span_modes, vehicle_modes
 from ..scenario.build import bridge_from_scenario
@@ -24,10 +25,7 @@ if TYPE_CHECKING:
 
 BRIDGE_KEYS = {
     "span_length": 32.0,
-    "mass_per_length": 22.40e3,
-    "youngs_modulus": 35.5e9,
-    "area": 8.63,
-    "second_moment": 6.58,
+    **paper_section_keys(),
     "elements_per_span": 16,
 }
 

@@ -20,6 +20,7 @@ from typing import Any
 
 import numpy as np
 
+from ...examples import paper_section_keys
 from ..backends.c import build as c_solver_build
 from ..backends.c.stepper import CStepper
 from ..methods.initial import initial_state
@@ -43,10 +44,7 @@ def example_scenario(vehicle: str) -> dict[str, Any]:
         "bridge": dict(
             spans=2,
             span_length=32.0,
-            mass_per_length=22.4e3,
-            youngs_modulus=35.5e9,
-            area=8.63,
-            second_moment=6.58,
+            **paper_section_keys(),
             elements_per_span=8,
         ),
         "train": dict(vehicle=vehicle, cars=2, speed_kmh=300.0),
