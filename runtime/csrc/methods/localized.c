@@ -129,26 +129,6 @@ static void localized_correct(const setup_t* S, work_t* w, const double* force) 
   }
 }
 
-/* The contact rows' right-hand sides (a landing wheel's: its landing row's), an inactive wheel's
- * row replaced by P_i = 0 (band row zeroed, unit diagonal), then the banded LU and the solve, in
- * w->bsol (n unknowns: the contacts at w->cpos, and a general bridge's links). */
-int svbi_interface_finish(const setup_t* S, work_t* w, int n, int bw, const int* active, const int* landing) {
-  int i, status, nc = S->nc;
-  for (i = 0; i < nc; ++i) w->bsol[w->cpos[i]] = landing && landing[i] ? w->rland[i] : w->rhs[i];
-  if (active) {
-    for (i = 0; i < nc; ++i) {
-      if (!active[i]) {
-        int r = w->cpos[i], c0 = r - bw > 0 ? r - bw : 0, c1 = r + bw < n - 1 ? r + bw : n - 1, cc;
-        for (cc = c0; cc <= c1; ++cc) w->band[(2 * bw + r - cc) + (long)cc * (3 * bw + 1)] = 0.0;
-        svbi_gb_add(w->band, bw, r, r, 1.0);
-        w->bsol[r] = 0.0;
-      }
-    }
-  }
-  status = svbi_gb_factor_solve_r(w->band, n, bw, w->piv, w->rpiv, w->bsol);
-  return status ? status : ST_OK;
-}
-
 #if !SVBI_MOVING_LOAD
 /* F_B of the contacts on each span, pair by pair: W_hat_i S N0_j^T (a landing wheel's row: N0_i),
  * added to the interface band (svbi_row_S_N0). */
@@ -279,10 +259,11 @@ static double row_gap(const setup_t* S, const work_t* w, const double* P, int c,
 int svbi_step_localized(const setup_t* S, state_t* X, work_t* w) {
   int nc = S->nc;
   /* the histories of this step come from the last step's update (merged pass), or afresh */
-  if (w->hist)
-    svbi_support_targets(S, w);
+  if (!w->hist) svbi_bridge_histories(S, w);
+  if (S->general)
+    svbi_general_targets(S, w);
   else
-    svbi_bridge_histories(S, w);
+    svbi_support_targets(S, w);
   w->hist = 1;
   svbi_group_by_span(S, w);
 #if SVBI_MOVING_LOAD
@@ -326,8 +307,8 @@ int svbi_step_localized(const setup_t* S, state_t* X, work_t* w) {
       for (i = 0; i < NW; ++i) {
         int c = k * NW + i;
         double wt = WT[i * cp + k], wp = WP[i * cp + k], wq = WQ[i * cp + k], hV;
-        w->Pg[c] = S->a0 * X->ug[c] + S->a2 * X->vg[c] + X->ag[c];
-        w->Qg[c] = S->a1 * X->ug[c] + X->vg[c];
+        w->Pg[c] = svbi_nm_P(S->a0, S->a2, X->ug[c], X->vg[c], X->ag[c]);
+        w->Qg[c] = svbi_nm_Q(S->a1, X->ug[c], X->vg[c]);
         w->pt[c] = (w->Pg[c] - S->gravity) / S->a0;
         hV = S->p_P * (wp - w->Pg[c]) + S->p_Q * (wq - w->Qg[c]);
         w->dV[c] = wt - w->pt[c] - hV;
@@ -415,8 +396,8 @@ int svbi_step_localized(const setup_t* S, state_t* X, work_t* w) {
         int c = k * NW + i;
         double ug = w->pt[c] + S->c_g[i] * (X->P[c] - X->PV[c]);
         X->ug[c] = ug;
-        X->vg[c] = S->a1 * ug - w->Qg[c];
-        X->ag[c] = S->a0 * ug - w->Pg[c];
+        X->vg[c] = svbi_nm_vel(S->a1, ug, w->Qg[c]);
+        X->ag[c] = svbi_nm_acc(S->a0, ug, w->Pg[c]);
       }
     }
     svbi_vehicle_update(S, X, w);

@@ -22,6 +22,7 @@
 #endif
 
 #include "band.h"
+#include "newmark.h"
 #include "roots.h"
 #include "svbi_contact_rows.h"
 #include "svbi_topology.h"
@@ -249,8 +250,11 @@ static inline long n_recorded(const setup_t* S) { return S->general ? S->nact : 
 /* excite.c: positions, rail irregularity and ground motion at t = (n + 1) dt. */
 void svbi_excite(const setup_t* S, const excitation_t* E, work_t* w, long n, double t);
 
-/* bridge.c: contacts on the bridge, Newmark histories, span loads. */
+/* contacts.c: a contact's element, local coordinate and rows; the rail's height under it. */
 void svbi_place(const setup_t* S, work_t* w, int i, int span, double local, const double* cf);
+double svbi_rail_height(const setup_t* S, const work_t* w, int c);
+
+/* bridge.c: contacts on a chain of spans, Newmark histories and update, support targets, span loads. */
 void svbi_locate(const setup_t* S, work_t* w);
 void svbi_group_by_span(const setup_t* S, work_t* w);
 void svbi_bridge_histories(const setup_t* S, work_t* w);
@@ -275,8 +279,10 @@ int svbi_impact(const setup_t* S, state_t* X, work_t* w, const int* active, cons
 int svbi_general_init(const setup_t* S, work_t* w);
 void svbi_general_reactions(const setup_t* S, const state_t* X, const work_t* w, double* out);
 
-/* localized.c, coupled.c: one step of each method. */
+/* interface.c: the localized interface's right-hand sides, airborne rows, LU and solve. */
 int svbi_interface_finish(const setup_t* S, work_t* w, int n, int bw, const int* active, const int* landing);
+
+/* localized.c, coupled.c: one step of each method. */
 int svbi_step_localized(const setup_t* S, state_t* X, work_t* w);
 int svbi_step_coupled(const setup_t* S, state_t* X, work_t* w, int classic);
 int svbi_coupled_init(const setup_t* S, work_t* w); /* after Kb, Kv are factored */
@@ -335,7 +341,6 @@ static inline double svbi_row_target(const setup_t* S, const work_t* w, int i, d
     return S->p_P * Pg + S->p_Q * Qg + S->p_q2 * (q2 + track2) + S->p_q1 * (q1 + v * r1) + S->p_q * (q + r);
   }
 }
-double svbi_rail_height(const setup_t* S, const work_t* w, int c);
 
 /* The pivoting rule of a complementarity problem solved by complementary sets
  * (svbi.runtime.methods.unilateral.Pivoting): flip every infeasible wheel while their number falls, after
