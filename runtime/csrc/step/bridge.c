@@ -59,7 +59,7 @@ void svbi_support_targets(const setup_t* S, work_t* w) {
 }
 
 /* The span load f = C T q' + M P + C Q of span s (span after span layout), row by row in one pass
- * over M and C's common pattern (work_t MC_*; C = alpha M + beta K), as localized.c's rhs_lanes. */
+ * over M and C's common pattern (work_t MC_*; C = alpha M + beta K), as spans.c's rhs_lanes. */
 void svbi_span_load(const setup_t* S, const work_t* w, int s, double* f) {
   int i, j, k, nd = S->nd, ns = S->ns, NS = S->spans * S->ns;
   const double* P = w->PB + (long)s * nd;
