@@ -578,14 +578,24 @@ def loop_spec(train: Any) -> LoopSpec:
     return LoopSpec(name, int(train.ndof), int(train.wheels))
 
 
+CSRC_LAYERS = ("core", "step", "methods", "loop")
+"""Subfolders of ``runtime/csrc/``, bottom to top: a file calls only files of its own layer or below
+(docs/c-backend.md; tests/test_c_layers.py)."""
+
+
 def static_sources() -> dict[str, bytes]:
-    """``{file name: bytes}`` of the static C of the loop (``runtime/csrc/*.c, *.h``)."""
+    """``{file name: bytes}`` of the static C of the loop (``runtime/csrc/<layer>/*.c, *.h``), flat:
+    the layers are folders of the package, their file names unique, and the library (and an
+    export) is built from one flat folder."""
     folder = resources.files("svbi.runtime").joinpath(CSRC)
-    return {
-        p.name: p.read_bytes()
-        for p in sorted(folder.iterdir(), key=lambda p: p.name)
-        if p.name.endswith((".c", ".h"))
-    }
+    files: dict[str, bytes] = {}
+    for layer in CSRC_LAYERS:
+        for p in sorted(folder.joinpath(layer).iterdir(), key=lambda p: p.name):
+            if p.name.endswith((".c", ".h")):
+                if p.name in files:
+                    raise RuntimeError(f"runtime/csrc: {p.name} in two layers")
+                files[p.name] = p.read_bytes()
+    return dict(sorted(files.items()))
 
 
 def _committed(folder: str, names: tuple[str, ...]) -> dict[str, bytes] | None:

@@ -5,8 +5,10 @@
  * it exploits:
  *
  *  - localized-dynamic (localized.c): each car's effective matrix and wheel flexibility, and the
- *    factor of the bridge span with its supports held, are constant (one factor serves every
- *    span). Each step solves one banded interface system for the contact forces, in track order.
+ *    factors of the bridge with its supports held, are constant (on a chain of spans one factor
+ *    serves every span). Each step solves one banded interface system for the contact forces, in
+ *    track order. The bridge kind (spans.c or general.c) reaches the step through its table,
+ *    picked here once per call (bridge_view).
  *  - coupled-dynamic and coupled-classic (coupled.c): the monolithic system (paper Eq. 36) is
  *    refactored every step by a block ("arrow") sparse LU: span blocks (banded Cholesky), car blocks
  *    (dense Cholesky) and aux points first, then the multipliers' Schur complement, banded in track
@@ -340,8 +342,10 @@ int svbi_solver_init(const setup_t* S, double* work, int* iwork) {
   return ST_OK;
 }
 
-/* The bridge state the steps work on: blocked copies for localized-dynamic. */
+/* The bridge state the steps work on (blocked copies for localized-dynamic on a chain of spans)
+ * and the bridge kind's table. */
 static void bridge_view(const setup_t* S, state_t* X, work_t* w) {
+  w->kind = S->general ? &svbi_kind_substructures : &svbi_kind_spans;
   if (S->method == 0 && !S->general) {
     long s, i, nd = S->nd;
     w->pad = (S->spans + LW - 1) / LW * LW;
@@ -404,10 +408,7 @@ int svbi_solver_run(const setup_t* S, state_t* X, const excitation_t* E, outputs
   for (n = n0; n < n0 + count; ++n) {
     double t = (double)(n + 1) * S->dt;
     svbi_excite(S, E, &w, n, t);
-    if (S->general)
-      svbi_general_locate(S, &w);
-    else
-      svbi_locate(S, &w);
+    w.kind->locate(S, &w);
     if (S->method == 0)
       status = svbi_step_localized(S, X, &w);
     else

@@ -219,24 +219,13 @@ static void span_back(const setup_t* S, work_t* w, int per_contact, int lamB_bas
 }
 
 /* The multiplier unknowns are increments (svbi.runtime.methods.coupled_dynamic): the force of a multiplier triple
- * (lambda, lambda', lambda'') is D dlambda - H with H = mbar (P~ + c2 Q~ - omega^2 lambda_n). */
-static void lam_increment_history(const setup_t* S, const double* lam, long n, long i, double* P, double* Q) {
-  *P = S->a2 * lam[n + i] + lam[2 * n + i];
-  *Q = lam[n + i];
-}
-
+ * (lambda, lambda', lambda'') is D dlambda - H with H = mbar (P~ + c2 Q~ - omega^2 lambda_n) (newmark.h). */
 static double lam_H(const setup_t* S, const double* lam, long n, long i, double mbar) {
-  double P, Q;
-  lam_increment_history(S, lam, n, i, &P, &Q);
-  return mbar * (P + S->c2 * Q - S->w2 * lam[i]);
+  return svbi_nm_multiplier_history(S->a2, S->c2, S->w2, lam, n, i, mbar);
 }
 
 static void lam_update(const setup_t* S, double* lam, long n, long i, double delta) {
-  double P, Q;
-  lam_increment_history(S, lam, n, i, &P, &Q);
-  lam[i] += delta;
-  lam[n + i] = S->a1 * delta - Q;
-  lam[2 * n + i] = S->a0 * delta - P;
+  svbi_nm_multiplier_update(S->a0, S->a1, S->a2, lam, n, i, delta);
 }
 
 int svbi_step_coupled(const setup_t* S, state_t* X, work_t* w, int classic) {
@@ -244,6 +233,7 @@ int svbi_step_coupled(const setup_t* S, state_t* X, work_t* w, int classic) {
   int per_contact = S->moving_load ? 0 : (classic ? 1 : 2);
   int nm = (int)n_multipliers(S);
   svbi_bridge_histories(S, w);
+  svbi_support_targets(S, w);
   svbi_group_by_span(S, w);
   for (j = 0; j < ns; ++j) w->DG[j] = classic ? S->sG[j] : S->d * S->mG[j];
   /* span right-hand sides: f = M P + C Q + C T q' (less the support multipliers' history H_G) */
@@ -273,8 +263,8 @@ int svbi_step_coupled(const setup_t* S, state_t* X, work_t* w, int classic) {
     int k, d, m;
     for (i = 0; i < nc; ++i) {
       int wi = i % NW;
-      w->Pg[i] = S->a0 * X->ug[i] + S->a2 * X->vg[i] + X->ag[i];
-      w->Qg[i] = S->a1 * X->ug[i] + X->vg[i];
+      w->Pg[i] = svbi_nm_P(S->a0, S->a2, X->ug[i], X->vg[i], X->ag[i]);
+      w->Qg[i] = svbi_nm_Q(S->a1, X->ug[i], X->vg[i]);
       if (!classic) {
         if (w->con[i]) {
           double num = 0.0, den = 0.0, pw = 1.0, xi = w->cxi[i];
@@ -418,8 +408,8 @@ int svbi_step_coupled(const setup_t* S, state_t* X, work_t* w, int classic) {
           double sb = classic ? S->sC : S->d * S->mV[i];
           du += sb * G[d * NW + i] * lam;
         }
-        X->vV[k * NV + d] = S->a1 * du - Qt[d];
-        X->aV[k * NV + d] = S->a0 * du - Pt[d];
+        X->vV[k * NV + d] = svbi_nm_vel(S->a1, du, Qt[d]);
+        X->aV[k * NV + d] = svbi_nm_acc(S->a0, du, Pt[d]);
         u[d] += du;
       }
     }
@@ -442,8 +432,8 @@ int svbi_step_coupled(const setup_t* S, state_t* X, work_t* w, int classic) {
         double A = S->a0 * S->m_g[wi];
         double ug = w->xg[i] - (DV / A) * dlamV + (DB / A) * dlamB;
         X->ug[i] = ug;
-        X->vg[i] = S->a1 * ug - w->Qg[i];
-        X->ag[i] = S->a0 * ug - w->Pg[i];
+        X->vg[i] = svbi_nm_vel(S->a1, ug, w->Qg[i]);
+        X->ag[i] = svbi_nm_acc(S->a0, ug, w->Pg[i]);
         X->PV[i] = DV * dlamV - w->HV[i];
         X->P[i] = DB * dlamB - w->HB[i];
         lam_update(S, X->lamV, nc, i, dlamV);

@@ -1,27 +1,9 @@
 /*
- * Bridge pieces shared by the methods: where every contact is (span, element, xi and its contact
- * rows), the contacts grouped by span, the bridge's Newmark histories with the support targets, the
- * span loads and the final Newmark update.
+ * Bridge pieces shared by the methods: where every contact is on a chain of spans, the contacts
+ * grouped by span, the bridge's Newmark histories and update (newmark.h; either bridge kind), the
+ * support targets and the span loads of a chain of spans.
  */
 #include "internal.h"
-
-/* Contact i at the local coordinate local (in elements) of span span: its element (clamped to the
- * span), xi and contact rows from the row table cf (the generated unrolled evaluation). */
-void svbi_place(const setup_t* S, work_t* w, int i, int span, double local, const double* cf) {
-  int p;
-  double element = floor(local), xi, pw[ROW_DEG + 1];
-  if (element < 0.0) element = 0.0;
-  if (element > S->elements - 1) element = (double)(S->elements - 1);
-  xi = local - element;
-  if (xi < 0.0) xi = 0.0;
-  if (xi > 1.0) xi = 1.0;
-  w->cspan[i] = span;
-  w->cfirst[i] = 3 * (int)element;
-  w->cxi[i] = xi;
-  pw[0] = 1.0;
-  for (p = 1; p <= ROW_DEG; ++p) pw[p] = pw[p - 1] * xi;
-  svbi_contact_rows(pw, cf, w->crow + (long)i * ROW_COLS); /* generated: the structural non-zeros */
-}
 
 /* Span, element, local coordinate and contact rows of every contact (svbi.runtime.model.bridge.locate). */
 void svbi_locate(const setup_t* S, work_t* w) {
@@ -54,23 +36,19 @@ void svbi_group_by_span(const setup_t* S, work_t* w) {
 }
 
 
-/* Newmark histories of the bridge and the support targets q^ (row of svbi.codegen.constraints). */
+/* Newmark histories of the bridge (either kind: every DOF of the state the step works on). */
 void svbi_bridge_histories(const setup_t* S, work_t* w) {
   long i, n = w->nb;
   for (i = 0; i < n; ++i) {
-    w->PB[i] = S->a0 * w->bu[i] + S->a2 * w->bv[i] + w->ba[i];
-    w->QB[i] = S->a1 * w->bu[i] + w->bv[i];
+    w->PB[i] = svbi_nm_P(S->a0, S->a2, w->bu[i], w->bv[i], w->ba[i]);
+    w->QB[i] = svbi_nm_Q(S->a1, w->bu[i], w->bv[i]);
   }
-  svbi_support_targets(S, w);
 }
 
-/* The support targets q^ from the histories PB, QB and the support motion of the step. */
+/* The support targets q^ of a chain of spans (row of svbi.codegen.constraints) from the histories
+ * PB, QB and the support motion of the step. */
 void svbi_support_targets(const setup_t* S, work_t* w) {
   int s, j, ns = S->ns, NS = S->spans * S->ns;
-  if (S->general) {
-    svbi_general_targets(S, w);
-    return;
-  }
   for (s = 0; s < S->spans; ++s) {
     for (j = 0; j < ns; ++j) {
       int k = s * ns + j;
@@ -81,7 +59,7 @@ void svbi_support_targets(const setup_t* S, work_t* w) {
 }
 
 /* The span load f = C T q' + M P + C Q of span s (span after span layout), row by row in one pass
- * over M and C's common pattern (work_t MC_*; C = alpha M + beta K), as localized.c's rhs_lanes. */
+ * over M and C's common pattern (work_t MC_*; C = alpha M + beta K), as spans.c's rhs_lanes. */
 void svbi_span_load(const setup_t* S, const work_t* w, int s, double* f) {
   int i, j, k, nd = S->nd, ns = S->ns, NS = S->spans * S->ns;
   const double* P = w->PB + (long)s * nd;
@@ -106,11 +84,11 @@ void svbi_bridge_update_histories(const setup_t* S, work_t* w) {
   double* restrict P = w->PB;
   double* restrict Q = w->QB;
   for (i = 0; i < n; ++i) {
-    double vi = a1 * u[i] - Q[i], ai = a0 * u[i] - P[i];
+    double vi = svbi_nm_vel(a1, u[i], Q[i]), ai = svbi_nm_acc(a0, u[i], P[i]);
     v[i] = vi;
     a[i] = ai;
-    P[i] = a0 * u[i] + a2 * vi + ai;
-    Q[i] = a1 * u[i] + vi;
+    P[i] = svbi_nm_P(a0, a2, u[i], vi, ai);
+    Q[i] = svbi_nm_Q(a1, u[i], vi);
   }
 }
 
@@ -118,7 +96,7 @@ void svbi_bridge_update_histories(const setup_t* S, work_t* w) {
 void svbi_bridge_update(const setup_t* S, work_t* w) {
   long i, n = w->nb;
   for (i = 0; i < n; ++i) {
-    w->bv[i] = S->a1 * w->bu[i] - w->QB[i];
-    w->ba[i] = S->a0 * w->bu[i] - w->PB[i];
+    w->bv[i] = svbi_nm_vel(S->a1, w->bu[i], w->QB[i]);
+    w->ba[i] = svbi_nm_acc(S->a0, w->bu[i], w->PB[i]);
   }
 }

@@ -44,23 +44,6 @@ static void support_reactions(const setup_t* S, const state_t* X, outputs_t* O, 
   }
 }
 
-#if !SVBI_MOVING_LOAD
-/* Height of the rail under contact c at the step's time: N0 u_B + r on the bridge, q + r off it. */
-double svbi_rail_height(const setup_t* S, const work_t* w, int c) {
-  double rail;
-  int j;
-  (void)S;
-  if (w->con[c]) {
-    const double* N0 = w->crow + (long)c * ROW_COLS + COL_N0;
-    rail = 0.0;
-    for (j = 0; j < NNZ_N0; ++j) rail += N0[nz_N0[j]] * BR(w->bu, w->cspan[c], w->cfirst[c] + nz_N0[j]);
-  } else {
-    rail = w->under[c];
-  }
-  return rail + w->rail[c];
-}
-#endif
-
 int svbi_record(const setup_t* S, const state_t* X, const excitation_t* E, outputs_t* O, const work_t* w,
                   info_t* I) {
   long row = O->row;

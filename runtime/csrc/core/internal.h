@@ -22,6 +22,7 @@
 #endif
 
 #include "band.h"
+#include "newmark.h"
 #include "roots.h"
 #include "svbi_contact_rows.h"
 #include "svbi_topology.h"
@@ -63,7 +64,10 @@ enum {
 /* ============================================================================================== */
 /* Workspace: carved out of the caller's two arrays in a fixed order (solver.c, carve).           */
 
+typedef struct svbi_bridge_kind svbi_bridge_kind;
+
 typedef struct {
+  const svbi_bridge_kind* kind; /* the bridge kind's table (solver.c sets it before the first step) */
   /* contacts */
   double* cx;    /* nc: x */
   double* cxi;   /* nc: local coordinate in the element */
@@ -140,7 +144,7 @@ typedef struct {
   double* RF;    /* nfree x pad: free-DOF right-hand sides of the correction (localized) */
   double* dinv2; /* nfree: 1 / L(j, j)^2, L the factor on the free DOFs (factor_solve: K^ = U D^2 U^T) */
   int* freeidx;  /* nd: index among the free DOFs, -1 for a support DOF */
-  /* the span compliance S at the contact rows' DOFs (localized.c, interface_solve): node by node
+  /* the span compliance S at the contact rows' DOFs (spans.c, sc_pairs): node by node
    * the DOFs where N0 and W_hat may be non-zero (their common pattern, the same at both nodes of an
    * element), transposed, SC[p * ncd + q] = S(dof(q), dof(p)), so that an element's NNZ_N0 DOFs
    * are neighbours. Used when the pattern allows (sc_h: DOFs kept per node, else 0) */
@@ -249,8 +253,40 @@ static inline long n_recorded(const setup_t* S) { return S->general ? S->nact : 
 /* excite.c: positions, rail irregularity and ground motion at t = (n + 1) dt. */
 void svbi_excite(const setup_t* S, const excitation_t* E, work_t* w, long n, double t);
 
-/* bridge.c: contacts on the bridge, Newmark histories, span loads. */
+/* contacts.c: a contact's element, local coordinate and rows; the rail's height under it. */
 void svbi_place(const setup_t* S, work_t* w, int i, int span, double local, const double* cf);
+double svbi_rail_height(const setup_t* S, const work_t* w, int c);
+
+/* The bridge kinds: a chain of identical spans (spans.c, bridge.c) or substructures joined by links
+ * (general.c). The step reaches its bridge through this table, filled once (the loop picks it at
+ * set-up, work_t kind) as acados reaches its integrators: one indirect call per phase of the step
+ * costs nothing against the phase (benchmarks/bench_solver.py). The localized step uses every
+ * entry; the coupled methods (a chain of spans only) locate through it. */
+struct svbi_bridge_kind {
+  /* span, element, local coordinate and contact rows of every contact */
+  void (*locate)(const setup_t* S, work_t* w);
+  /* the support targets q^ from the histories and the support motion of the step */
+  void (*targets)(const setup_t* S, work_t* w);
+  /* u~ = S f + R q^ with every contact force zero (creep: the forces of t_n on the rail, or NULL) */
+  void (*predictor)(const setup_t* S, work_t* w, const double* creep);
+  /* u -= S N^T P for prescribed forces P (moving loads) */
+  void (*prescribed)(const setup_t* S, work_t* w, const double* P);
+  /* vehicles only (NULL for moving loads): */
+  /* the interface's order (work_t cpos) and half bandwidth of the step */
+  int (*order)(const setup_t* S, work_t* w, int* bandwidth);
+  /* (F* + F_B) P = rhs, an airborne wheel's row P_i = 0, a landing wheel's g_{n+1} = 0 */
+  int (*interface)(const setup_t* S, work_t* w, int bandwidth, const int* active, const int* landing, double* P);
+  /* u -= S N^T P for the contact forces of the interface (and the link forces they call up) */
+  void (*correct)(const setup_t* S, work_t* w, const double* P);
+  /* the rail's height under contact c on the bridge less its deflection under P */
+  double (*rail_under)(const setup_t* S, const work_t* w, const double* P, int c);
+  /* r + (F_B P)_c, contact c on the bridge */
+  double (*add_FB)(const setup_t* S, const work_t* w, const double* P, int c, double r);
+};
+extern const svbi_bridge_kind svbi_kind_spans;         /* spans.c */
+extern const svbi_bridge_kind svbi_kind_substructures; /* general.c */
+
+/* bridge.c: contacts on a chain of spans, Newmark histories and update, support targets, span loads. */
 void svbi_locate(const setup_t* S, work_t* w);
 void svbi_group_by_span(const setup_t* S, work_t* w);
 void svbi_bridge_histories(const setup_t* S, work_t* w);
@@ -259,24 +295,19 @@ void svbi_bridge_update_histories(const setup_t* S, work_t* w);
 void svbi_span_load(const setup_t* S, const work_t* w, int s, double* f);
 void svbi_bridge_update(const setup_t* S, work_t* w);
 
-/* general.c: a bridge of substructures joined by links (localized-dynamic). */
-void svbi_general_locate(const setup_t* S, work_t* w);
-void svbi_general_targets(const setup_t* S, work_t* w);
-void svbi_general_predictor(const setup_t* S, work_t* w, const double* creep);
-int svbi_general_interface(const setup_t* S, work_t* w, const int* active, const int* landing, double* P);
-double svbi_general_deflection(const setup_t* S, const work_t* w, const double* P, int c, int stabilised);
-void svbi_general_correct(const setup_t* S, work_t* w, const double* P);
-void svbi_general_link_forces(const setup_t* S, work_t* w, const double* P);
+/* general.c: a bridge of substructures joined by links (localized-dynamic; its table above). */
+int svbi_general_init(const setup_t* S, work_t* w);
+void svbi_general_reactions(const setup_t* S, const state_t* X, const work_t* w, double* out);
 double svbi_general_row_link(const setup_t* S, const double* X, const int* nzX, int nX, int s, int first, int l,
                              const double* col_a, const double* col_b);
 
 /* impact.c: the plastic impact of the landing wheels after the localized step. */
 int svbi_impact(const setup_t* S, state_t* X, work_t* w, const int* active, const int* landing);
-int svbi_general_init(const setup_t* S, work_t* w);
-void svbi_general_reactions(const setup_t* S, const state_t* X, const work_t* w, double* out);
+
+/* interface.c: the localized interface's right-hand sides, airborne rows, LU and solve. */
+int svbi_interface_finish(const setup_t* S, work_t* w, int n, int bw, const int* active, const int* landing);
 
 /* localized.c, coupled.c: one step of each method. */
-int svbi_interface_finish(const setup_t* S, work_t* w, int n, int bw, const int* active, const int* landing);
 int svbi_step_localized(const setup_t* S, state_t* X, work_t* w);
 int svbi_step_coupled(const setup_t* S, state_t* X, work_t* w, int classic);
 int svbi_coupled_init(const setup_t* S, work_t* w); /* after Kb, Kv are factored */
@@ -335,7 +366,6 @@ static inline double svbi_row_target(const setup_t* S, const work_t* w, int i, d
     return S->p_P * Pg + S->p_Q * Qg + S->p_q2 * (q2 + track2) + S->p_q1 * (q1 + v * r1) + S->p_q * (q + r);
   }
 }
-double svbi_rail_height(const setup_t* S, const work_t* w, int c);
 
 /* The pivoting rule of a complementarity problem solved by complementary sets
  * (svbi.runtime.methods.unilateral.Pivoting): flip every infeasible wheel while their number falls, after

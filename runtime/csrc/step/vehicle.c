@@ -13,10 +13,10 @@ void svbi_vehicle_increment_load(const setup_t* S, const double* u, const double
   double sm[NV], sc[NV], sk[NV];
   int d;
   for (d = 0; d < NV; ++d) {
-    Pt[d] = S->a2 * v[d] + a[d];
+    Pt[d] = svbi_nm_Pt(S->a2, v[d], a[d]);
     Qt[d] = v[d];
-    PV[d] = S->a0 * u[d] + Pt[d];
-    QV[d] = S->a1 * u[d] + Qt[d];
+    PV[d] = svbi_nm_full(S->a0, u[d], Pt[d]);
+    QV[d] = svbi_nm_full(S->a1, u[d], Qt[d]);
   }
   vec_mat(S->V_K, u, sk);
   vec_mat(S->V_M, Pt, sm);
@@ -66,8 +66,8 @@ static SVBI_ALWAYS_INLINE void wheel_chunk(const setup_t* S, const double* U, co
     for (l = 0; l < K; ++l) {
       vec_t u = VEC(U + r + l * VW);
       st[l] += (u + VEC(DU + r + l * VW)) * v;
-      sp[l] += (S->a0 * u + VEC(Pt + r + l * VW)) * v;
-      sq[l] += (S->a1 * u + VEC(Qt + r + l * VW)) * v;
+      sp[l] += svbi_nm_full_v(S->a0, u, VEC(Pt + r + l * VW)) * v;
+      sq[l] += svbi_nm_full_v(S->a1, u, VEC(Qt + r + l * VW)) * v;
     }
   }
   for (l = 0; l < K; ++l) {
@@ -91,7 +91,7 @@ void svbi_vehicle_predictors(const setup_t* S, const state_t* X, work_t* w) {
     for (k = 0; k < S->cars; ++k) {
       double u = X->uV[(long)k * NV + d], v = X->vV[(long)k * NV + d], a = X->aV[(long)k * NV + d];
       U[d * cp + k] = u;
-      Pt[d * cp + k] = S->a2 * v + a;
+      Pt[d * cp + k] = svbi_nm_Pt(S->a2, v, a);
       Qt[d * cp + k] = v;
     }
     for (; k < cp; ++k) U[d * cp + k] = Pt[d * cp + k] = Qt[d * cp + k] = 0.0;
@@ -144,8 +144,8 @@ void svbi_vehicle_update(const setup_t* S, state_t* X, work_t* w) {
   for (k = 0; k < S->cars; ++k) {
     for (d = 0; d < NV; ++d) {
       double du = DU[d * cp + k];
-      X->vV[(long)k * NV + d] = S->a1 * du - Qt[d * cp + k];
-      X->aV[(long)k * NV + d] = S->a0 * du - Pt[d * cp + k];
+      X->vV[(long)k * NV + d] = svbi_nm_vel(S->a1, du, Qt[d * cp + k]);
+      X->aV[(long)k * NV + d] = svbi_nm_acc(S->a0, du, Pt[d * cp + k]);
       X->uV[(long)k * NV + d] += du;
     }
   }

@@ -2,8 +2,8 @@
  * A bridge of substructures in the localized method (svbi.runtime.methods.substructures, docs/method.md
  * section 13): spans and pier columns of several kinds, each with its supports held at their targets
  * (u = S f + R q^ per kind), joined by links (girder continuity, bearings on pier tops) whose forces
- * Lambda load both ends. The paper's bridge (identical simply supported spans) keeps the blocked
- * path of localized.c; this file serves every other bridge.
+ * Lambda load both ends. The paper's bridge (identical simply supported spans) is the other kind,
+ * spans.c; this file serves every other bridge, through its table svbi_kind_substructures.
  *
  * The link forces are not eliminated with a dense matrix: the interface system of the step carries
  * them as unknowns beside the contact forces, in one band ordered along the bridge (contacts front
@@ -26,7 +26,7 @@ static inline const double* kind_S(const setup_t* S, int sub) {
 
 /* Span (by the support lines), element, local coordinate and contact rows of every contact
  * (svbi.runtime.model.bridge.Bridge.locate): each span has its own element length and row table. */
-void svbi_general_locate(const setup_t* S, work_t* w) {
+static void general_locate(const setup_t* S, work_t* w) {
   int i, spans = S->spans;
   long table = (long)(ROW_DEG + 1) * ROW_COLS;
   const double* line = S->g_line_x;
@@ -51,7 +51,7 @@ void svbi_general_locate(const setup_t* S, work_t* w) {
 
 /* The support targets q^ of every slot (the point row of Eq. 22; unused slots get a harmless value:
  * their column of R is zero). */
-void svbi_general_targets(const setup_t* S, work_t* w) {
+static void general_targets(const setup_t* S, work_t* w) {
   int k, NSL = 3 * S->nsub, nd = S->nd;
   for (k = 0; k < NSL; ++k) {
     long d = (long)(k / 3) * nd + S->g_slot_dof[k];
@@ -78,7 +78,7 @@ static void link_load(const setup_t* S, work_t* w, const double* lambda, double 
 /* The predictor: every substructure u = S (M P + C Q + C T q' - W_T^B F_creep) + R q^ (supports at
  * their targets), then the links closed on their stabilised rows (Links.targets: the point row of
  * Eq. 22 with no ground for a rigid link, 0 for a spring): Lambda0 = A^-1 (L u - g^). */
-void svbi_general_predictor(const setup_t* S, work_t* w, const double* creep) {
+static void general_predictor(const setup_t* S, work_t* w, const double* creep) {
   int s, i, j, q, l, k, t, nd = S->nd, NSL = 3 * S->nsub;
   double* f = w->fb; /* nd */
   double* q1 = w->qact;
@@ -170,6 +170,7 @@ static double row_link(const setup_t* S, const double* X, const int* nzX, int nX
   return svbi_general_row_link(S, X, nzX, nX, s, first, l, S->g_lk_col_a, S->g_lk_col_b);
 }
 
+#if !SVBI_MOVING_LOAD
 /* Interface positions (contacts in track order, links at their lines, one order along the bridge)
  * and the half bandwidth they give this step. */
 static int order_and_bandwidth(const setup_t* S, work_t* w) {
@@ -222,10 +223,13 @@ static int order_and_bandwidth(const setup_t* S, work_t* w) {
 }
 
 /* The interface system of the step (file comment), banded along the bridge; an inactive (airborne)
- * wheel's row is P_i = 0. P: the contact forces; w->lam: the link forces Lambda'. */
-int svbi_general_interface(const setup_t* S, work_t* w, const int* active, const int* landing, double* P) {
+ * wheel's row is P_i = 0. P: the contact forces; w->lam: the link forces Lambda'. The order and the
+ * half bandwidth are this function's (the links move with the contacts): bandwidth is not used. */
+static int general_interface(const setup_t* S, work_t* w, int bandwidth, const int* active, const int* landing,
+                             double* P) {
   int i, s, m1, m2, l, status, nc = S->nc, nl = S->nlinks, nd = S->nd, n = nc + nl;
   int bw = order_and_bandwidth(S, w);
+  (void)bandwidth; /* ordered and bounded here, pass by pass */
   if (bw > S->bw_max) return ST_BANDWIDTH;
   if (bw > n - 1) bw = n - 1;
   if (bw < 1) bw = n > 1 ? 1 : 0;
@@ -282,7 +286,7 @@ int svbi_general_interface(const setup_t* S, work_t* w, const int* active, const
 /* (F_NN P)_c: the rail's deflection under contact c from this step's contact forces, through its
  * substructure and the links (the NumPy backend's Bridge compliance pair(N, N) P); with
  * `stabilised`, (F_B P)_c: the same through contact c's stabilised row W_hat in place of N0. */
-double svbi_general_deflection(const setup_t* S, const work_t* w, const double* P, int c, int stabilised) {
+static double general_deflection(const setup_t* S, const work_t* w, const double* P, int c, int stabilised) {
   int m, s = w->cspan[c], fc = w->cfirst[c], nd = S->nd;
   const double* X = w->crow + (long)c * ROW_COLS + (stabilised ? COL_W_HAT : COL_N0);
   const int* nzX = stabilised ? nz_W_hat : nz_N0;
@@ -301,8 +305,10 @@ double svbi_general_deflection(const setup_t* S, const work_t* w, const double* 
   return f;
 }
 
+#endif
+
 /* u -= S (N^T P - L^T Lambda'): the contact forces and the link forces they call up. */
-void svbi_general_correct(const setup_t* S, work_t* w, const double* P) {
+static void general_correct(const setup_t* S, work_t* w, const double* P) {
   int c, q, d, nd = S->nd;
   for (c = 0; c < S->nc; ++c) {
     if (w->con[c] && P[c] != 0.0) {
@@ -321,7 +327,7 @@ void svbi_general_correct(const setup_t* S, work_t* w, const double* P) {
 }
 
 /* Lambda' = A^-1 C_N^T P for prescribed forces P (moving loads; the interface system's link rows). */
-void svbi_general_link_forces(const setup_t* S, work_t* w, const double* P) {
+static void general_link_forces(const setup_t* S, work_t* w, const double* P) {
   int c, m, l;
   if (!S->nlinks) return;
   for (l = 0; l < S->nlinks; ++l) w->lam[l] = 0.0;
@@ -336,6 +342,49 @@ void svbi_general_link_forces(const setup_t* S, work_t* w, const double* P) {
   }
   svbi_band_solve(w->LA, S->nlinks, S->band_links, w->lam);
 }
+
+/* The prescribed forces' correction (moving loads): the link forces they call up, then u -= S (N^T P
+ * - L^T Lambda'). */
+static void general_prescribed(const setup_t* S, work_t* w, const double* P) {
+  general_link_forces(S, w, P);
+  general_correct(S, w, P);
+}
+
+#if !SVBI_MOVING_LOAD
+/* The interface is ordered and bounded by general_interface itself. */
+static int general_order(const setup_t* S, work_t* w, int* bandwidth) {
+  (void)S;
+  (void)w;
+  *bandwidth = 0;
+  return ST_OK;
+}
+
+/* The rail's height under contact c (on the bridge) less (F_NN P)_c. */
+static double general_rail_under(const setup_t* S, const work_t* w, const double* P, int c) {
+  return svbi_rail_height(S, w, c) - general_deflection(S, w, P, c, 0);
+}
+
+/* r + (F_B P)_c for contact c on the bridge. */
+static double general_add_FB(const setup_t* S, const work_t* w, const double* P, int c, double r) {
+  return r + general_deflection(S, w, P, c, 1);
+}
+#endif
+
+const svbi_bridge_kind svbi_kind_substructures = {
+    general_locate,
+    general_targets,
+    general_predictor,
+    general_prescribed,
+#if SVBI_MOVING_LOAD
+    0, 0, 0, 0, 0,
+#else
+    general_order,
+    general_interface,
+    general_correct,
+    general_rail_under,
+    general_add_FB,
+#endif
+};
 
 /* Factor every kind's K^ on its free DOFs and the link matrix, once (svbi_solver_init). */
 int svbi_general_init(const setup_t* S, work_t* w) {
