@@ -21,6 +21,7 @@ import re
 from importlib import resources
 
 from svbi.runtime.backends.c import build as c_solver_build
+from test_architecture import cycles
 
 KEYWORDS = frozenset({"if", "for", "while", "switch", "return", "sizeof", "do", "else"})
 IDENT = re.compile(r"\b([A-Za-z_]\w*)\b")
@@ -109,39 +110,10 @@ def file_graph(files: dict[str, str]) -> dict[str, dict[str, set[str]]]:
 
 
 def circles(edges: dict[str, dict[str, set[str]]]) -> list[list[str]]:
-    """The strongly connected components of more than one file (each holds a call circle)."""
-    nodes = sorted(set(edges) | {g for d in edges.values() for g in d})
-    index: dict[str, int] = {}
-    low: dict[str, int] = {}
-    stack: list[str] = []
-    on: set[str] = set()
-    found: list[list[str]] = []
-
-    def visit(v: str) -> None:
-        index[v] = low[v] = len(index)
-        stack.append(v)
-        on.add(v)
-        for u in sorted(edges.get(v, {})):
-            if u not in index:
-                visit(u)
-                low[v] = min(low[v], low[u])
-            elif u in on:
-                low[v] = min(low[v], index[u])
-        if low[v] == index[v]:
-            component = []
-            while True:
-                u = stack.pop()
-                on.discard(u)
-                component.append(u)
-                if u == v:
-                    break
-            if len(component) > 1:
-                found.append(sorted(component))
-
-    for v in nodes:
-        if v not in index:
-            visit(v)
-    return found
+    """The strongly connected components of more than one file (each holds a call circle): the
+    same search as the Python modules' (``test_architecture.cycles``)."""
+    nodes = set(edges) | {g for d in edges.values() for g in d}
+    return cycles({v: set(edges.get(v, {})) for v in nodes})
 
 
 def upward(edges: dict[str, dict[str, set[str]]], layer: dict[str, int]) -> list[str]:
