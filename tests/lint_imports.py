@@ -1,9 +1,10 @@
-"""Check the runtime's architecture with import-linter (``make lint``; contracts in pyproject.toml).
+"""Run import-linter (the contracts in pyproject.toml) over any copy of the repository.
 
 svbi installs its folders under one namespace through ``package-dir`` (``runtime/`` is
-``svbi.runtime``), which import-linter cannot follow: it walks the ``svbi`` package's folder. So the
-package is staged as it installs, ``svbi/{runtime,codegen,...}`` as links to the repository's
-folders, in a temporary folder put first on the path, and ``lint-imports`` runs there.
+``svbi.runtime``), which import-linter cannot follow: it walks the ``svbi`` package's folder. The
+repository's ``svbi/`` therefore holds links to its folders, so that ``lint-imports`` works from the
+repository root (``make lint``); for a copy (tests/test_architecture.py plants a violation in one),
+the package is staged the same way in a temporary folder put first on the path.
 """
 
 from __future__ import annotations
