@@ -22,6 +22,7 @@ HERE = Path(__file__).resolve().parent
 sys.path.insert(0, str(HERE))
 
 from bench_solver import on_bridge, per_step_us, total_s  # noqa: E402
+
 from svbi.runtime.scenario.schema import load_scenario, validate_scenario  # noqa: E402
 
 VIADUCT = HERE.parent / "examples" / "viaduct.toml"

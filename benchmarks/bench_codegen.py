@@ -23,6 +23,7 @@ import timeit
 from pathlib import Path
 
 import numpy as np
+
 from svbi.codegen import c_emit
 from svbi.codegen.kernels import builtin_models, model_spec
 from svbi.runtime import toolchain as kernel_cache

@@ -34,6 +34,7 @@ import warnings
 from pathlib import Path
 
 import numpy as np
+
 from svbi.examples import paper_section_keys
 from svbi.runtime.methods.initial import initial_state
 from svbi.runtime.methods.steppers import numpy_steppers

@@ -42,6 +42,7 @@ for _name in BLAS_VARS:
     os.environ.setdefault(_name, "1")
 
 import numpy as np  # noqa: E402
+
 from svbi.runtime.study.sweep import load_study, read_store, run_sweep  # noqa: E402
 
 REPO = Path(__file__).resolve().parents[1]

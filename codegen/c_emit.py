@@ -39,6 +39,7 @@ from typing import Any
 
 import casadi as ca
 import jinja2
+
 from svbi.codegen.c_flags import CASADI_WARNING_EXCEPTION, STRICT_FLAGS
 from svbi.codegen.casadi_emit import build_functions, casadi_files
 from svbi.codegen.kernels import ModelSpec

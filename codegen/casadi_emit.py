@@ -17,6 +17,7 @@ from pathlib import Path
 
 import casadi as ca
 import sympy as sp
+
 from svbi.codegen.kernels import KernelSpec, ModelSpec
 
 FUNCTION_OPTIONS = {"cse": True}

@@ -21,6 +21,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import sympy as sp
+
 from svbi.codegen import beam
 
 # Moving-contact kinematics

@@ -23,6 +23,7 @@ from functools import cache
 from typing import Any
 
 import sympy as sp
+
 from svbi.codegen.plain_types import c_identifier
 
 _IDENT = re.compile(r"^[A-Za-z_][A-Za-z0-9_]*$")

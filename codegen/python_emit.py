@@ -25,9 +25,10 @@ from collections.abc import Mapping
 from typing import Any
 
 import sympy as sp
+from sympy.printing.numpy import NumPyPrinter
+
 from svbi.codegen.kernels import KernelSpec, ModelSpec
 from svbi.codegen.plain_types import PYTHON_KERNELS_FILE
-from sympy.printing.numpy import NumPyPrinter
 
 GENERATOR = "svbi.codegen.python_emit"
 FILENAME = PYTHON_KERNELS_FILE

@@ -61,6 +61,7 @@ from pathlib import Path
 from typing import Any
 
 import sympy as sp
+
 from svbi.codegen.plain_types import TopologyError, builtin_topologies, check_value
 
 DOF_KINDS = ("z", "theta")

@@ -23,6 +23,7 @@ from typing import Any
 
 import numpy as np
 import sympy as sp
+
 from svbi.codegen.plain_types import GRAVITY, NumericVehicle, TopologyError, mechanism_problem, validate_split
 from svbi.codegen.topology import Topology, load_topology
 

@@ -48,9 +48,10 @@ def export_and_run(tmp_path: Path, scenario: dict | None = None) -> tuple[Any, A
     import numpy as np
     import tomli_w
     import xarray as xr
+    from typer.testing import CliRunner
+
     from svbi.runtime.cli import app as cli
     from svbi.runtime.run import export as solver_export
-    from typer.testing import CliRunner
 
     scenario_file = tmp_path / "exported.toml"
     scenario_file.write_text(tomli_w.dumps(scenario or solver_export.example_scenario("pioneer-2d")))

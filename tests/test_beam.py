@@ -5,6 +5,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 import sympy as sp
+
 from svbi.codegen import beam
 from svbi.examples import paper_section
 from svbi.runtime.model.modes import span_modes

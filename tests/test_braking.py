@@ -16,11 +16,11 @@ import numpy as np
 import pytest
 from conftest import c_compiler_works
 from scipy.integrate import solve_ivp
+
+import svbi
 from svbi.examples import paper_section_keys
 from svbi.runtime.run.simulate import build_model
 from svbi.runtime.scenario.schema import validate_scenario
-
-import svbi
 
 L, E, Iy, MU = 25.0, 2.87e9, 2.9, 2303.0
 M_S, K_S, M_W = 5750.0, 1.595e6, 500.0

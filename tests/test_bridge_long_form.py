@@ -14,11 +14,11 @@ import warnings
 import numpy as np
 import pytest
 from conftest import c_compiler_works
+
+import svbi
 from svbi.examples import paper_section_keys
 from svbi.runtime.run.simulate import build_model
 from svbi.runtime.scenario.schema import ScenarioError, load_scenario, loads_scenario
-
-import svbi
 
 SECTION = "".join(f"{k} = {v!r}\n" for k, v in paper_section_keys().items()) + "elements_per_span = 6\n"
 
@@ -223,8 +223,9 @@ def test_shorthand_and_long_form_together_or_neither(tmp_path):
 
 
 def test_modes_of_a_refused_scenario_is_one_line(tmp_path):
-    from svbi.runtime.cli.app import _register, app
     from typer.testing import CliRunner
+
+    from svbi.runtime.cli.app import _register, app
 
     _register()
     text = (

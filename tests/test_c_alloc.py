@@ -15,6 +15,7 @@ import subprocess
 from pathlib import Path
 
 import pytest
+
 from svbi.runtime import toolchain as kernel_cache
 from svbi.runtime.backends.c import build as c_solver_build
 

@@ -35,6 +35,8 @@ from pathlib import Path
 import numpy as np
 import pytest
 from conftest import c_compiler_works, export_and_run
+
+import svbi
 from svbi.examples import paper_section_keys
 from svbi.runtime import toolchain as kernel_cache
 from svbi.runtime.backends.c import build as c_solver_build
@@ -46,8 +48,6 @@ from svbi.runtime.model.ground import RecordGround
 from svbi.runtime.run.results import Recorder
 from svbi.runtime.run.simulate import BackendFallback, DivergenceGuard, build_model
 from svbi.runtime.scenario.schema import validate_scenario
-
-import svbi
 
 METHODS = ("localized-dynamic", "coupled-dynamic", "coupled-classic")
 RTOL = 1e-10

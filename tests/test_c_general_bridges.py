@@ -9,11 +9,11 @@ import warnings
 import numpy as np
 import pytest
 from conftest import c_compiler_works, export_and_run
-from svbi.runtime.run.simulate import BackendFallback
-from svbi.runtime.scenario.schema import validate_scenario
 from test_continuous_bridges import VIADUCT
 
 import svbi
+from svbi.runtime.run.simulate import BackendFallback
+from svbi.runtime.scenario.schema import validate_scenario
 
 pytestmark = pytest.mark.skipif(not c_compiler_works(), reason="no working C compiler")
 

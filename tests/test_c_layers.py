@@ -20,8 +20,9 @@ from __future__ import annotations
 import re
 from importlib import resources
 
-from svbi.runtime.backends.c import build as c_solver_build
 from test_architecture import cycles
+
+from svbi.runtime.backends.c import build as c_solver_build
 
 KEYWORDS = frozenset({"if", "for", "while", "switch", "return", "sizeof", "do", "else"})
 IDENT = re.compile(r"\b([A-Za-z_]\w*)\b")

@@ -21,6 +21,7 @@ import numpy as np
 import pytest
 import scipy.interpolate
 import scipy.linalg
+
 from svbi.runtime import toolchain as kernel_cache
 from svbi.runtime.backends.c import build as c_solver_build
 

@@ -7,9 +7,10 @@ from pathlib import Path
 
 import numpy as np
 import sympy as sp
+from typer.testing import CliRunner
+
 from svbi.codegen.vehicle import derive_vehicle
 from svbi.runtime.cli.app import _register, app
-from typer.testing import CliRunner
 
 _register()
 runner = CliRunner()

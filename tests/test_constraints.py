@@ -5,6 +5,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 import sympy as sp
+
 from svbi.codegen import beam
 from svbi.codegen import constraints as c
 from svbi.codegen.vehicle import a_split, derive_vehicle, validate_split

@@ -12,6 +12,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 import sympy as sp
+
 from svbi.codegen import beam, constraints
 from svbi.examples import paper_section
 from svbi.runtime.model.bridge import Bridge

@@ -11,11 +11,12 @@ import itertools
 import numpy as np
 import pytest
 from conftest import REPO, c_compiler_works
+from test_unilateral import BRIDGE, M_S, M_W
+
 from svbi.runtime.cli.demo import STRONG
 from svbi.runtime.methods.unilateral import complementary_solve
 from svbi.runtime.run.simulate import Diverged, DivergenceGuard, build_model, simulate
 from svbi.runtime.scenario.schema import load_scenario, validate_scenario
-from test_unilateral import BRIDGE, M_S, M_W
 
 PAPER = str(REPO / "examples" / "paper-2020.toml")
 

@@ -19,13 +19,13 @@ import numpy as np
 import pytest
 from scipy.integrate import solve_ivp
 from scipy.optimize import brentq
+
+import svbi
 from svbi.examples import paper_section
 from svbi.runtime.model.bridge import Bridge, Girder, Section
 from svbi.runtime.model.system import FunctionGround
 from svbi.runtime.run.simulate import build_model
 from svbi.runtime.scenario.schema import validate_scenario
-
-import svbi
 
 L, MU, E, AREA, Iy = paper_section()
 P = 170.0e3
@@ -379,10 +379,11 @@ def test_localized_equals_coupled_dynamic_with_bearing_springs():
 def test_the_viaduct_example_loads_prints_its_modes_and_runs(tmp_path):
     """examples/viaduct.toml (shipped with the package): valid, `svbi modes` prints the whole
     bridge's frequencies, and a short run writes piers' results."""
+    from typer.testing import CliRunner
+
     from svbi.runtime.cli.app import _register, app
     from svbi.runtime.cli.demo import example_path
     from svbi.runtime.scenario.schema import load_scenario
-    from typer.testing import CliRunner
 
     path = example_path("viaduct.toml")
     sc = load_scenario(path)
@@ -406,8 +407,9 @@ def test_the_viaduct_example_loads_prints_its_modes_and_runs(tmp_path):
 
 def test_svbi_run_reports_the_peak_pier_drift(tmp_path):
     import tomli_w
-    from svbi.runtime.cli.app import _register, app
     from typer.testing import CliRunner
+
+    from svbi.runtime.cli.app import _register, app
 
     data = {
         "bridge": pier_bridge_dict(),

@@ -7,6 +7,7 @@ import math
 import numpy as np
 import pytest
 import sympy as sp
+
 from svbi.codegen import creep as law
 from svbi.runtime.model.creep_law import (
     CreepParameters,

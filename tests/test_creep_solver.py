@@ -20,13 +20,13 @@ from functools import cache
 import numpy as np
 import pytest
 from scipy.integrate import solve_ivp
+
+import svbi
 from svbi.examples import paper_section_keys
 from svbi.runtime.model.creep_law import CreepLaw, CreepParameters, kalker_coefficient
 from svbi.runtime.model.system import FunctionGround
 from svbi.runtime.run.simulate import build_model
 from svbi.runtime.scenario.schema import validate_scenario
-
-import svbi
 
 SPEED = 300.0 / 3.6
 J, R = 120.0, 0.4575  # pioneer-2d wheelset spin inertia and wheel radius (topology defaults)

@@ -5,11 +5,12 @@ from __future__ import annotations
 from pathlib import Path
 
 import xarray as xr
+from typer.testing import CliRunner
+
 from svbi.runtime.cli.app import _register, app
 from svbi.runtime.cli.demo import METHODS, example_path
 from svbi.runtime.plots.results import FIGURE_NAMES
 from svbi.runtime.scenario.schema import load_scenario
-from typer.testing import CliRunner
 
 _register()
 

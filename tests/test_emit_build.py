@@ -16,11 +16,12 @@ import numpy as np
 import pytest
 import sympy as sp
 import typer
+from typer.testing import CliRunner
+
 from svbi.codegen import c_emit
 from svbi.codegen.kernels import model_spec
 from svbi.runtime import toolchain as kernel_cache
 from svbi.runtime.cli import generate as cli_codegen
-from typer.testing import CliRunner
 
 REPO = Path(__file__).resolve().parents[1]
 GENERATED = REPO / "generated"

@@ -16,6 +16,7 @@ import pytest
 import sympy as sp
 from hypothesis import given, settings
 from hypothesis import strategies as st
+
 from svbi.codegen.casadi_emit import SympyToCasadi, UnsupportedExpression, build_function, load_function
 from svbi.codegen.kernels import KernelError, KernelSpec, ModelSpec
 from svbi.runtime import toolchain as kernel_cache

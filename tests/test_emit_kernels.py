@@ -17,6 +17,7 @@ import pytest
 import sympy as sp
 from hypothesis import given, settings
 from hypothesis import strategies as st
+
 from svbi.codegen.kernels import KernelSpec, builtin_models, model_spec
 from svbi.runtime import toolchain as kernel_cache
 

@@ -27,6 +27,8 @@ import numpy as np
 import pytest
 import scipy.signal as sig
 from scipy.integrate import solve_ivp
+
+import svbi
 from svbi.examples import paper_section
 from svbi.runtime.excitation import make_irregularity, process_record, read_record, synthetic_record
 from svbi.runtime.excitation.synthetic import synthetic_motion
@@ -34,8 +36,6 @@ from svbi.runtime.model.hslm import hslm_train
 from svbi.runtime.model.system import FunctionGround
 from svbi.runtime.run.simulate import build_model
 from svbi.runtime.scenario.schema import ScenarioError, validate_scenario
-
-import svbi
 
 L, MU, E, A, IY = paper_section()
 ZETA = 0.02

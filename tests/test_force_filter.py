@@ -7,6 +7,7 @@ import numpy as np
 import pytest
 import scipy.signal as sig
 from conftest import c_compiler_works
+
 from svbi.runtime.run import force_filter as zero_phase
 
 pytestmark = pytest.mark.skipif(not c_compiler_works(), reason="no working C compiler")

@@ -19,6 +19,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 import sympy as sp
+
 from svbi.codegen import kernels
 from svbi.codegen.kernels import KernelSpec
 from svbi.codegen.vehicle import derive_vehicle

@@ -10,6 +10,7 @@ import numpy as np
 import pytest
 from scipy import integrate
 from scipy.optimize import brentq
+
 from svbi.runtime.excitation import (
     HORIZONTAL,
     VERTICAL,

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
+
 from svbi.runtime.model.hslm import hslm_train
 
 # EN 1991-2:2003, Table E.1: train -> (N intermediate coaches, D coach length m, d bogie axle

@@ -23,11 +23,11 @@ import warnings
 
 import numpy as np
 import pytest
+
+import svbi
 from svbi.runtime.model.hslm import HSLM_A
 from svbi.runtime.scenario.schema import validate_scenario
 from svbi.runtime.study.metrics import compute_metrics, span_frequencies
-
-import svbi
 
 MASS = 15.0e3
 F1 = 5.0

@@ -25,6 +25,7 @@ import pytest
 import scipy.linalg as sla
 import scipy.sparse as sps
 import scipy.sparse.linalg as spla
+
 from svbi.examples import paper_section_keys
 from svbi.runtime.methods import initial
 from svbi.runtime.model.contact_rows import ShapeKernel

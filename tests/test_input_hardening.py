@@ -8,8 +8,9 @@ from __future__ import annotations
 from pathlib import Path
 
 import pytest
-from svbi.runtime.cli.app import _register, app
 from typer.testing import CliRunner
+
+from svbi.runtime.cli.app import _register, app
 
 _register()
 runner = CliRunner()
@@ -524,9 +525,8 @@ output_every = 3
 
 
 def _jacobs(tmp_path: Path, backend: str):  # noqa: ANN202 - xarray.Dataset
-    from svbi.runtime.scenario.schema import load_scenario
-
     import svbi
+    from svbi.runtime.scenario.schema import load_scenario
 
     (tmp_path / "two-body.toml").write_text(JACOBS)
     scenario = tmp_path / "s.toml"

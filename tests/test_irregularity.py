@@ -8,6 +8,7 @@ import numpy as np
 import pytest
 from scipy import integrate, signal
 from scipy.interpolate import BPoly
+
 from svbi.runtime.excitation.irregularity import (
     GermanSpectrum,
     NoIrregularity,
@@ -293,6 +294,7 @@ def test_fast_length_is_scipy_next_fast_len() -> None:
     """The table's FFT length (irregularity.fast_length: factors 2, 3, 5, 7, 11) is SciPy's
     next_fast_len for complex data, so the table has the nodes it had with scipy.fft."""
     import scipy.fft
+
     from svbi.runtime.excitation.irregularity import fast_length
 
     targets = [*range(1, 3000), *np.random.default_rng(4).integers(3000, 10**7, 300).tolist()]

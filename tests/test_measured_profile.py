@@ -17,6 +17,7 @@ import numpy as np
 import pytest
 from scipy.integrate import solve_ivp
 from scipy.interpolate import CubicSpline
+
 from svbi.runtime.run.output import OutputPathError, check_output, run_inputs
 from svbi.runtime.run.simulate import simulate
 from svbi.runtime.scenario.schema import ScenarioError, load_scenario

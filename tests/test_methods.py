@@ -14,10 +14,10 @@ from functools import cache
 
 import numpy as np
 import pytest
-from svbi.examples import paper_section_keys
-from svbi.runtime.scenario.schema import validate_scenario
 
 import svbi
+from svbi.examples import paper_section_keys
+from svbi.runtime.scenario.schema import validate_scenario
 
 COMPARED = ("midspan_uz", "midspan_ux", "contact_force", "carbody_uz", "carbody_az", "carbody_pitch")
 

@@ -21,12 +21,12 @@ from pathlib import Path
 import numpy as np
 import pytest
 import xarray as xr
+
+import svbi
 from svbi.runtime.run.results import write_netcdf
 from svbi.runtime.scenario.schema import validate_scenario
 from svbi.runtime.study.en1990 import en1990_checks
 from svbi.runtime.study.metrics import compute_metrics, span_frequencies
-
-import svbi
 
 BRIDGE = dict(
     spans=1,
@@ -115,6 +115,7 @@ def test_deck_filter_is_scipys_and_imports_no_scipy_signal_once_designed(tmp_pat
     fresh process whose filter design is cached does not import ``scipy.signal`` (0.38 s, with
     ``scipy.stats``: a sweep worker's first run paid it)."""
     import scipy.signal as sig
+
     from svbi.runtime.run import force_filter as zero_phase
     from svbi.runtime.study.metrics import FILTER_ORDER, lowpass
 
@@ -170,8 +171,9 @@ def test_unilateral_contact_metrics_when_present():
 
 def _svbi(*args: str) -> subprocess.CompletedProcess:
     """The command line in this process (typer's runner): exit status, stdout and stderr."""
-    from svbi.runtime.cli.app import _register, app
     from typer.testing import CliRunner
+
+    from svbi.runtime.cli.app import _register, app
 
     if not app.registered_commands:
         _register()

@@ -10,6 +10,7 @@ from fractions import Fraction
 
 import numpy as np
 import sympy as sp
+
 from svbi.runtime.methods.newmark import Newmark
 
 

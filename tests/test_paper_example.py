@@ -10,6 +10,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 import xarray as xr
+
 from svbi.runtime.cli.demo import METHODS, example_path
 from svbi.runtime.run.simulate import build_model, simulate
 from svbi.runtime.scenario.schema import load_scenario

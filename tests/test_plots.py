@@ -14,9 +14,10 @@ import pytest
 import typer
 import xarray as xr
 from PIL import Image
+from typer.testing import CliRunner
+
 from svbi.runtime.cli import plot as cli_plot
 from svbi.runtime.plots import results as plots
-from typer.testing import CliRunner
 
 runner = CliRunner()
 PNG_SIGNATURE = b"\x89PNG\r\n\x1a\n"

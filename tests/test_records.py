@@ -7,6 +7,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+
 from svbi.runtime.excitation.records import G, RecordError, read_record
 
 RECORDS = Path(__file__).resolve().parents[2] / "shared" / "data" / "ground-motions"

@@ -14,10 +14,11 @@ import json
 
 import numpy as np
 import pytest
+from typer.testing import CliRunner
+
 from svbi.examples import paper_section
 from svbi.runtime.run.simulate import simulate
 from svbi.runtime.scenario.schema import validate_scenario
-from typer.testing import CliRunner
 
 SPAN, MU, E, AREA, I_Y = paper_section()
 

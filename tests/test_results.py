@@ -10,6 +10,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 from scipy import signal
+
 from svbi.runtime.run import results
 from svbi.runtime.run.results import ImportAhead, Recorder
 from svbi.runtime.run.simulate import build_model, validate_scenario
@@ -87,6 +88,7 @@ def test_a_writer_that_cannot_load_loses_no_run(tmp_path: Path, monkeypatch) -> 
     """The writer's modules are imported ahead as a head start only: a broken netCDF4 neither fails
     the run after its loop nor the write, which falls back to h5netcdf (the same NetCDF-4 file)."""
     import xarray as xr
+
     from svbi.runtime.run.simulate import simulate
 
     (tmp_path / "svbi_broken_writer.py").write_text("raise ImportError('broken writer')\n")

@@ -12,10 +12,10 @@ from pathlib import Path
 import numpy as np
 import pytest
 import xarray as xr
-from svbi.runtime.scenario.schema import ScenarioError, ScenarioWarning, load_scenario, loads_scenario
 from typer.testing import CliRunner
 
 import svbi
+from svbi.runtime.scenario.schema import ScenarioError, ScenarioWarning, load_scenario, loads_scenario
 
 GOOD = """\
 title = "one span"

@@ -19,9 +19,10 @@ from typing import Any
 import tomli_w
 from hypothesis import HealthCheck, event, given, settings
 from hypothesis import strategies as st
+from typer.testing import CliRunner
+
 from svbi.runtime.cli.app import _register, app
 from svbi.runtime.scenario.schema import Scenario, ScenarioError, ScenarioWarning, validate_scenario
-from typer.testing import CliRunner
 
 _register()
 runner = CliRunner()

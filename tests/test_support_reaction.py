@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
+
 from svbi.codegen.plain_types import GRAVITY
 from svbi.examples import paper_section, paper_section_keys
 from svbi.runtime.run.simulate import simulate

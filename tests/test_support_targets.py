@@ -20,12 +20,12 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+
+import svbi
 from svbi.examples import paper_section_keys
 from svbi.runtime.excitation import process_record, read_record
 from svbi.runtime.model.system import newmark_targets, support_hat
 from svbi.runtime.scenario.schema import validate_scenario
-
-import svbi
 
 RECORD = Path("data/ground-motions/RinaldiUP.AT2")
 METHODS = ("localized-dynamic", "coupled-dynamic", "coupled-classic")

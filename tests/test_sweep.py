@@ -17,6 +17,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 import xarray as xr
+
 from svbi.runtime.study.metrics import METRIC_DIMS, compute_metrics
 from svbi.runtime.study.sweep import StudyError, load_study, read_store, run_sweep
 
@@ -277,6 +278,7 @@ def test_workers_keep_dask_thread_limits_without_the_malloc_trim_threshold():
     mmap threshold left alone (``sweep.worker_environment``: the per-run overhead halves)."""
     import dask
     import distributed  # noqa: F401 - loads Dask's distributed defaults
+
     from svbi.runtime.study.sweep import worker_environment
 
     env = worker_environment()

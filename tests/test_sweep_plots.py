@@ -12,6 +12,7 @@ import numpy as np
 import pytest
 import xarray as xr
 from scipy.stats import norm
+
 from svbi.runtime.plots.study import fit_lognormal, fragility, plot_store
 from svbi.runtime.run.results import write_netcdf
 

@@ -177,6 +177,7 @@ def test_every_command_is_registered_by_the_module_the_cli_names():
     import importlib
 
     import typer
+
     from svbi.runtime.cli import app as cli
 
     for module in set(cli.COMMAND_MODULES.values()):

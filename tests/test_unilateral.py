@@ -17,12 +17,12 @@ import warnings
 import numpy as np
 import pytest
 from scipy.integrate import solve_ivp
+
+import svbi
 from svbi.runtime.methods.unilateral import ContactWarning, Impact
 from svbi.runtime.model.system import FunctionGround
 from svbi.runtime.run.simulate import BackendFallback, build_model
 from svbi.runtime.scenario.schema import ScenarioError, validate_scenario
-
-import svbi
 
 M_S, M_W, K_S, C_S, G = 5750.0, 500.0, 1.595e6, 2.0e4, 9.81
 SPLIT = 0.5
@@ -186,6 +186,7 @@ def test_paper_examples_are_bilateral():
     import tomllib
 
     from conftest import REPO
+
     from svbi.runtime.scenario.schema import load_scenario
 
     assert load_scenario(REPO / "examples" / "paper-2020.toml").contact.normal == "bilateral"

@@ -25,13 +25,13 @@ import itertools
 import numpy as np
 import pytest
 from scipy.integrate import solve_ivp
+from test_unilateral import BRIDGE, C_S, K_S, M_S, M_W, SPLIT, G, sine_cubed
+
+import svbi
 from svbi.runtime.model.contact_rows import ShapeKernel
 from svbi.runtime.model.system import FunctionGround
 from svbi.runtime.run.simulate import build_model
 from svbi.runtime.scenario.schema import validate_scenario
-from test_unilateral import BRIDGE, C_S, K_S, M_S, M_W, SPLIT, G, sine_cubed
-
-import svbi
 
 GROUND = sine_cubed(0.05, 2.0)  # peak downward acceleration 1.4 g
 SPACING, FRONT, DURATION = 10.0, 20.0, 1.0  # wheels at x = 20 m and 10 m on the 25 m span

@@ -8,6 +8,7 @@ import numpy as np
 import pytest
 import scipy.linalg as sla
 import sympy as sp
+
 from svbi.codegen.topology import TopologyError, builtin_topologies, load_topology, parse_topology
 from svbi.codegen.vehicle import GRAVITY, a_split, derive_vehicle
 from svbi.runtime.model.modes import vehicle_modes

@@ -16,10 +16,10 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-from svbi.examples import paper_section
-from svbi.runtime.scenario.schema import validate_scenario
 
 import svbi
+from svbi.examples import paper_section
+from svbi.runtime.scenario.schema import validate_scenario
 
 L, MU, E, _, Iy = paper_section()
 P = 170.0e3

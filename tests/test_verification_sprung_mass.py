@@ -18,9 +18,9 @@ from __future__ import annotations
 import numpy as np
 import pytest
 from scipy.integrate import solve_ivp
-from svbi.runtime.scenario.schema import validate_scenario
 
 import svbi
+from svbi.runtime.scenario.schema import validate_scenario
 
 L, E, Iy, MU = 25.0, 2.87e9, 2.9, 2303.0
 M_S, K_S, M_W = 5750.0, 1.595e6, 500.0

@@ -10,11 +10,11 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
+
+import svbi
 from svbi.codegen.topology import load_topology
 from svbi.examples import paper_section
 from svbi.runtime.scenario.schema import validate_scenario
-
-import svbi
 
 L, MU, E, _, Iy = paper_section()
 G = 9.81

@@ -9,6 +9,7 @@ from enum import StrEnum
 from typing import TYPE_CHECKING, Any, NoReturn
 
 import typer
+
 from svbi.codegen.plain_types import TopologyError, spin_dofs
 
 from ...examples import paper_section_keys
@@ -39,6 +40,7 @@ class Format(StrEnum):
 def derivation(model: VehicleModel) -> dict[str, Any]:
     """Everything `svbi derive` prints, as SymPy objects keyed as in the JSON output."""
     import sympy as sp
+
     from svbi.codegen import constraints
 
     out: dict[str, Any] = {

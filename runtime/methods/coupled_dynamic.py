@@ -28,6 +28,7 @@ from __future__ import annotations
 from typing import Any
 
 import numpy as np
+
 from svbi.codegen.plain_types import GRAVITY
 
 from ..model.contact_rows import BridgeConstraintMass, vehicle_constraint_masses

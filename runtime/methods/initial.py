@@ -29,6 +29,7 @@ from dataclasses import dataclass
 
 import numpy as np
 import scipy.sparse as sps
+
 from svbi.codegen.plain_types import GRAVITY
 
 from ..model.contact_rows import ShapeKernel

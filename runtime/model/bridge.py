@@ -21,6 +21,7 @@ from typing import Any
 
 import numpy as np
 import scipy.linalg as sla
+
 from svbi.codegen.plain_types import GRAVITY
 
 from .modes import column_matrices, span_matrices

@@ -11,6 +11,7 @@ from dataclasses import dataclass
 
 import numpy as np
 import scipy.linalg as sla
+
 from svbi.codegen.plain_types import NumericVehicle
 
 from .kernels import frame2d

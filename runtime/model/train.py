@@ -16,6 +16,7 @@ from functools import cache
 from typing import Any
 
 import numpy as np
+
 from svbi.codegen.plain_types import GRAVITY, NumericVehicle
 
 from .vehicle import GeneratedVehicle, VehicleTopology, vehicle

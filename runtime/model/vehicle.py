@@ -14,6 +14,7 @@ from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
+
 from svbi.codegen.plain_types import (
     NumericVehicle,
     TopologyError,

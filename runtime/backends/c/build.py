@@ -37,6 +37,7 @@ from importlib import resources
 from typing import Any
 
 import numpy as np
+
 from svbi.codegen.c_flags import CASADI_WARNING_EXCEPTION, STRICT_FLAGS
 from svbi.codegen.plain_types import c_identifier
 

@@ -33,6 +33,7 @@ from collections.abc import Callable
 from typing import Any
 
 import numpy as np
+
 from svbi.codegen.plain_types import GRAVITY
 
 from ...excitation.ground import GroundMotion
