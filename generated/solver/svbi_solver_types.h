@@ -4,7 +4,7 @@
  *
  * The structs and status codes of svbi's C time loop (runtime/csrc/solver.h), written from the
  * field lists of svbi.runtime.backends.c.build, which also give Python's ctypes mirrors: one definition, so
- * the two cannot disagree (`svbi generate --check` and tests/test_c_numerics.py hold them equal).
+ * the two cannot disagree (`svbi generate --check` and tests/backends/test_c_numerics.py hold them equal).
  */
 #ifndef SVBI_SOLVER_TYPES_H
 #define SVBI_SOLVER_TYPES_H

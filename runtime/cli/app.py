@@ -43,7 +43,7 @@ COMMAND_MODULES = {
     "check": "study",
     "sweep": "study",
 }
-"""The module of ``svbi.runtime.cli`` that registers each command (tests/test_timings.py checks it
+"""The module of ``svbi.runtime.cli`` that registers each command (tests/run/test_timings.py checks it
 against the modules)."""
 
 

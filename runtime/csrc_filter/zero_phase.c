@@ -4,7 +4,7 @@
  * arithmetic. SciPy filters each channel on its own (its Cython sosfilt, transposed direct form II);
  * here the channels are the inner loop, so that a row of them is one vectorised pass: the same
  * operations on every channel, in the same order (svbi builds it with contraction off: the same
- * bits; tests/test_force_filter.py).
+ * bits; tests/run/test_force_filter.py).
  */
 #include <string.h>
 

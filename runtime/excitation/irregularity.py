@@ -11,7 +11,7 @@ Two sources, both behind the same ``evaluate(x) -> (r, dr, ddr)``:
 Every profile is multiplied by a C2 :class:`OnsetRamp`, so that r = r' = r'' = 0 where the train
 stands at t = 0 (the static start of docs/design.md section 3).
 
-Convention (pinned by ``tests/test_irregularity.py``): ``S(Ω)`` is one-sided in the spatial
+Convention (pinned by ``tests/excitation/test_irregularity.py``): ``S(Ω)`` is one-sided in the spatial
 angular frequency Ω (rad/m), so that the variance of the profile is ``σ² = ∫ S(Ω) dΩ`` over the
 band ``[2π/λ_max, 2π/λ_min]``. The sample is
 

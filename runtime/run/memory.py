@@ -6,7 +6,7 @@ filter runs at the full step rate) and the filter's working copies, the NetCDF i
 before the write, the rail-irregularity table and the spectral sum behind it, the ground-motion
 tables, and the bridge and stepper workspace. :func:`check_memory` refuses a run above a limit
 (``svbi run --max-memory``; default :data:`DEFAULT_SHARE` of the memory available when the run
-starts), naming the keys that drive the size. ``tests/test_run_safety.py`` checks the stored arrays
+starts), naming the keys that drive the size. ``tests/run/test_run_safety.py`` checks the stored arrays
 exactly and the total against the traced peak of a run.
 """
 

@@ -581,7 +581,7 @@ def loop_spec(train: Any) -> LoopSpec:
 
 CSRC_LAYERS = ("core", "step", "methods", "loop")
 """Subfolders of ``runtime/csrc/``, bottom to top: a file calls only files of its own layer or below
-(docs/c-backend.md; tests/test_c_layers.py)."""
+(docs/c-backend.md; tests/architecture/test_c_layers.py)."""
 
 
 def static_sources() -> dict[str, bytes]:

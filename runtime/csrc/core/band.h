@@ -1,6 +1,6 @@
 /*
  * Small dense and banded linear algebra of svbi's C time loop (band.c). Independent of the
- * topology: tests/test_c_numerics.py compiles band.c alone and checks it against SciPy and NumPy.
+ * topology: tests/backends/test_c_numerics.py compiles band.c alone and checks it against SciPy and NumPy.
  *
  * Layouts:
  *  - symmetric positive definite band (Cholesky): the lower band by columns, element (i, j),

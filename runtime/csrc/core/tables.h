@@ -1,7 +1,7 @@
 /*
  * Piecewise-polynomial tables of svbi's C time loop (tables.c): rail profiles, onset ramps and
  * ground-motion records, in scipy.interpolate.PPoly's layout with constant values beyond both ends.
- * Independent of the topology (tests/test_c_numerics.py checks it against scipy.interpolate.PPoly).
+ * Independent of the topology (tests/backends/test_c_numerics.py checks it against scipy.interpolate.PPoly).
  */
 #ifndef SVBI_SOLVER_TABLES_H
 #define SVBI_SOLVER_TABLES_H

@@ -23,7 +23,7 @@ from svbi.codegen.kernels import model_spec
 from svbi.runtime import toolchain as kernel_cache
 from svbi.runtime.cli import generate as cli_codegen
 
-REPO = Path(__file__).resolve().parents[1]
+REPO = Path(__file__).resolve().parents[2]
 GENERATED = REPO / "generated"
 
 

@@ -10,7 +10,7 @@ from pathlib import Path
 
 from lint_imports import lint
 
-REPO = Path(__file__).resolve().parents[1]
+REPO = Path(__file__).resolve().parents[2]
 RUNTIME = REPO / "runtime"
 
 

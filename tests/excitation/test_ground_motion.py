@@ -23,7 +23,7 @@ from svbi.runtime.excitation import (
 )
 from svbi.runtime.excitation.processing import integrate as integrate_record
 
-RECORDS = Path(__file__).resolve().parents[2] / "shared" / "data" / "ground-motions"
+RECORDS = Path(__file__).resolve().parents[3] / "shared" / "data" / "ground-motions"
 
 
 def burst_record(offset: float = 0.05, dt: float = 0.01, duration: float = 30.0) -> Record:

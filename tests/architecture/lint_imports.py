@@ -3,8 +3,8 @@
 svbi installs its folders under one namespace through ``package-dir`` (``runtime/`` is
 ``svbi.runtime``), which import-linter cannot follow: it walks the ``svbi`` package's folder. The
 repository's ``svbi/`` therefore holds links to its folders, so that ``lint-imports`` works from the
-repository root (``make lint``); for a copy (tests/test_architecture.py plants a violation in one),
-the package is staged the same way in a temporary folder put first on the path.
+repository root (``make lint``); for a copy (tests/architecture/test_architecture.py plants a
+violation in one), the package is staged the same way in a temporary folder put first on the path.
 """
 
 from __future__ import annotations
@@ -16,7 +16,7 @@ import sys
 import tempfile
 from pathlib import Path
 
-REPO = Path(__file__).resolve().parents[1]
+REPO = Path(__file__).resolve().parents[2]
 FOLDERS = ("runtime", "codegen", "templates", "generated", "examples")
 
 

@@ -10,7 +10,7 @@ import pytest
 
 from svbi.runtime.excitation.records import G, RecordError, read_record
 
-RECORDS = Path(__file__).resolve().parents[2] / "shared" / "data" / "ground-motions"
+RECORDS = Path(__file__).resolve().parents[3] / "shared" / "data" / "ground-motions"
 HEADERLESS_DT = {"tabasFN.txt": 0.02, "tabasFP.txt": 0.02}  # README note 1 (OpenSees scripts)
 
 

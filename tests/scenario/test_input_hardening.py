@@ -214,7 +214,7 @@ def test_export_of_a_name_ending_in_an_odd_character(tmp_path: Path) -> None:
 # --------------------------------------------------------------------------------------------------
 # item 2: every number finite, every error names its key, size guards
 
-PAPER = Path(__file__).resolve().parents[1] / "examples" / "paper-2020.toml"
+PAPER = Path(__file__).resolve().parents[2] / "examples" / "paper-2020.toml"
 
 
 @pytest.mark.parametrize(

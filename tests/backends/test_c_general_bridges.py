@@ -8,8 +8,8 @@ import warnings
 
 import numpy as np
 import pytest
+from cases import VIADUCT
 from conftest import c_compiler_works, export_and_run
-from test_continuous_bridges import VIADUCT
 
 import svbi
 from svbi.runtime.run.simulate import BackendFallback

@@ -17,17 +17,16 @@ import warnings
 
 import numpy as np
 import pytest
+from cases import A_P, AREA, E_P, I_P, MU, MU_P, VIADUCT, E, H, Iy, L, bridge_dict
 from scipy.integrate import solve_ivp
 from scipy.optimize import brentq
 
 import svbi
-from svbi.examples import paper_section
 from svbi.runtime.model.bridge import Bridge, Girder, Section
 from svbi.runtime.model.system import FunctionGround
 from svbi.runtime.run.simulate import build_model
 from svbi.runtime.scenario.schema import validate_scenario
 
-L, MU, E, AREA, Iy = paper_section()
 P = 170.0e3
 C_BEND = np.sqrt(E * Iy / MU)
 DECK = Section(MU, E, AREA, Iy, 0.0)
@@ -48,18 +47,6 @@ def exact_two_span_modes(count: int) -> list[tuple[float, object]]:
 
         modes.append((b * b * C_BEND, shape))
     return sorted(modes, key=lambda m: m[0])
-
-
-def bridge_dict(**girders) -> dict:
-    return dict(
-        mass_per_length=MU,
-        youngs_modulus=E,
-        area=AREA,
-        second_moment=Iy,
-        damping_ratio=0.0,
-        elements_per_span=16,
-        **girders,
-    )
 
 
 def moving_force(bridge: dict, speed_kmh: float, dt: float = 1e-4):
@@ -156,8 +143,6 @@ def test_unequal_simply_supported_spans_match_frybas_series_span_by_span():
 # --------------------------------------------------------------------------------------------------
 # a span whose fixed bearing is on a flexible pier
 
-H, MU_P, E_P, A_P, I_P = 12.0, 30.0e3, 32.0e9, 9.0, 6.0
-
 
 def cantilever_with_tip_mass(tip_mass: float) -> float:
     """Fundamental circular frequency of a cantilever carrying a point mass at its free end."""
@@ -237,25 +222,6 @@ def test_free_longitudinal_vibration_of_the_pier_in_the_time_loop():
 
 # --------------------------------------------------------------------------------------------------
 # the three methods on a small viaduct: a simple span, then a continuous two-span girder, on piers
-
-VIADUCT = {
-    "bridge": bridge_dict(
-        girders=[dict(spans=[24.0]), dict(spans=[30.0, 40.0], fixed_support=1)],
-        piers=[
-            dict(
-                support=1, height=10.0, mass_per_length=MU_P, youngs_modulus=E_P, area=A_P, second_moment=I_P
-            ),
-            dict(
-                support=2, height=12.0, mass_per_length=MU_P, youngs_modulus=E_P, area=A_P, second_moment=I_P
-            ),
-        ],
-    )
-    | {"elements_per_span": 8, "damping_ratio": 0.02, "rail_height": 1.5},
-    "train": dict(vehicle="pioneer-2d", cars=2, speed_kmh=250.0),
-    "track": dict(irregularity="none"),
-    "earthquake": dict(vertical="synthetic", longitudinal="synthetic", arrival=0.0),
-    "solver": dict(backend="numpy", time_step=5e-4, duration=1.5),
-}
 
 
 def viaduct(method: str, **sections):

@@ -216,7 +216,7 @@ def test_overrides_are_toml_literals_or_text(tmp_path):
 
 def test_casadi_backend_runs_and_agrees_with_numpy(tmp_path):
     """``backend = "casadi"`` evaluates the contact rows with the CasADi Functions (no fallback);
-    the warn-once fallback of a backend that cannot run is in tests/test_c_backend.py."""
+    the warn-once fallback of a backend that cannot run is in tests/backends/test_c_backend.py."""
     import svbi.runtime.run.simulate as sim
 
     sc = load_scenario(write(tmp_path, GOOD), overrides=["solver.backend=casadi", "solver.duration=0.02"])

@@ -1,0 +1,44 @@
+"""Bridges and scenarios that tests in several folders share (one home, not copies)."""
+
+from __future__ import annotations
+
+from svbi.examples import paper_section
+
+L, MU, E, AREA, Iy = paper_section()
+"""The paper's span and deck section (examples/paper-2020.toml)."""
+
+H, MU_P, E_P, A_P, I_P = 12.0, 30.0e3, 32.0e9, 9.0, 6.0
+"""A concrete pier: height (m), mass per length (kg/m), E (Pa), area (m^2), second moment (m^4)."""
+
+
+def bridge_dict(**girders) -> dict:
+    return dict(
+        mass_per_length=MU,
+        youngs_modulus=E,
+        area=AREA,
+        second_moment=Iy,
+        damping_ratio=0.0,
+        elements_per_span=16,
+        **girders,
+    )
+
+
+# a small viaduct: a simple span, then a continuous two-span girder, on piers
+VIADUCT = {
+    "bridge": bridge_dict(
+        girders=[dict(spans=[24.0]), dict(spans=[30.0, 40.0], fixed_support=1)],
+        piers=[
+            dict(
+                support=1, height=10.0, mass_per_length=MU_P, youngs_modulus=E_P, area=A_P, second_moment=I_P
+            ),
+            dict(
+                support=2, height=12.0, mass_per_length=MU_P, youngs_modulus=E_P, area=A_P, second_moment=I_P
+            ),
+        ],
+    )
+    | {"elements_per_span": 8, "damping_ratio": 0.02, "rail_height": 1.5},
+    "train": dict(vehicle="pioneer-2d", cars=2, speed_kmh=250.0),
+    "track": dict(irregularity="none"),
+    "earthquake": dict(vertical="synthetic", longitudinal="synthetic", arrival=0.0),
+    "solver": dict(backend="numpy", time_step=5e-4, duration=1.5),
+}
