@@ -51,8 +51,8 @@ GERMAN_A = {
 }
 """Roughness coefficients A_v (vertical profile) and A_a (alignment), m² rad/m.
 
-Low interference is "very good" track. Source: the German high-speed spectra as tabulated in
-``shared/data/vehicles.md``. Alignment is kept for 3D models; the 2D models use "vertical".
+Low interference is "very good" track. Source: the German high-speed track spectra
+(docs/excitations.md). Alignment is kept for 3D models; the 2D models use "vertical".
 """
 
 _CHUNK = 1 << 22  # elements of the (points x frequencies) work array evaluated at once (32 MiB)

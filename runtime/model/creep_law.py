@@ -127,8 +127,8 @@ def kalker_c11(a_over_b: float, nu: float) -> float:
 class CreepParameters:
     """Material and geometry of the wheel-rail contact (all values assumed, none from the paper).
 
-    Defaults: steel E = 210 GPa, ν = 0.3; wheel rolling radius 0.4575 m (typical Chinese EMU,
-    ``shared/data/vehicles.md``); rail head transverse radius 0.3 m (the 300 mm crown radius of
+    Defaults: steel E = 210 GPa, ν = 0.3; wheel rolling radius 0.4575 m (assumed, typical of Chinese
+    high-speed EMUs); rail head transverse radius 0.3 m (the 300 mm crown radius of
     60E1/UIC60 rail); friction coefficient 0.3 (dry rail).
     """
 

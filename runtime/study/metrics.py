@@ -152,7 +152,9 @@ def lowpass(values: np.ndarray, cutoff_hz: float, sample_hz: float) -> np.ndarra
 def filtered_deck_acceleration(ds: xr.Dataset) -> tuple[np.ndarray, float]:
     """The EN 1990 low-pass filtered ``deck_acceleration`` (time x span) and the cutoff used (Hz)."""
     if "deck_acceleration" not in ds.variables:
-        raise MetricsError("results have no 'deck_acceleration' (written by svbi >= 0.1 with issue 14)")
+        raise MetricsError(
+            "results have no 'deck_acceleration' (they were written by an older svbi: run the scenario again)"
+        )
     acc = np.asarray(ds["deck_acceleration"].transpose("time", "span").values, dtype=float)
     cutoff = span_frequencies(scenario_table(ds)["bridge"]).cutoff_hz
     t = np.asarray(ds["time"].values, dtype=float)
