@@ -178,6 +178,13 @@ def parse_topology(text: str, source: str = "<string>") -> Topology:
         data = tomllib.loads(text)
     except tomllib.TOMLDecodeError as exc:
         raise TopologyError(source, "toml", f"malformed TOML: {exc}") from None
+    if isinstance(data, dict) and data.get("dimensions", 2) != 2:
+        raise TopologyError(
+            source,
+            "dimensions",
+            "a 3D topology (svbi.codegen.topology3d, docs/three-d.md): runs take 2D vehicles only",
+        )
+    data.pop("dimensions", None)
     _only_keys(
         source,
         "",
