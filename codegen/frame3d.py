@@ -113,7 +113,9 @@ def shape_functions() -> dict[str, sp.Matrix]:
 def element_mass() -> sp.Matrix:
     """Consistent mass: integral of ``mu (Nu^T Nu + Nv^T Nv + Nw^T Nw) + I_m Nphi^T Nphi``."""
     n = shape_functions()
-    integrand = (mu * (n["u"].T * n["u"] + n["v"].T * n["v"] + n["w"].T * n["w"]) + I_m * n["phi"].T * n["phi"]) * le
+    integrand = (
+        mu * (n["u"].T * n["u"] + n["v"].T * n["v"] + n["w"].T * n["w"]) + I_m * n["phi"].T * n["phi"]
+    ) * le
     return integrand.applyfunc(_integral_over_element)
 
 

@@ -216,7 +216,9 @@ def parse_topology3d(text: str, source: str = "<string>") -> Topology3D:
         raise TopologyError(source, "toml", f"malformed TOML: {exc}") from None
     _only_keys(source, "", data, _TOP_KEYS)
     if data.get("dimensions") != 3:
-        raise TopologyError(source, "dimensions", f"must be 3 for a 3D topology, got {data.get('dimensions')!r}")
+        raise TopologyError(
+            source, "dimensions", f"must be 3 for a 3D topology, got {data.get('dimensions')!r}"
+        )
     if data.get("kind", "rigid-body") != "rigid-body":
         raise TopologyError(source, "kind", "a 3D topology is a rigid-body vehicle")
     name = _require_str(source, "name", data.get("name"))
@@ -249,7 +251,17 @@ def parse_topology3d(text: str, source: str = "<string>") -> Topology3D:
     names: set[str] = set()
     for i, raw in enumerate(_table_list(source, "suspensions", data.get("suspensions", []))):
         key = f"suspensions[{i}]"
-        allowed = {"name", "body_a", "body_b", "position", "lateral", "height", "sides", "stiffness", "damping"}
+        allowed = {
+            "name",
+            "body_a",
+            "body_b",
+            "position",
+            "lateral",
+            "height",
+            "sides",
+            "stiffness",
+            "damping",
+        }
         _only_keys(source, key, raw, allowed)
         sname = _require_name(source, f"{key}.name", raw.get("name"))
         a, b = pair(key, raw, f"suspension {sname!r}")
@@ -265,7 +277,9 @@ def parse_topology3d(text: str, source: str = "<string>") -> Topology3D:
         if sides not in (1, 2):
             raise TopologyError(source, f"{key}.sides", f"must be 1 or 2, got {sides!r}")
         lateral = expr(f"{key}.lateral", raw.get("lateral", "0"))
-        points = [(sname, lateral)] if sides == 1 else [(f"{sname}_left", lateral), (f"{sname}_right", -lateral)]
+        points = (
+            [(sname, lateral)] if sides == 1 else [(f"{sname}_left", lateral), (f"{sname}_right", -lateral)]
+        )
         for unit, y in points:
             if unit in names:
                 raise TopologyError(source, f"{key}.name", f"duplicate suspension name {unit!r}")
@@ -393,7 +407,9 @@ def _parse_bodies(source: str, data: Mapping[str, Any], expr: Any) -> list[Body3
         for dof, ikey in INERTIA_KEYS.items():
             if dof in dofs:
                 if ikey not in raw:
-                    raise TopologyError(source, f"{key}.{ikey}", f"body {bname!r} has DOF {dof!r} but no {ikey}")
+                    raise TopologyError(
+                        source, f"{key}.{ikey}", f"body {bname!r} has DOF {dof!r} but no {ikey}"
+                    )
                 inertias[dof] = expr(f"{key}.{ikey}", raw[ikey])
         bodies.append(
             Body3D(
@@ -416,7 +432,9 @@ def _check_positive(topo: Topology3D) -> None:
         roles = [("mass", body.mass), *((INERTIA_KEYS[d], e) for d, e in body.inertias.items())]
         for role, e in roles:
             if not float(e.subs(subs)) > 0:
-                raise TopologyError(topo.path, f"bodies[{i}].{role}", f"{role} of body {body.name!r} must be positive")
+                raise TopologyError(
+                    topo.path, f"bodies[{i}].{role}", f"{role} of body {body.name!r} must be positive"
+                )
     for i, wheel in enumerate(topo.wheels):
         if float(wheel.radius.subs(subs)) < 0:
             raise TopologyError(topo.path, f"wheels[{i}].radius", "radius must not be negative")

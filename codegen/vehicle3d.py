@@ -134,7 +134,9 @@ def derive_vehicle3d(topology: Topology3D | str) -> VehicleModel3D:
     elastic = sp.Integer(0)
     dissipation = sp.Integer(0)
     for s in topo.suspensions:
-        stretch = point(s.body_a, s.position, s.lateral, s.height) - point(s.body_b, s.position, s.lateral, s.height)
+        stretch = point(s.body_a, s.position, s.lateral, s.height) - point(
+            s.body_b, s.position, s.lateral, s.height
+        )
         for k in range(3):
             elastic += s.stiffness[k] * stretch[k] ** 2 / 2
             dissipation += s.damping[k] * rate(stretch[k]) ** 2 / 2

@@ -178,11 +178,7 @@ def derive_wheelset() -> WheelsetModel:
         normal = sp.Matrix([0, -sign * c.delta, 1])
         lateral_t = normal.cross(heading)
         # Kalker's linear law; the normal load carries half the axle load vertically
-        f = (
-            -f11 * c.xi_x * heading
-            + (-f22 * c.xi_y - f23 * c.xi_sp) * lateral_t
-            + W / 2 * normal
-        )
+        f = -f11 * c.xi_x * heading + (-f22 * c.xi_y - f23 * c.xi_sp) * lateral_t + W / 2 * normal
         r_c = sp.Matrix([-sign * b * psi, sign * b, -c.radius])
         moment = r_c.cross(f)
         force += f

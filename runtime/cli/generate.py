@@ -123,7 +123,8 @@ def check_tree(committed: Path) -> list[str]:
 
 def generate(
     models: list[str] | None = typer.Argument(
-        None, help="Built-in model names (vehicles, frame2d or frame3d for the bridge elements) or topology files."
+        None,
+        help="Built-in model names (vehicles, frame2d or frame3d for the bridge elements) or topology files.",
     ),
     all_: bool = typer.Option(False, "--all", help="Every built-in model."),
     out: Path | None = typer.Option(

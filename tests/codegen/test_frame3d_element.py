@@ -30,8 +30,12 @@ def test_torsion_is_the_linear_bar() -> None:
     # textbook two-node bar: G J / L [[1, -1], [-1, 1]] and I_m L / 6 [[2, 1], [1, 2]]
     idx = [frame3d.DOF_NAMES.index("phi1"), frame3d.DOF_NAMES.index("phi2")]
     le, gj, im = frame3d.le, frame3d.G * frame3d.J, frame3d.I_m
-    assert sp.simplify(frame3d.element_stiffness().extract(idx, idx) - gj / le * sp.Matrix([[1, -1], [-1, 1]])) == sp.zeros(2, 2)
-    assert sp.simplify(frame3d.element_mass().extract(idx, idx) - im * le / 6 * sp.Matrix([[2, 1], [1, 2]])) == sp.zeros(2, 2)
+    assert sp.simplify(
+        frame3d.element_stiffness().extract(idx, idx) - gj / le * sp.Matrix([[1, -1], [-1, 1]])
+    ) == sp.zeros(2, 2)
+    assert sp.simplify(
+        frame3d.element_mass().extract(idx, idx) - im * le / 6 * sp.Matrix([[2, 1], [1, 2]])
+    ) == sp.zeros(2, 2)
 
 
 def test_families_do_not_couple() -> None:
@@ -69,7 +73,20 @@ def test_shear_modulus_from_poisson() -> None:
 def test_generated_module_is_the_derivation() -> None:
     k = load(FRAME3D)
     s = frame3d.SAMPLE
-    subs = {sym: s[sym.name] for sym in (frame3d.E, frame3d.G, frame3d.A, frame3d.I_y, frame3d.I_z, frame3d.J, frame3d.mu, frame3d.I_m, frame3d.le)}
+    subs = {
+        sym: s[sym.name]
+        for sym in (
+            frame3d.E,
+            frame3d.G,
+            frame3d.A,
+            frame3d.I_y,
+            frame3d.I_z,
+            frame3d.J,
+            frame3d.mu,
+            frame3d.I_m,
+            frame3d.le,
+        )
+    }
     mass = np.array(frame3d.element_mass().subs(subs).evalf(17).tolist(), dtype=float)
     stiffness = np.array(frame3d.element_stiffness().subs(subs).evalf(17).tolist(), dtype=float)
     got_m = k.element_mass([s["mu"], s["I_m"]], s["le"])

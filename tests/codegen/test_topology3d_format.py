@@ -97,7 +97,9 @@ def test_errors_name_file_and_key(edit: tuple[str, str], key: str, problem: str)
 
 
 def test_bump_stop_table_is_checked() -> None:
-    text = MINIMAL + """
+    text = (
+        MINIMAL
+        + """
 [parameters.d]
 value = [0.0, 0.02, 0.01]
 [parameters.f]
@@ -110,6 +112,7 @@ direction = "y"
 displacements = "d"
 forces = "f"
 """
+    )
     with pytest.raises(TopologyError, match="increase strictly") as info:
         parse_topology3d(text, "car.toml")
     assert info.value.key == "bump_stops[0].displacements"

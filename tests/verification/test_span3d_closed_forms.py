@@ -9,7 +9,13 @@ import math
 import numpy as np
 import pytest
 
-from svbi.runtime.model.span3d import Section3D, family_frequencies, modes, simply_supported_span, static_displacement
+from svbi.runtime.model.span3d import (
+    Section3D,
+    family_frequencies,
+    modes,
+    simply_supported_span,
+    static_displacement,
+)
 
 # The 17WCEE example's box girder: 32 m, 22.4 t/m, E 35.5 GPa, A 8.63, I_yy (vertical) 6.58,
 # I_zz (lateral) 85.86, J 15.21 m^4; nu = 0.2.
@@ -57,7 +63,15 @@ def test_torsional_frequencies() -> None:
         # omega^2 = (GJ/I_m) (6/h^2) (1 - cos kh) / (2 + cos kh), k = n pi / L
         h = L / n_el
         discrete = [
-            math.sqrt(G * 15.21 / I_M * 6 / h**2 * (1 - math.cos(n * math.pi * h / L)) / (2 + math.cos(n * math.pi * h / L)))
+            math.sqrt(
+                G
+                * 15.21
+                / I_M
+                * 6
+                / h**2
+                * (1 - math.cos(n * math.pi * h / L))
+                / (2 + math.cos(n * math.pi * h / L))
+            )
             / (2 * math.pi)
             for n in (1, 2, 3)
         ]
@@ -74,10 +88,17 @@ def test_every_mode_is_one_family() -> None:
     span = simply_supported_span(SECTION, L, 8)
     _, families, _ = modes(span)
     # free DOFs per family: axial 9 - 1, lateral and vertical 2 * 9 - 2, torsion 9 - 2
-    assert {f: families.count(f) for f in set(families)} == {"axial": 8, "lateral": 16, "vertical": 16, "torsion": 7}
+    assert {f: families.count(f) for f in set(families)} == {
+        "axial": 8,
+        "lateral": 16,
+        "vertical": 16,
+        "torsion": 7,
+    }
 
 
-@pytest.mark.parametrize(("dof", "expected"), [("v", 1e6 * L**3 / (48 * 35.5e9 * 85.86)), ("w", 1e6 * L**3 / (48 * 35.5e9 * 6.58))])
+@pytest.mark.parametrize(
+    ("dof", "expected"), [("v", 1e6 * L**3 / (48 * 35.5e9 * 85.86)), ("w", 1e6 * L**3 / (48 * 35.5e9 * 6.58))]
+)
 def test_static_midspan_deflection(dof: str, expected: float) -> None:
     span = simply_supported_span(SECTION, L, 8)
     load = np.zeros(span.M.shape[0])
@@ -98,7 +119,9 @@ def test_static_midspan_twist() -> None:
 
 
 def test_given_shear_modulus_and_torsional_mass_are_used() -> None:
-    section = Section3D(E=35.5e9, A=8.63, I_y=6.58, I_z=85.86, J=15.21, mass_per_length=22.4e3, G=1.0e10, torsional_mass=5.0e4)
+    section = Section3D(
+        E=35.5e9, A=8.63, I_y=6.58, I_z=85.86, J=15.21, mass_per_length=22.4e3, G=1.0e10, torsional_mass=5.0e4
+    )
     got = family_frequencies(simply_supported_span(section, L, 64), "torsion", 1)[0]
     assert got == pytest.approx(1 / (2 * L) * math.sqrt(1.0e10 * 15.21 / 5.0e4), rel=2e-4)
 

@@ -21,7 +21,9 @@ def derived(name: str) -> VehicleModel3D:
     return derive_vehicle3d(name)
 
 
-def direct_stiffness(topo: Topology3D, dof_names: tuple[str, ...]) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+def direct_stiffness(
+    topo: Topology3D, dof_names: tuple[str, ...]
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """M, K and C assembled from the topology's numbers, without the symbolic derivation."""
     subs = {p.symbol: p.value for p in topo.parameters.values() if not isinstance(p.value, tuple)}
 
@@ -102,7 +104,9 @@ def test_car_body_modes_on_the_suspensions(name: str) -> None:
         assert energy[car].sum() > 0.5 * energy.sum()
         dominant.append(names[int(np.argmax(energy))].split("_")[0])
     assert sorted(dominant) == sorted(KINDS)
-    assert 0.3 < freqs[0] and freqs[4] < 3.0  # car-body modes of passenger cars: a fraction of a hertz to ~2 Hz
+    assert (
+        0.3 < freqs[0] and freqs[4] < 3.0
+    )  # car-body modes of passenger cars: a fraction of a hertz to ~2 Hz
 
 
 def test_vertical_plane_is_the_2d_derivation() -> None:
@@ -113,7 +117,12 @@ def test_vertical_plane_is_the_2d_derivation() -> None:
 
     model = derived("manchester-3d")
     topo = model.topology
-    zero_x = {"primary_stiffness_x": 0.0, "primary_damping_x": 0.0, "secondary_stiffness_x": 0.0, "secondary_damping_x": 0.0}
+    zero_x = {
+        "primary_stiffness_x": 0.0,
+        "primary_damping_x": 0.0,
+        "secondary_stiffness_x": 0.0,
+        "secondary_damping_x": 0.0,
+    }
     nv = model.numeric(zero_x)
     subs = {p.symbol: p.value for p in topo.parameters.values() if not isinstance(p.value, tuple)}
 
@@ -147,7 +156,13 @@ def test_vertical_plane_is_the_2d_derivation() -> None:
         ]
     for w in topo.wheels:
         if w.name.endswith("_left"):
-            lines += ["[[wheels]]", f'name = "{w.name}"', f'body = "{w.body}"', f"position = {num(w.position)!r}", f"radius = {num(w.radius)!r}"]
+            lines += [
+                "[[wheels]]",
+                f'name = "{w.name}"',
+                f'body = "{w.body}"',
+                f"position = {num(w.position)!r}",
+                f"radius = {num(w.radius)!r}",
+            ]
     flat = derive_vehicle(parse_topology("\n".join(lines))).numeric()
     idx = [nv.dof_names.index(n) for n in flat.dof_names]
     for got, want in ((nv.M, flat.M), (nv.K, flat.K), (nv.C, flat.C)):

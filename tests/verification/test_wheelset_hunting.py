@@ -108,7 +108,9 @@ def test_characteristic_polynomial_is_the_textbook_one() -> None:
         m, c, k = matrices(speed, VALUES)
         s = sp.Symbol("s")
         derived = sp.Poly(sp.Matrix(m * s**2 + c * s + k).det(), s).all_coeffs()
-        np.testing.assert_allclose(np.array(derived, dtype=float), textbook_polynomial(speed, VALUES), rtol=1e-12)
+        np.testing.assert_allclose(
+            np.array(derived, dtype=float), textbook_polynomial(speed, VALUES), rtol=1e-12
+        )
 
 
 def test_critical_speed_and_hunting_frequency() -> None:
