@@ -33,7 +33,7 @@ from functools import cache
 
 import sympy as sp
 
-from svbi.codegen.beam import _integral_over_element, d_dx, le, xi
+from svbi.codegen.beam import d_dx, integral_over_element, le, xi
 from svbi.codegen.kernels import FRAME3D, KernelSpec, ModelSpec, column
 
 __all__ = ["FRAME3D", "element_mass", "element_stiffness", "frame3d_model_spec", "shear_modulus"]
@@ -116,7 +116,7 @@ def element_mass() -> sp.Matrix:
     integrand = (
         mu * (n["u"].T * n["u"] + n["v"].T * n["v"] + n["w"].T * n["w"]) + I_m * n["phi"].T * n["phi"]
     ) * le
-    return integrand.applyfunc(_integral_over_element)
+    return integrand.applyfunc(integral_over_element)
 
 
 @cache
@@ -128,7 +128,7 @@ def element_stiffness() -> sp.Matrix:
     integrand = (
         E * A * du.T * du + E * I_z * ddv.T * ddv + E * I_y * ddw.T * ddw + G * J * dphi.T * dphi
     ) * le
-    return integrand.applyfunc(_integral_over_element)
+    return integrand.applyfunc(integral_over_element)
 
 
 SAMPLE: dict[str, float] = {

@@ -428,3 +428,12 @@ def _check_positive_roles(topo: Topology, values: Mapping[str, Any], where: str)
             raise TopologyError(
                 where, "axle_loads", "axle_loads and axle_offsets must be lists of equal length"
             )
+
+
+# The validation helpers that the 3D format (``svbi.codegen.topology3d``) shares with this one.
+only_keys = _only_keys
+require_str = _require_str
+require_name = _require_name
+table_list = _table_list
+parse_parameters = _parse_parameters
+parse_expr = _parse_expr

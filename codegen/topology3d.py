@@ -71,12 +71,12 @@ import sympy as sp
 from svbi.codegen.plain_types import TopologyError
 from svbi.codegen.topology import (
     Parameter,
-    _only_keys,
-    _parse_expr,
-    _parse_parameters,
-    _require_name,
-    _require_str,
-    _table_list,
+    only_keys,
+    parse_expr,
+    parse_parameters,
+    require_name,
+    require_str,
+    table_list,
 )
 
 DOF_KINDS_3D = ("y", "z", "phi", "theta", "psi")
@@ -214,19 +214,19 @@ def parse_topology3d(text: str, source: str = "<string>") -> Topology3D:
         data = tomllib.loads(text)
     except tomllib.TOMLDecodeError as exc:
         raise TopologyError(source, "toml", f"malformed TOML: {exc}") from None
-    _only_keys(source, "", data, _TOP_KEYS)
+    only_keys(source, "", data, _TOP_KEYS)
     if data.get("dimensions") != 3:
         raise TopologyError(
             source, "dimensions", f"must be 3 for a 3D topology, got {data.get('dimensions')!r}"
         )
     if data.get("kind", "rigid-body") != "rigid-body":
         raise TopologyError(source, "kind", "a 3D topology is a rigid-body vehicle")
-    name = _require_str(source, "name", data.get("name"))
-    params = _parse_parameters(source, data.get("parameters"))
+    name = require_str(source, "name", data.get("name"))
+    params = parse_parameters(source, data.get("parameters"))
     symbols = {p.name: p.symbol for p in params.values()}
 
     def expr(key: str, raw: Any) -> sp.Expr:
-        return _parse_expr(source, key, raw, symbols, params)
+        return parse_expr(source, key, raw, symbols, params)
 
     bodies = _parse_bodies(source, data, expr)
     body_names = [b.name for b in bodies]
@@ -238,8 +238,8 @@ def parse_topology3d(text: str, source: str = "<string>") -> Topology3D:
             )
 
     def pair(key: str, raw: Mapping[str, Any], label: str) -> tuple[str, str]:
-        a = _require_str(source, f"{key}.body_a", raw.get("body_a"))
-        b = _require_str(source, f"{key}.body_b", raw.get("body_b"))
+        a = require_str(source, f"{key}.body_a", raw.get("body_a"))
+        b = require_str(source, f"{key}.body_b", raw.get("body_b"))
         for side, body in (("body_a", a), ("body_b", b)):
             if body not in body_names:
                 raise TopologyError(source, f"{key}.{side}", f"unknown body {body!r}")
@@ -249,7 +249,7 @@ def parse_topology3d(text: str, source: str = "<string>") -> Topology3D:
 
     suspensions: list[Suspension3D] = []
     names: set[str] = set()
-    for i, raw in enumerate(_table_list(source, "suspensions", data.get("suspensions", []))):
+    for i, raw in enumerate(table_list(source, "suspensions", data.get("suspensions", []))):
         key = f"suspensions[{i}]"
         allowed = {
             "name",
@@ -262,8 +262,8 @@ def parse_topology3d(text: str, source: str = "<string>") -> Topology3D:
             "stiffness",
             "damping",
         }
-        _only_keys(source, key, raw, allowed)
-        sname = _require_name(source, f"{key}.name", raw.get("name"))
+        only_keys(source, key, raw, allowed)
+        sname = require_name(source, f"{key}.name", raw.get("name"))
         a, b = pair(key, raw, f"suspension {sname!r}")
         if "stiffness" not in raw and "damping" not in raw:
             raise TopologyError(source, key, f"suspension {sname!r} has neither stiffness nor damping")
@@ -298,10 +298,10 @@ def parse_topology3d(text: str, source: str = "<string>") -> Topology3D:
             )
 
     rotational: list[RotationalSpring] = []
-    for i, raw in enumerate(_table_list(source, "rotational_springs", data.get("rotational_springs", []))):
+    for i, raw in enumerate(table_list(source, "rotational_springs", data.get("rotational_springs", []))):
         key = f"rotational_springs[{i}]"
-        _only_keys(source, key, raw, {"name", "body_a", "body_b", "axis", "stiffness", "damping"})
-        rname = _require_name(source, f"{key}.name", raw.get("name"))
+        only_keys(source, key, raw, {"name", "body_a", "body_b", "axis", "stiffness", "damping"})
+        rname = require_name(source, f"{key}.name", raw.get("name"))
         if any(r.name == rname for r in rotational):
             raise TopologyError(source, f"{key}.name", f"duplicate rotational spring name {rname!r}")
         a, b = pair(key, raw, f"rotational spring {rname!r}")
@@ -322,10 +322,10 @@ def parse_topology3d(text: str, source: str = "<string>") -> Topology3D:
         )
 
     stops: list[BumpStop] = []
-    for i, raw in enumerate(_table_list(source, "bump_stops", data.get("bump_stops", []))):
+    for i, raw in enumerate(table_list(source, "bump_stops", data.get("bump_stops", []))):
         key = f"bump_stops[{i}]"
-        _only_keys(source, key, raw, {"name", "body_a", "body_b", "direction", "displacements", "forces"})
-        bname = _require_name(source, f"{key}.name", raw.get("name"))
+        only_keys(source, key, raw, {"name", "body_a", "body_b", "direction", "displacements", "forces"})
+        bname = require_name(source, f"{key}.name", raw.get("name"))
         if any(s.name == bname for s in stops):
             raise TopologyError(source, f"{key}.name", f"duplicate bump stop name {bname!r}")
         a, b = pair(key, raw, f"bump stop {bname!r}")
@@ -334,7 +334,7 @@ def parse_topology3d(text: str, source: str = "<string>") -> Topology3D:
             raise TopologyError(source, f"{key}.direction", f"must be 'x', 'y' or 'z', got {direction!r}")
         tables = []
         for role in ("displacements", "forces"):
-            pname = _require_str(source, f"{key}.{role}", raw.get(role))
+            pname = require_str(source, f"{key}.{role}", raw.get(role))
             if pname not in params or not isinstance(params[pname].value, tuple):
                 raise TopologyError(source, f"{key}.{role}", f"{pname!r} is not a list parameter")
             tables.append(params[pname].value)
@@ -348,13 +348,13 @@ def parse_topology3d(text: str, source: str = "<string>") -> Topology3D:
         stops.append(BumpStop(bname, a, b, direction, raw["displacements"], raw["forces"]))
 
     wheels: list[Wheel3D] = []
-    for i, raw in enumerate(_table_list(source, "wheels", data.get("wheels", []))):
+    for i, raw in enumerate(table_list(source, "wheels", data.get("wheels", []))):
         key = f"wheels[{i}]"
-        _only_keys(source, key, raw, {"name", "body", "position", "lateral", "radius"})
-        wname = _require_name(source, f"{key}.name", raw.get("name"))
+        only_keys(source, key, raw, {"name", "body", "position", "lateral", "radius"})
+        wname = require_name(source, f"{key}.name", raw.get("name"))
         if any(w.name == wname for w in wheels):
             raise TopologyError(source, f"{key}.name", f"duplicate wheel name {wname!r}")
-        body = _require_str(source, f"{key}.body", raw.get("body"))
+        body = require_str(source, f"{key}.body", raw.get("body"))
         if body not in body_names:
             raise TopologyError(source, f"{key}.body", f"unknown body {body!r}")
         wheels.append(
@@ -390,10 +390,10 @@ def parse_topology3d(text: str, source: str = "<string>") -> Topology3D:
 def _parse_bodies(source: str, data: Mapping[str, Any], expr: Any) -> list[Body3D]:
     bodies: list[Body3D] = []
     allowed = {"name", "dofs", "mass", "position", "height", *INERTIA_KEYS.values()}
-    for i, raw in enumerate(_table_list(source, "bodies", data.get("bodies", []))):
+    for i, raw in enumerate(table_list(source, "bodies", data.get("bodies", []))):
         key = f"bodies[{i}]"
-        _only_keys(source, key, raw, allowed)
-        bname = _require_name(source, f"{key}.name", raw.get("name"))
+        only_keys(source, key, raw, allowed)
+        bname = require_name(source, f"{key}.name", raw.get("name"))
         if any(b.name == bname for b in bodies):
             raise TopologyError(source, f"{key}.name", f"duplicate body name {bname!r}")
         dofs = raw.get("dofs")
