@@ -11,9 +11,11 @@ import pytest
 import sympy as sp
 
 from svbi.codegen import wheelset3d as ws
+from svbi.runtime.model.kalker3d import kalker_coefficients
 
 AB = 5.5e-3**2  # contact ellipse a = b = 5.5 mm: Kalker's table at g = 1, nu = 0.25
 G_STEEL = 80e9
+C11, C22, C23 = kalker_coefficients(1.0, 0.25)
 VALUES = {
     "m_w": 1813.0,
     "I_wz": 1120.0,
@@ -22,9 +24,9 @@ VALUES = {
     "lam": 0.1,
     "delta0": 0.1,
     "W": 109e3,
-    "f11": G_STEEL * AB * 4.12,
-    "f22": G_STEEL * AB * 3.67,
-    "f23": G_STEEL * AB**1.5 * 1.47,
+    "f11": G_STEEL * AB * C11,
+    "f22": G_STEEL * AB * C22,
+    "f23": G_STEEL * AB**1.5 * C23,
     "k_y": 0.5e6,
     "k_psi": 2.0e6,
 }
