@@ -141,3 +141,7 @@ def tangential_row(order: int = 0) -> sp.Matrix:
         raise ValueError(f"tangential_row: order must be 0 or 1, got {order}")
     base = axial_shape() - h * d_dx(bending_shape(), 1)
     return d_dx(base, order) if order else base.applyfunc(sp.expand)
+
+
+integral_over_element = _integral_over_element
+"""Exact integral over the element of a polynomial in ``xi`` (shared with ``svbi.codegen.frame3d``)."""

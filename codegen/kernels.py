@@ -30,6 +30,8 @@ _IDENT = re.compile(r"^[A-Za-z_][A-Za-z0-9_]*$")
 
 FRAME2D = "frame2d"
 """Model name of the bridge frame element kernels (:func:`beam_kernels`)."""
+FRAME3D = "frame3d"
+"""Model name of the 3D frame element kernels (:func:`svbi.codegen.frame3d.frame3d_model_spec`)."""
 
 
 class KernelError(ValueError):
@@ -953,7 +955,7 @@ def frame2d_model_spec() -> ModelSpec:
 
 def skip_reason(name_or_path: str) -> str | None:
     """Why a model has nothing to generate (moving loads), or None."""
-    if name_or_path == FRAME2D:
+    if name_or_path in (FRAME2D, FRAME3D):
         return None
     from svbi.codegen.topology import load_topology
 

@@ -180,14 +180,17 @@ def topology_data(topology: Any) -> dict[str, Any]:
 
 
 def render_target(target: str) -> tuple[str, bytes]:
-    """The generated module of a built-in model name (``frame2d`` or a vehicle) or a topology file:
-    ``(model name, module source)``. A moving-load vehicle has no kernels, only its data."""
-    from svbi.codegen import kernels
+    """The generated module of a built-in model name (``frame2d``, ``frame3d`` or a vehicle) or a
+    topology file: ``(model name, module source)``. A moving-load vehicle has no kernels, only its
+    data."""
+    from svbi.codegen import frame3d, kernels
     from svbi.codegen.topology import load_topology
     from svbi.codegen.vehicle import derive_vehicle
 
     if target == kernels.FRAME2D:
         return target, render_module(kernels.frame2d_model_spec(), frame2d_data())
+    if target == frame3d.FRAME3D:
+        return target, render_module(frame3d.frame3d_model_spec(), frame3d_data())
     topology = load_topology(target)
     if kernels.skip_reason(target) is not None:
         spec = ModelSpec(topology.name, f"Vehicle model {topology.name}: {topology.description}", [])
@@ -209,6 +212,13 @@ def render_vehicle(model: Any, spec: ModelSpec | None = None) -> bytes:
     )
     kernel_list = [*spec.kernels, kernels.vehicle_role_spec(model)]
     return render_module(ModelSpec(spec.name, spec.doc, kernel_list, spec.parameters, spec.sizes), data)
+
+
+def frame3d_data() -> dict[str, Any]:
+    """Plain data of the 3D element: its DOF names and the default Poisson's ratio."""
+    from svbi.codegen import frame3d
+
+    return {"dof_names": frame3d.DOF_NAMES, "poisson_default": frame3d.POISSON_DEFAULT}
 
 
 def frame2d_data() -> dict[str, Any]:

@@ -178,6 +178,13 @@ def parse_topology(text: str, source: str = "<string>") -> Topology:
         data = tomllib.loads(text)
     except tomllib.TOMLDecodeError as exc:
         raise TopologyError(source, "toml", f"malformed TOML: {exc}") from None
+    if isinstance(data, dict) and data.get("dimensions", 2) != 2:
+        raise TopologyError(
+            source,
+            "dimensions",
+            "a 3D topology (svbi.codegen.topology3d, docs/three-d.md): runs take 2D vehicles only",
+        )
+    data.pop("dimensions", None)
     _only_keys(
         source,
         "",
@@ -421,3 +428,12 @@ def _check_positive_roles(topo: Topology, values: Mapping[str, Any], where: str)
             raise TopologyError(
                 where, "axle_loads", "axle_loads and axle_offsets must be lists of equal length"
             )
+
+
+# The validation helpers that the 3D format (``svbi.codegen.topology3d``) shares with this one.
+only_keys = _only_keys
+require_str = _require_str
+require_name = _require_name
+table_list = _table_list
+parse_parameters = _parse_parameters
+parse_expr = _parse_expr

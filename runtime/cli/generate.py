@@ -30,10 +30,15 @@ def _render(target: str, embedded: bool = False) -> tuple[str, dict[str, bytes]]
     and creep law of frame2d). A moving-load vehicle has only its NumPy module (its data) and its
     topology header."""
     from svbi.codegen import c_emit, python_emit
+    from svbi.codegen.frame3d import FRAME3D
     from svbi.codegen.kernels import FRAME2D, frame2d_model_spec, skip_reason, vehicle_model_spec
 
     from ..backends.c import glue as c_glue
 
+    if target == FRAME3D:
+        # the 3D element is not yet in the C loop: its NumPy module only
+        name, source = python_emit.render_target(target)
+        return name, {python_emit.FILENAME: source}
     if skip_reason(target) is not None:
         name, source = python_emit.render_target(target)
         return name, dict(sorted({python_emit.FILENAME: source, **c_glue.topology(name, 0, 0)}.items()))
@@ -53,11 +58,12 @@ def _render(target: str, embedded: bool = False) -> tuple[str, dict[str, bytes]]
 
 def _targets() -> list[str]:
     """Every built-in model with generated files: the vehicles (moving loads: the NumPy module
-    only) and ``frame2d``."""
+    only), ``frame2d`` and ``frame3d`` (the NumPy module only)."""
+    from svbi.codegen.frame3d import FRAME3D
     from svbi.codegen.kernels import FRAME2D
     from svbi.codegen.topology import builtin_topologies
 
-    return [*builtin_topologies(), FRAME2D]
+    return [*builtin_topologies(), FRAME2D, FRAME3D]
 
 
 def _builtin_tree() -> dict[str, dict[str, bytes]]:
@@ -117,7 +123,8 @@ def check_tree(committed: Path) -> list[str]:
 
 def generate(
     models: list[str] | None = typer.Argument(
-        None, help="Built-in model names (vehicles, or frame2d for the bridge element) or topology files."
+        None,
+        help="Built-in model names (vehicles, frame2d or frame3d for the bridge elements) or topology files.",
     ),
     all_: bool = typer.Option(False, "--all", help="Every built-in model."),
     out: Path | None = typer.Option(

@@ -20,16 +20,18 @@ from ..toolchain import generated_root, python_module
 
 FRAME2D = "frame2d"
 """The bridge element model (``svbi.codegen.kernels.FRAME2D``)."""
+FRAME3D = "frame3d"
+"""The 3D frame element model (``svbi.codegen.kernels.FRAME3D``), not yet used by runs."""
 
 
 def module_path(model: str) -> Path:
-    """The file of a model's generated module: committed for ``frame2d`` and the built-in vehicles,
-    emitted into the cache for a topology file."""
-    if model == FRAME2D or model in builtin_topologies():
+    """The file of a model's generated module: committed for ``frame2d``, ``frame3d`` and the
+    built-in vehicles, emitted into the cache for a topology file."""
+    if model in (FRAME2D, FRAME3D) or model in builtin_topologies():
         committed = generated_root() / model / PYTHON_KERNELS_FILE
         if committed.is_file():
             return committed
-        if model == FRAME2D:
+        if model in (FRAME2D, FRAME3D):
             raise FileNotFoundError(f"{committed} is missing: run `svbi generate --all`")
         from importlib import resources
 

@@ -1,0 +1,1 @@
+"""svbi.codegen.vehicles3d: built-in 3D vehicle topologies (not yet available in runs)."""

@@ -1,0 +1,118 @@
+"""The 3D topology format: built-in files, the keys it adds, and errors that name file and key."""
+
+from __future__ import annotations
+
+from importlib import resources
+
+import pytest
+
+from svbi.codegen.plain_types import TopologyError, builtin_topologies
+from svbi.codegen.topology import load_topology, parse_topology
+from svbi.codegen.topology3d import builtin_topologies_3d, load_topology3d, parse_topology3d
+
+MINIMAL = """
+name = "one-body"
+dimensions = 3
+[parameters.m]
+value = 1000.0
+[parameters.car_length]
+value = 10.0
+[[bodies]]
+name = "body"
+dofs = ["y", "z", "phi", "theta", "psi"]
+mass = "m"
+roll_inertia = "m"
+pitch_inertia = "m"
+yaw_inertia = "m"
+height = 1
+[[bodies]]
+name = "axle"
+dofs = ["y"]
+mass = "m"
+[[suspensions]]
+name = "spring"
+body_a = "body"
+body_b = "axle"
+lateral = 1
+height = 0.5
+sides = 2
+stiffness = ["1", "2", "3"]
+[[wheels]]
+name = "wheel"
+body = "axle"
+"""
+
+
+def test_builtin_3d_vehicles_are_apart_from_the_runs() -> None:
+    assert builtin_topologies_3d() == ["crh380a-3d", "manchester-3d"]
+    assert not set(builtin_topologies_3d()) & set(builtin_topologies())
+
+
+def test_manchester_data() -> None:
+    topo = load_topology3d("manchester-3d")
+    assert [b.name for b in topo.bodies][:3] == ["carbody", "bogie_front", "bogie_rear"]
+    assert len(topo.suspensions) == 12  # 8 axle boxes, 4 secondary units
+    assert {s.name for s in topo.suspensions} >= {"primary_1_left", "primary_1_right", "secondary_rear_right"}
+    assert [r.axis for r in topo.rotational_springs] == ["psi", "phi", "psi", "phi"]
+    d, f = topo.bump_stop_table(topo.bump_stops[0])
+    assert d[1] == 0.025 and f[-1] == 230000.0 and len(d) == len(f) == 10
+    assert topo.parameters["car_length"].assumed
+    assert len(topo.wheels) == 8
+
+
+def test_sides_make_a_mirrored_pair() -> None:
+    topo = parse_topology3d(MINIMAL)
+    left, right = topo.suspensions
+    assert (left.name, right.name) == ("spring_left", "spring_right")
+    assert (float(left.lateral), float(right.lateral)) == (1.0, -1.0)
+
+
+def test_the_2d_loader_refuses_a_3d_file() -> None:
+    with pytest.raises(TopologyError, match="dimensions: a 3D topology"):
+        parse_topology(MINIMAL, "car.toml")
+    path = resources.files("svbi.codegen.vehicles3d") / "manchester-3d.toml"
+    with resources.as_file(path) as file, pytest.raises(TopologyError, match="runs take 2D vehicles only"):
+        load_topology(file)
+
+
+@pytest.mark.parametrize(
+    ("edit", "key", "problem"),
+    [
+        (('dofs = ["y"]', 'dofs = ["x"]'), "bodies[1].dofs", "non-empty list"),
+        (('yaw_inertia = "m"\n', ""), "bodies[0].yaw_inertia", "no yaw_inertia"),
+        (("sides = 2", "sides = 3"), "suspensions[0].sides", "1 or 2"),
+        (('stiffness = ["1", "2", "3"]', 'stiffness = ["1", "2"]'), "suspensions[0].stiffness", "three"),
+        (('body_b = "axle"', 'body_b = "nope"'), "suspensions[0].body_b", "unknown body"),
+        (("dimensions = 3", "dimensions = 2"), "dimensions", "must be 3"),
+        (("height = 1\n", "height = 1\ncolour = 2\n"), "bodies[0].colour", "unknown key"),
+    ],
+)
+def test_errors_name_file_and_key(edit: tuple[str, str], key: str, problem: str) -> None:
+    text = MINIMAL.replace(*edit, 1)
+    assert text != MINIMAL
+    with pytest.raises(TopologyError, match=problem) as info:
+        parse_topology3d(text, "car.toml")
+    assert info.value.source == "car.toml"
+    assert info.value.key == key
+
+
+def test_bump_stop_table_is_checked() -> None:
+    text = (
+        MINIMAL
+        + """
+[parameters.d]
+value = [0.0, 0.02, 0.01]
+[parameters.f]
+value = [0.0, 10.0, 20.0]
+[[bump_stops]]
+name = "stop"
+body_a = "body"
+body_b = "axle"
+direction = "y"
+displacements = "d"
+forces = "f"
+"""
+    )
+    with pytest.raises(TopologyError, match="increase strictly") as info:
+        parse_topology3d(text, "car.toml")
+    assert info.value.key == "bump_stops[0].displacements"
