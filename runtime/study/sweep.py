@@ -53,7 +53,7 @@ from pydantic import (
 )
 
 from ..run.atomic import write_atomic
-from ..run.output import _folder_problem, _same_file
+from ..run.output import folder_problem, same_file
 from ..run.results import write_netcdf
 from ..run.simulate import simulate
 from ..scenario.schema import (
@@ -375,7 +375,7 @@ def run_one(
         if not int(metrics["complete"].values):
             status, message = STATUS_DIVERGED, str(ds.attrs.get("incomplete", "stopped early"))
         timings = {k: float(ds.attrs[k]) for k in ("setup_time_s", "loop_time_s", "wall_time_s")}
-        if history is not None:
+        if history is not None and not (stop is not None and Path(stop).exists()):
             import dask
 
             # a local lock, not the cluster-wide one xarray takes inside a worker (see write_part)
@@ -536,7 +536,7 @@ def check_store_output(raw: str | os.PathLike[str], study: Study | None = None) 
         raise SweepError(f"-o {text}: {path} exists and is not a regular file")
     if study is not None:
         for what, source in (("the study file", study.path), ("the scenario file", study.scenario_path)):
-            if _same_file(path, source):
+            if same_file(path, source):
                 raise SweepError(f"-o {text}: {path} is {what}; the store would overwrite it")
     folder = path.parent
     existing = folder
@@ -546,7 +546,7 @@ def check_store_output(raw: str | os.PathLike[str], study: Study | None = None) 
         raise SweepError(f"-o {text}: {existing} is a file, not a folder")
     if not folder.is_dir():
         raise SweepError(f"-o {text}: folder {folder} does not exist; create it first")
-    problem = _folder_problem(folder)
+    problem = folder_problem(folder)
     if problem is not None:
         raise SweepError(f"-o {text}: {problem}")
     for side in (parts_dir(path), histories_dir(path)):
