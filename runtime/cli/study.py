@@ -138,9 +138,9 @@ def sweep(
     """Run a study (a scenario over axes of its keys) on Dask: metrics per run in one store.
 
     Finished runs are kept in OUT.parts/; running the same command again resumes (docs/sweep.md).
-    Exit status: 0 every run ok; 2 bad input or output path, or a study too large for the disk
-    (nothing run); 3 runs lost or no worker alive (run the same command again); 4 failed or
-    diverged runs (in the store); 130 / 143 interrupted by SIGINT / SIGTERM."""
+
+    Exit status: 0 all ok; 2 bad input, output path or too little disk (nothing run);
+    3 runs lost or no worker alive (run again); 4 failed or diverged runs; 130 / 143 interrupted."""
     import gc
     import shlex
     import sys
