@@ -8,7 +8,7 @@ from typing import TYPE_CHECKING
 import typer
 
 from ..run.atomic import write_atomic
-from ..study.sweep import is_store, read_store
+from ..study.store import is_store, read_store
 
 if TYPE_CHECKING:
     import xarray as xr
@@ -62,7 +62,7 @@ def plot(
 ) -> None:
     """Figures of a results file (Fig. 4 panels, gaps, summary) or of a sweep store (metric, fragility)."""
     out_dir = out if out is not None else results.with_name(f"{results.stem}-figures")
-    if results.is_file() and is_store(results):
+    if is_store(results):
         _draw_store(results, out_dir, metric, axis, by, limit, intensity)
         return
     _draw([results], out_dir)

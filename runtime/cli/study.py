@@ -1,8 +1,9 @@
 """`svbi metrics`, `svbi check` and `svbi sweep`: engineering quantities of one run and of a study.
 
 Exit status: 0 on success (``check``: every limit met), 2 for bad input, 3 when ``check`` finds a
-limit exceeded (``sweep``: when runs were lost, e.g. to dead workers: run it again to resume), 130
-when a sweep is interrupted (its finished runs are kept).
+limit exceeded (``sweep``: when runs were lost, e.g. to dead workers, or no worker is alive: run it
+again to resume), 4 when a sweep has failed or diverged runs, 130 / 143 when a sweep is interrupted
+by SIGINT / SIGTERM (its finished runs are kept).
 """
 
 from __future__ import annotations
@@ -12,16 +13,18 @@ from typing import TYPE_CHECKING, Annotated
 
 import typer
 
+from ..run.output import RunInterrupted, signals_interrupt
 from ..run.results import write_netcdf
 from ..study.en1990 import checks_table, en1990_checks
 from ..study.metrics import MetricsError, compute_metrics, metrics_text, scenario_table
-from ..study.sweep import StudyError, load_study, run_sweep
+from ..study.sweep import StudyError, SweepError, check_store_output, dry_run, load_study, run_sweep
 
 if TYPE_CHECKING:
     import xarray as xr
 
 EXIT_INVALID = 2
 EXIT_EXCEEDED = 3
+EXIT_RUNS_FAILED = 4
 
 
 def _fail(message: str) -> typer.Exit:
@@ -93,7 +96,10 @@ def check(
 
 def sweep(
     study: Annotated[Path, typer.Argument(metavar="STUDY.toml", help="Study file (docs/sweep.md).")],
-    output: Annotated[Path, typer.Option("--output", "-o", help="Store to write (NetCDF).")],
+    output: Annotated[
+        str,
+        typer.Option("--output", "-o", help="Store to write: NetCDF (a name ending in .nc) or Zarr (.zarr)."),
+    ],
     workers: Annotated[
         int | None,
         typer.Option(
@@ -104,36 +110,107 @@ def sweep(
         str | None,
         typer.Option("--scheduler", help="Address of a running Dask scheduler, e.g. tcp://host:8786."),
     ] = None,
+    set_: Annotated[
+        list[str] | None,
+        typer.Option(
+            "--set",
+            help="Override a key of the base scenario in every run, e.g. --set solver.duration=2.0 "
+            "(a TOML literal, else text; an axis's value wins). Repeatable.",
+        ),
+    ] = None,
+    dry_run_: Annotated[
+        bool,
+        typer.Option(
+            "--dry-run",
+            help="Run one probe run and print the runs, the time, disk and memory the study needs; "
+            "write nothing.",
+        ),
+    ] = False,
+    worker_timeout: Annotated[
+        float,
+        typer.Option(
+            "--worker-timeout",
+            help="With --scheduler: seconds to wait for a worker (at the start, or when all are gone).",
+        ),
+    ] = 60.0,
     quiet: Annotated[bool, typer.Option("--quiet", "-q", help="No progress bar.")] = False,
 ) -> None:
     """Run a study (a scenario over axes of its keys) on Dask: metrics per run in one store.
 
-    Finished runs are kept in OUT.parts/; running the same command again resumes (docs/sweep.md)."""
+    Finished runs are kept in OUT.parts/; running the same command again resumes (docs/sweep.md).
+
+    Exit status: 0 all ok; 2 bad input, output path or too little disk (nothing run);
+    3 runs lost or no worker alive (run again); 4 failed or diverged runs; 130 / 143 interrupted."""
     import gc
+    import shlex
+    import sys
 
     gc.enable()  # the client runs as long as the study, on Dask's event loop (cli.main turned it off)
     if workers is not None and workers < 1:
         raise _fail("--workers must be at least 1")
+    if worker_timeout <= 0:
+        raise _fail("--worker-timeout must be positive")
     try:
-        st = load_study(study)
+        st = load_study(study, set_ or [])
     except StudyError as exc:
         raise _fail(str(exc)) from None
     try:
-        report = run_sweep(st, output, workers=workers, scheduler=scheduler, progress=not quiet)
-    except KeyboardInterrupt:
-        typer.echo(
-            f"interrupted: the finished runs are kept in {output}.parts; run the same command to resume",
-            err=True,
-        )
-        raise typer.Exit(130) from None
+        out = check_store_output(output, st)
+    except SweepError as exc:
+        raise _fail(str(exc)) from None
+    if dry_run_:
+        try:
+            est = dry_run(st, out, workers)
+        except KeyboardInterrupt:
+            typer.echo("interrupted: nothing written", err=True)
+            raise typer.Exit(130) from None
+        typer.echo(f"study {study} -> {out} (dry run: nothing written)")
+        typer.echo(est.text(), nl=False)
+        if not est.fits:
+            typer.echo("error: the study would not fit on the disk", err=True)
+            raise typer.Exit(EXIT_INVALID)
+        return
+    command = "svbi " + " ".join(shlex.quote(a) for a in sys.argv[1:]) if sys.argv[1:] else ""
+    with signals_interrupt():  # SIGTERM, like Ctrl-C, stops the sweep cleanly
+        try:
+            report = run_sweep(
+                st,
+                out,
+                workers=workers,
+                scheduler=scheduler,
+                progress=not quiet,
+                worker_timeout=worker_timeout,
+                command=command,
+            )
+        except SweepError as exc:
+            typer.echo(f"error: {exc}", err=True)
+            raise typer.Exit(exc.exit_code) from None
+        except KeyboardInterrupt as exc:
+            name = exc.signal_name if isinstance(exc, RunInterrupted) else "SIGINT"
+            code = exc.exit_code if isinstance(exc, RunInterrupted) else 130
+            typer.echo(
+                f"interrupted by {name}: the finished runs are kept in {out}.parts; "
+                "run the same command to resume",
+                err=True,
+            )
+            raise typer.Exit(code) from None
     counts = ", ".join(f"{n} {s}" for s, n in sorted(report.statuses.items()))
     typer.echo(
         f"wrote {report.store}: {report.total} runs ({counts}); ran {report.ran}, "
         f"{report.reused} found finished in {report.store}.parts"
     )
     if report.statuses.get("missing"):
-        typer.echo("some runs were lost: run the same command again to resume", err=True)
+        typer.echo(
+            f"{report.statuses['missing']} of {report.total} runs were lost: "
+            "run the same command again to resume",
+            err=True,
+        )
         raise typer.Exit(EXIT_EXCEEDED)
+    bad = {s: report.statuses.get(s, 0) for s in ("failed", "diverged")}
+    if any(bad.values()):
+        what = " and ".join(f"{n} of {report.total} runs {s}" for s, n in bad.items() if n)
+        typer.echo(f"{what}: see status and message in {report.store}", err=True)
+        raise typer.Exit(EXIT_RUNS_FAILED)
 
 
 def register(app: typer.Typer) -> None:

@@ -131,6 +131,17 @@ def _folder_problem(folder: Path) -> str | None:
     return None
 
 
+def same_file(a: Path, b: Path) -> bool:
+    """Whether ``a`` and ``b`` are one file: by resolved path, or by device and inode (hard links)."""
+    return _same_file(a, b)
+
+
+def folder_problem(folder: Path) -> str | None:
+    """Why no new file can be created in ``folder`` (None if one can): the check of
+    :func:`check_output`, for other writers (``svbi sweep``)."""
+    return _folder_problem(folder)
+
+
 def check_output(raw: str | os.PathLike[str], inputs: dict[str, Path] | Iterable[tuple[str, Path]]) -> Path:
     """The output path as given, if a run can write its results there; else :class:`OutputPathError`.
 

@@ -13,7 +13,8 @@ Every metric is a peak over the whole stored run, with the time at which it occu
   for a train of moving loads, which has no car body.
 * ``max_unloading_ratio`` (car, wheel): max over time of ΔP/P0 = (P0 - P(t)) / P0, P the filtered
   wheel force ``contact_force_filtered`` and P0 the static wheel load, the raw force at t = 0 (every
-  run starts from static equilibrium on rigid track).
+  run starts from static equilibrium on rigid track); NaN for a train of moving loads, whose
+  prescribed axle loads never unload.
 * ``min_contact_force_filtered`` (car, wheel): min over time of ``contact_force_filtered`` (N).
 * ``lift_offs`` and ``peak_uplift`` (car, wheel): only when the results carry unilateral contact
   (``contact_state``, 1 in contact and 0 lifted, and ``wheel_uplift`` in m): the number of
@@ -237,21 +238,24 @@ def compute_metrics(ds: xr.Dataset) -> xr.Dataset:
     raw = np.asarray(ds["contact_force"].transpose("time", "car", "wheel").values, dtype=float)
     pf = np.asarray(ds["contact_force_filtered"].transpose("time", "car", "wheel").values, dtype=float)
     shape = raw.shape[1:]
-    if raw.shape[0] == 0:
+    if raw.shape[0] == 0 or _moving_load(ds):
+        # a moving load's wheel force is prescribed: it never unloads (its ratio is rounding, 1e-14)
         nan = np.full(shape, np.nan)
         put("max_unloading_ratio", nan, nan, "max (P0 - P) / P0, P filtered, P0 static")
+    if raw.shape[0] == 0:
         put("min_contact_force_filtered", nan, nan, "min contact_force_filtered")
     else:
-        p0 = raw[0]
-        with np.errstate(divide="ignore", invalid="ignore"):
-            ratio = np.where(p0 > 0, (p0 - pf) / p0, np.nan)
-        idx = np.argmax(np.where(np.isnan(ratio), -np.inf, ratio), axis=0)
-        put(
-            "max_unloading_ratio",
-            np.take_along_axis(ratio, idx[None], 0)[0],
-            t[idx],
-            "max (P0 - P) / P0: P the filtered wheel force, P0 the static wheel load",
-        )
+        if "max_unloading_ratio" not in out:
+            p0 = raw[0]
+            with np.errstate(divide="ignore", invalid="ignore"):
+                ratio = np.where(p0 > 0, (p0 - pf) / p0, np.nan)
+            idx = np.argmax(np.where(np.isnan(ratio), -np.inf, ratio), axis=0)
+            put(
+                "max_unloading_ratio",
+                np.take_along_axis(ratio, idx[None], 0)[0],
+                t[idx],
+                "max (P0 - P) / P0: P the filtered wheel force, P0 the static wheel load",
+            )
         idx = np.argmin(pf, axis=0)
         put(
             "min_contact_force_filtered",

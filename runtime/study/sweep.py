@@ -12,21 +12,30 @@ run of a process pays for them. Each finished run writes its metrics (``svbi.run
 its own small NetCDF file in ``OUT.parts/``, atomically, named by a hash of the base scenario and
 the run's overrides: an interrupted sweep loses no finished run, and the same command resumes with
 the missing runs only. When every run has a part, the parts are assembled into the store ``OUT``
-(NetCDF, written atomically): one dimension per axis, the metrics per run, the run's ``status``
-(``ok``, ``diverged`` or ``failed``) and ``message``. A run that fails or diverges does not stop the
-sweep.
+(NetCDF or Zarr, written atomically; ``svbi.runtime.study.store``): one dimension per axis, named
+by the key's last part (``speed_kmh``), the metrics per run, the run's ``status`` (``ok``,
+``diverged`` or ``failed``) and ``message``. A run that fails or diverges does not stop the sweep.
+
+Before anything runs, the output path is checked (:func:`check_store_output`) and resolved, so that
+workers in other folders write where the driver reads; the first missing run is run in the driver
+as a probe, whose time, part and history sizes and memory give the study's estimate
+(:func:`estimate`): a study that would fill the disk is refused.
 """
 
 from __future__ import annotations
 
+import contextlib
 import hashlib
 import itertools
 import json
 import os
+import shutil
+import signal
+import sys
 import time
 import tomllib
 import warnings
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Iterator, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import TYPE_CHECKING, Annotated, Any
@@ -44,10 +53,29 @@ from pydantic import (
 )
 
 from ..run.atomic import write_atomic
+from ..run.output import folder_problem, same_file
 from ..run.results import write_netcdf
 from ..run.simulate import simulate
-from ..scenario.schema import Problem, ScenarioError, key_lines, load_scenario, loads_scenario
-from .metrics import METRIC_INPUTS, compute_metrics
+from ..scenario.schema import (
+    Problem,
+    ScenarioError,
+    key_lines,
+    load_scenario,
+    loads_scenario,
+    parse_literal,
+)
+from .metrics import METRIC_DIMS, METRIC_INPUTS, METRIC_UNITS, compute_metrics
+from .store import (
+    CONVENTIONS,
+    STORE_SUFFIXES,
+    dim_names,
+    history_line,
+    is_store,
+    is_zarr_path,
+    key_units,
+    read_store,
+    write_store,
+)
 
 if TYPE_CHECKING:
     import xarray as xr
@@ -70,13 +98,40 @@ worker), the worker process's peak resident memory so far (MB), and when the tas
 ended (Unix time, s) and the worker process's id."""
 
 
+__all__ = ["is_store", "read_store"]  # the store's readers, kept importable from here
+
 _UNION_TAGS = {"str", "int", "float", "bool"}
 _RUN_UNITS = {
-    "worker_peak_rss_mb": {"units": "MB"},
-    "started": {"units": "seconds since 1970-01-01"},
-    "ended": {"units": "seconds since 1970-01-01"},
-    "worker_pid": {"long_name": "process id of the worker that ran it"},
+    "setup_time_s": {"units": "s", "long_name": "set-up time of the run"},
+    "loop_time_s": {"units": "s", "long_name": "time loop of the run"},
+    "wall_time_s": {"units": "s", "long_name": "wall time of the run"},
+    "worker_time_s": {"units": "s", "long_name": "the whole task in the worker"},
+    "worker_peak_rss_mb": {"units": "MB", "long_name": "peak resident memory of the worker process"},
+    "started": {"units": "seconds since 1970-01-01", "calendar": "standard", "long_name": "run started"},
+    "ended": {"units": "seconds since 1970-01-01", "calendar": "standard", "long_name": "run ended"},
+    "worker_pid": {"units": "1", "long_name": "process id of the worker that ran it"},
 }
+CUTOFF = "deck_acceleration_cutoff_hz"
+"""The store's variable of each run's EN 1990 low-pass cutoff of the deck acceleration."""
+INTEGER_METRICS = ("lift_offs", "complete")
+"""Counts and flags: integers in the store (missing runs: the ``_FillValue`` -1; ``complete`` 0)."""
+RESERVED_NAMES = (
+    "run",
+    "span",
+    "car",
+    "wheel",
+    "end",
+    "joint",
+    "pier",
+    "status",
+    "message",
+    "run_id",
+    CUTOFF,
+    *RUN_TIMINGS,
+    *METRIC_DIMS,
+    *(f"{m}_time" for m in METRIC_DIMS),
+)
+"""Names of the store's own variables and dimensions: a swept key's name avoids them."""
 
 
 class StudyError(ScenarioError):
@@ -131,11 +186,24 @@ class Study:
     scenario_text: str
     text: str
     runs: list[Run] = field(default_factory=list)
+    sets: dict[str, Any] = field(default_factory=dict)
+    """``--set`` overrides applied to every run (before the axes' values)."""
+
+    @property
+    def keys(self) -> list[str]:
+        """The dotted keys of the dimensions: the axes in order, then the first zipped key."""
+        return [*self.spec.axes, *([next(iter(self.spec.zip))] if self.spec.zip else [])]
+
+    @property
+    def names(self) -> dict[str, str]:
+        """Every swept key (axes and zipped) -> its name in the store (``store.dim_names``)."""
+        return dim_names([*self.spec.axes, *self.spec.zip], RESERVED_NAMES)
 
     @property
     def dims(self) -> list[str]:
-        """Dimension names: the axes in order, then the first zipped key."""
-        return [*self.spec.axes, *([next(iter(self.spec.zip))] if self.spec.zip else [])]
+        """Dimension names of the store: ``speed_kmh`` for ``train.speed_kmh`` (``store.dim_names``)."""
+        names = self.names
+        return [names[k] for k in self.keys]
 
     @property
     def shape(self) -> tuple[int, ...]:
@@ -149,10 +217,24 @@ class Study:
 # the study file
 
 
-def load_study(path: str | Path) -> Study:
-    """Read and validate a study file; raises :class:`StudyError` naming key, file and line."""
+def parse_sets(sets: Sequence[str]) -> dict[str, Any]:
+    """``key.path=value`` items of ``--set`` (values read as TOML literals, else as text)."""
+    out: dict[str, Any] = {}
+    for spec in sets:
+        key, sep, raw = spec.partition("=")
+        if not sep or not key.strip():
+            raise StudyError([Problem(spec, "expected key.path=value", f"--set {spec}")], "--set")
+        out[key.strip()] = parse_literal(raw.strip())
+    return out
+
+
+def load_study(path: str | Path, sets: Sequence[str] | dict[str, Any] = ()) -> Study:
+    """Read and validate a study file; raises :class:`StudyError` naming key, file and line.
+
+    ``sets``: ``--set`` overrides of the base scenario, applied to every run (an axis's value wins)."""
     path = Path(path)
     source = str(path)
+    sets = dict(sets) if isinstance(sets, dict) else parse_sets(sets)
     try:
         text = path.read_text(encoding="utf-8")
     except (OSError, UnicodeDecodeError) as exc:
@@ -203,6 +285,15 @@ def load_study(path: str | Path) -> Study:
         problems.append(Problem("zip", f"the lists must have the same length ({listed})", where("zip")))
     for key in set(spec.axes) & set(spec.zip):
         problems.append(Problem(f"zip.{key}", "is also an axis", where(f"zip.{key}")))
+    if sets:
+        try:
+            with warnings.catch_warnings():
+                warnings.simplefilter("ignore")
+                load_scenario(scenario_path, overrides=sets)
+        except ScenarioError as exc:
+            raise StudyError(
+                [Problem(f"--set {p.key}", p.message, "--set") for p in exc.problems], source
+            ) from None
     # every value of every axis must make a valid scenario on its own (errors name the study line)
     for table, values in (("axes", spec.axes), ("zip", spec.zip)):
         for key, items in values.items():
@@ -210,7 +301,7 @@ def load_study(path: str | Path) -> Study:
                 try:
                     with warnings.catch_warnings():
                         warnings.simplefilter("ignore")
-                        load_scenario(scenario_path, overrides={key: item})
+                        load_scenario(scenario_path, overrides={**sets, key: item})
                 except ScenarioError as exc:
                     message = "; ".join(p.message for p in exc.problems)
                     problems.append(
@@ -219,7 +310,7 @@ def load_study(path: str | Path) -> Study:
                     break
     if problems:
         raise StudyError(problems, source)
-    study = Study(path, spec, scenario_path, scenario_path.read_text(encoding="utf-8"), text)
+    study = Study(path, spec, scenario_path, scenario_path.read_text(encoding="utf-8"), text, sets=sets)
     study.runs = grid_runs(study)
     return study
 
@@ -232,7 +323,7 @@ def grid_runs(study: Study) -> list[Run]:
     ranges = [range(len(v)) for _, v in axes] + ([range(nzip)] if zipped else [])
     runs = []
     for index in itertools.product(*ranges):
-        overrides = {k: v[i] for (k, v), i in zip(axes, index, strict=False)}
+        overrides = {**study.sets, **{k: v[i] for (k, v), i in zip(axes, index, strict=False)}}
         if zipped:
             overrides.update({k: v[index[-1]] for k, v in zipped})
         runs.append(Run(tuple(index), overrides, run_id(study.scenario_text, overrides)))
@@ -254,9 +345,12 @@ _WORKER: dict[str, Any] = {"runs": 0}
 model and the imports are kept by their own modules' process-wide caches)."""
 
 
-def run_one(scenario_path: str, overrides: dict[str, Any], part: str, history: str | None) -> dict[str, Any]:
+def run_one(
+    scenario_path: str, overrides: dict[str, Any], part: str, history: str | None, stop: str | None = None
+) -> dict[str, Any]:
     """Run one grid point and write its part file (atomically). Never raises for a run that fails:
-    the failure is recorded with its message."""
+    the failure is recorded with its message. When the file ``stop`` exists (the driver stopped
+    while the run was in flight), the part is not written."""
     t0 = time.perf_counter()
     _WORKER["runs"] += 1
     import xarray as xr
@@ -281,7 +375,7 @@ def run_one(scenario_path: str, overrides: dict[str, Any], part: str, history: s
         if not int(metrics["complete"].values):
             status, message = STATUS_DIVERGED, str(ds.attrs.get("incomplete", "stopped early"))
         timings = {k: float(ds.attrs[k]) for k in ("setup_time_s", "loop_time_s", "wall_time_s")}
-        if history is not None:
+        if history is not None and not (stop is not None and Path(stop).exists()):
             import dask
 
             # a local lock, not the cluster-wide one xarray takes inside a worker (see write_part)
@@ -302,19 +396,27 @@ def run_one(scenario_path: str, overrides: dict[str, Any], part: str, history: s
         "ended": time.time(),
         **timings,
     }
+    if stop is not None and Path(stop).exists():
+        return {"status": "stopped", "message": "the sweep was stopped"}
     write_part(metrics.assign_attrs(attrs), Path(part))
     return {"status": status, "message": message}
 
 
-def run_batch(scenario_path: str, jobs: list[tuple[dict[str, Any], str, str | None]]) -> list[dict[str, Any]]:
+def run_batch(
+    scenario_path: str, jobs: list[tuple[dict[str, Any], str, str | None]], stop: str | None = None
+) -> list[dict[str, Any]]:
     """:func:`run_one` for each ``(overrides, part, history)`` of a batch, in order; a run whose part
-    already exists (a batch retried after its worker died part-way) is not run again."""
+    already exists (a batch retried after its worker died part-way) is not run again, and none
+    starts once the file ``stop`` exists (the driver was stopped)."""
     out = []
     for overrides, part, history in jobs:
+        if stop is not None and Path(stop).exists():
+            out.append({"status": "stopped", "message": "the sweep was stopped"})
+            continue
         if _finished(Path(part)):
             out.append({"status": "reused", "message": ""})
             continue
-        out.append(run_one(scenario_path, overrides, part, history))
+        out.append(run_one(scenario_path, overrides, part, history, stop))
     return out
 
 
@@ -378,7 +480,16 @@ def write_part(ds: xr.Dataset, path: Path) -> Path:
 
 
 # --------------------------------------------------------------------------------------------------
-# the driver
+# the driver: the output path, the estimate
+
+
+class SweepError(RuntimeError):
+    """The sweep cannot go on (no output possible, no worker, a full disk); ``exit_code`` says how
+    the command ends (2: nothing ran; 3: finished runs are kept, run the same command again)."""
+
+    def __init__(self, message: str, exit_code: int = 2) -> None:
+        super().__init__(message)
+        self.exit_code = exit_code
 
 
 def parts_dir(out: Path) -> Path:
@@ -398,6 +509,174 @@ def _finished(path: Path) -> bool:
     return path.is_file()
 
 
+def check_store_output(raw: str | os.PathLike[str], study: Study | None = None) -> Path:
+    """The store's path, absolute, if a sweep can write there; else :class:`SweepError` (one line).
+
+    Checked as ``svbi run`` checks its output (``run.output.check_output``), before any run: a
+    name ending in ``.nc`` or ``.zarr``, not an existing folder (a Zarr store is one: only a store
+    of an earlier sweep is replaced), not under a file, in an existing, writable folder (a missing
+    folder is an error, not created: a typo would put the study where its resume does not look),
+    not one of the study's inputs, and ``OUT.parts`` / ``OUT.histories`` free to be folders.
+    """
+    text = os.fspath(raw)
+    if not text.strip():
+        raise SweepError("-o: the output path is empty; give a name ending in .nc or .zarr")
+    path = Path(text).expanduser()
+    suffix = path.suffix.lower()
+    if suffix not in STORE_SUFFIXES:
+        got = "no suffix" if not path.suffix else repr(path.suffix)
+        raise SweepError(f"-o {text}: give a name ending in .nc or .zarr (got {got})")
+    path = Path(os.path.abspath(path))  # workers elsewhere must write where the driver reads
+    if is_zarr_path(path):
+        if path.exists() and not (path.is_dir() and is_store(path)):
+            raise SweepError(f"-o {text}: {path} exists and is not the Zarr store of a sweep")
+    elif path.is_dir():
+        raise SweepError(f"-o {text}: {path} is a folder; give a file name ending in .nc")
+    elif path.exists() and not path.is_file():
+        raise SweepError(f"-o {text}: {path} exists and is not a regular file")
+    if study is not None:
+        for what, source in (("the study file", study.path), ("the scenario file", study.scenario_path)):
+            if same_file(path, source):
+                raise SweepError(f"-o {text}: {path} is {what}; the store would overwrite it")
+    folder = path.parent
+    existing = folder
+    while not existing.exists() and existing.parent != existing:
+        existing = existing.parent
+    if existing.exists() and not existing.is_dir():
+        raise SweepError(f"-o {text}: {existing} is a file, not a folder")
+    if not folder.is_dir():
+        raise SweepError(f"-o {text}: folder {folder} does not exist; create it first")
+    problem = folder_problem(folder)
+    if problem is not None:
+        raise SweepError(f"-o {text}: {problem}")
+    for side in (parts_dir(path), histories_dir(path)):
+        if side.exists() and not side.is_dir():
+            raise SweepError(f"-o {text}: {side} exists and is not a folder")
+    return path
+
+
+def free_disk_bytes(path: Path) -> int:
+    """Free bytes on the file system of ``path`` (the nearest existing folder)."""
+    while not path.exists() and path.parent != path:
+        path = path.parent
+    return shutil.disk_usage(path).free
+
+
+@dataclass
+class Probe:
+    """One run done to measure a study: its time (warm: the imports and the compiled loop of the
+    process were there already, when it could be measured so), sizes and the process's memory."""
+
+    seconds: float
+    cold_seconds: float
+    part_bytes: int
+    history_bytes: int
+    peak_rss_mb: float
+    status: str
+
+
+@dataclass
+class Estimate:
+    """What a study will cost, from a probe run."""
+
+    runs: int
+    todo: int
+    workers: int
+    probe: Probe
+    disk_bytes: int
+    free_bytes: int
+    histories: bool
+
+    @property
+    def cpu_seconds(self) -> float:
+        return self.probe.seconds * self.todo
+
+    @property
+    def wall_seconds(self) -> float:
+        return self.cpu_seconds / max(self.workers, 1)
+
+    @property
+    def fits(self) -> bool:
+        return self.disk_bytes <= self.free_bytes
+
+    def text(self) -> str:
+        p = self.probe
+        lines = [
+            f"{self.runs} runs ({self.todo} to run, {self.runs - self.todo} finished already)",
+            f"time: about {_duration(p.seconds)} a run (probe; its first run took "
+            f"{_duration(p.cold_seconds)} with the imports and the compiled loop), "
+            f"{_duration(self.cpu_seconds)} of CPU in all, about {_duration(self.wall_seconds)} "
+            f"on {self.workers} workers",
+            f"disk: about {_size(self.disk_bytes)} (parts {_size(p.part_bytes)} a run"
+            + (f", histories {_size(p.history_bytes)} a run" if self.histories else ", no histories")
+            + f", the store); {_size(self.free_bytes)} free",
+            f"memory: about {p.peak_rss_mb:.0f} MB per worker (the probe process's peak)",
+        ]
+        return "\n".join(lines) + "\n"
+
+
+def _duration(seconds: float) -> str:
+    if seconds < 120:
+        return f"{seconds:.3g} s"
+    if seconds < 7200:
+        return f"{seconds / 60:.3g} min"
+    return f"{seconds / 3600:.3g} h"
+
+
+def _size(n: float) -> str:
+    for unit in ("B", "kB", "MB", "GB", "TB"):
+        if n < 1000 or unit == "TB":
+            return f"{n:.3g} {unit}" if unit != "B" else f"{int(n)} B"
+        n /= 1000.0
+    return f"{n:.3g} TB"
+
+
+def probe_run(study: Study, run: Run, part: Path, history: Path | None, repeat: bool) -> Probe:
+    """Run ``run`` in this process (writing ``part`` and ``history``) and measure it. With
+    ``repeat``, a run shorter than 5 s is run a second time (into the same files) for a warm time."""
+    result = run_one(str(study.scenario_path), run.overrides, str(part), str(history) if history else None)
+    cold = _part_seconds(part)
+    warm = cold
+    if repeat and cold < 5.0:
+        run_one(str(study.scenario_path), run.overrides, str(part), str(history) if history else None)
+        warm = _part_seconds(part)
+    hist = history.stat().st_size if history is not None and history.is_file() else 0
+    return Probe(warm, cold, part.stat().st_size, hist, _peak_rss_mb(), result["status"])
+
+
+def _part_seconds(part: Path) -> float:
+    ds = _read_part(part)
+    return float(ds.attrs.get("worker_time_s", np.nan)) if ds is not None else float("nan")
+
+
+def estimate(study: Study, out: Path, probe: Probe, todo: int, workers: int) -> Estimate:
+    """The study's cost from ``probe``: time, and disk for ``todo`` more runs (part, history) and the
+    store (about the parts of every run: it holds what they hold, compressed)."""
+    per_run = probe.part_bytes + (probe.history_bytes if study.spec.output.histories else 0)
+    disk = per_run * todo + probe.part_bytes * len(study.runs)
+    return Estimate(
+        len(study.runs), todo, workers, probe, disk, free_disk_bytes(out.parent), study.spec.output.histories
+    )
+
+
+def dry_run(study: Study, out: str | Path, workers: int | None = None) -> Estimate:
+    """The estimate of ``svbi sweep --dry-run``: one probe run in a temporary folder; nothing is
+    written beside ``out``."""
+    import tempfile
+
+    out = check_store_output(out, study)
+    todo = [r for r in study.runs if not _finished(part_path(out, r))]
+    run = todo[0] if todo else study.runs[0]
+    with tempfile.TemporaryDirectory(prefix="svbi-probe-") as tmp:
+        history = Path(tmp) / "history.nc" if study.spec.output.histories else None
+        probe = probe_run(study, run, Path(tmp) / "part.nc", history, repeat=True)
+    return estimate(study, out, probe, len(todo), workers or os.cpu_count() or 1)
+
+
+# --------------------------------------------------------------------------------------------------
+# the driver: running
+
+
 @dataclass
 class SweepReport:
     """What a sweep did: runs in total, run now, found finished, and by status."""
@@ -407,6 +686,8 @@ class SweepReport:
     reused: int
     statuses: dict[str, int]
     store: Path
+    lost: list[str] = field(default_factory=list)
+    estimate: Estimate | None = None
 
 
 def run_sweep(
@@ -416,22 +697,91 @@ def run_sweep(
     scheduler: str | None = None,
     progress: bool = True,
     on_done: Callable[[int], None] | None = None,
+    worker_timeout: float = 60.0,
+    command: str = "",
 ) -> SweepReport:
-    """Run every missing run of ``study`` on Dask and assemble the store ``out``."""
-    out = Path(out)
-    parts_dir(out).mkdir(parents=True, exist_ok=True)
+    """Run every missing run of ``study`` on Dask and assemble the store ``out``.
+
+    The output is checked first (:func:`check_store_output`); the first missing run is run here as a
+    probe, and a study whose estimate does not fit on the disk is refused (:class:`SweepError`)."""
+    out = check_store_output(out, study)
+    parts_dir(out).mkdir(exist_ok=True)
+    for stale in parts_dir(out).glob(".stop-*"):  # the stop files of earlier, interrupted sweeps
+        stale.unlink(missing_ok=True)
     keep = study.spec.output.histories
     if keep:
-        histories_dir(out).mkdir(parents=True, exist_ok=True)
+        histories_dir(out).mkdir(exist_ok=True)
     todo = [r for r in study.runs if not _finished(part_path(out, r))]
     reused = len(study.runs) - len(todo)
+    ran = len(todo)
+    lost: list[str] = []
+    est = None
     if todo:
-        _compute(study, out, todo, workers, scheduler, progress, reused, on_done)
-    store = assemble(study, out)
+        first = todo.pop(0)
+        history = histories_dir(out) / f"{first.run_id}.nc" if keep else None
+        probe = probe_run(study, first, part_path(out, first), history, repeat=False)
+        n = workers or os.cpu_count() or 1
+        est = estimate(study, out, probe, len(todo), n)
+        if not est.fits:
+            raise SweepError(
+                f"the study would need about {_size(est.disk_bytes)} of disk for its {len(todo)} "
+                f"remaining runs and the store, and {out.parent} has {_size(est.free_bytes)} free "
+                "(`svbi sweep --dry-run` gives the estimate)"
+            )
+        if on_done is not None:
+            on_done(1)
+    if todo:
+        lost = _compute(study, out, todo, workers, scheduler, progress, reused, on_done, worker_timeout)
+    store = assemble(study, out, command=command)
     statuses: dict[str, int] = {}
     for s in np.asarray(store["status"].values).ravel():
         statuses[str(s)] = statuses.get(str(s), 0) + 1
-    return SweepReport(len(study.runs), len(todo), reused, statuses, out)
+    return SweepReport(len(study.runs), ran, reused, statuses, out, lost, est)
+
+
+@contextlib.contextmanager
+def _sigint_ignored() -> Iterator[None]:
+    """SIGINT ignored while the LocalCluster starts its worker processes, which inherit it: a
+    terminal's Ctrl-C, sent to the whole process group, then stops the driver only, which closes the
+    cluster, instead of raising KeyboardInterrupt (and printing tracebacks) in every worker."""
+    import threading
+
+    if threading.current_thread() is not threading.main_thread():
+        yield
+        return
+    previous = signal.signal(signal.SIGINT, signal.SIG_IGN)
+    try:
+        yield
+    finally:
+        signal.signal(signal.SIGINT, previous)
+
+
+def _client(scheduler: str | None, workers: int | None, worker_timeout: float) -> tuple[Any, Any]:
+    """The Dask client and, without ``scheduler``, the LocalCluster it runs on."""
+    import dask
+    from dask.distributed import Client, LocalCluster
+
+    if scheduler:
+        try:
+            client = Client(scheduler, timeout=f"{max(worker_timeout, 1.0)}s")
+        except (OSError, TimeoutError) as exc:
+            raise SweepError(f"cannot reach the Dask scheduler at {scheduler} ({exc})") from None
+        try:
+            client.wait_for_workers(1, timeout=worker_timeout)
+        except TimeoutError:
+            client.close()
+            raise SweepError(
+                f"no worker is alive on {scheduler} after {worker_timeout:g} s: start workers with "
+                f"`dask worker {scheduler} --nthreads 1`, then run the same command",
+                exit_code=3,
+            ) from None
+        return client, None
+    n = workers or os.cpu_count() or 1
+    with dask.config.set({"distributed.nanny.pre-spawn-environ": worker_environment(n)}), _sigint_ignored():
+        cluster = LocalCluster(
+            n_workers=n, threads_per_worker=1, processes=True, dashboard_address=None, silence_logs=50
+        )
+    return Client(cluster), cluster
 
 
 def _compute(
@@ -443,25 +793,32 @@ def _compute(
     progress: bool,
     reused: int,
     on_done: Callable[[int], None] | None,
-) -> None:
-    import dask
-    from dask.distributed import Client, LocalCluster, as_completed
+    worker_timeout: float = 60.0,
+) -> list[str]:
+    """Run ``todo`` on the cluster (the probe, run before, counts as done); returns the messages of
+    batches lost. On an interrupt (a
+    KeyboardInterrupt, or ``RunInterrupted`` for SIGTERM) the outstanding tasks are cancelled and a
+    stop file tells the runs still in flight not to write their parts."""
+    from dask.distributed import wait
 
-    cluster = None
-    if scheduler:
-        client = Client(scheduler, timeout="30s")
-    else:
-        n = workers or os.cpu_count() or 1
-        with dask.config.set({"distributed.nanny.pre-spawn-environ": worker_environment(n)}):
-            cluster = LocalCluster(
-                n_workers=n, threads_per_worker=1, processes=True, dashboard_address=None, silence_logs=40
-            )
-        client = Client(cluster)
+    client, cluster = _client(scheduler, workers, worker_timeout)
     bar = None
     if progress:
         from tqdm.auto import tqdm
 
-        bar = tqdm(total=len(study.runs), initial=reused, unit="run", dynamic_ncols=True)
+        bar = tqdm(total=len(study.runs), initial=reused + 1, unit="run", dynamic_ncols=True)
+    lost: list[str] = []
+
+    def say(text: str) -> None:
+        lost.append(text)
+        if bar is not None:
+            bar.write(text, file=sys.stderr)
+        else:
+            print(text, file=sys.stderr, flush=True)
+
+    stop = parts_dir(out) / f".stop-{os.getpid()}-{time.time_ns()}"
+    futures: dict[Any, int] = {}
+    finished = False
     try:
         jobs = [
             (
@@ -472,42 +829,83 @@ def _compute(
             for r in todo
         ]
         size = batch_size(len(jobs), sum(client.nthreads().values()) or 1)
-        futures = {}
         for i in range(0, len(jobs), size):
             batch = jobs[i : i + size]
             key = f"svbi-runs-{todo[i].run_id}-{len(batch)}"
-            futures[client.submit(run_batch, str(study.scenario_path), batch, key=key, pure=False)] = len(
-                batch
-            )
-        done = 0
-        for fut in as_completed(list(futures)):
-            if fut.status == "error":
-                # the task itself died (e.g. its worker was killed too often): the runs of the
-                # batch that finished wrote their parts; the next sweep runs the others again
-                exc = fut.exception()
-                if bar is not None:
-                    bar.write(f"runs lost ({type(exc).__name__}: {exc}); re-run the sweep to resume")
-            for _ in range(futures[fut]):
-                done += 1
-                if bar is not None:
-                    bar.update(1)
-                if on_done is not None:
-                    on_done(done)
+            fut = client.submit(run_batch, str(study.scenario_path), batch, str(stop), key=key, pure=False)
+            futures[fut] = len(batch)
+        done = 1  # runs of this sweep done so far: the probe
+        pending = set(futures)
+        alone_since: float | None = None
+        while pending:
+            try:
+                result = wait(pending, timeout=2.0, return_when="FIRST_COMPLETED")
+            except TimeoutError:  # none finished in 2 s: are there workers at all?
+                result = None
+            if result is None or not result.done:
+                if scheduler and not client.nthreads():
+                    alone_since = alone_since or time.monotonic()
+                    if time.monotonic() - alone_since > worker_timeout:
+                        raise SweepError(
+                            f"no worker is alive on {scheduler} for {worker_timeout:g} s: the finished "
+                            "runs are kept; start workers, then run the same command to resume",
+                            exit_code=3,
+                        )
+                else:
+                    alone_since = None
+                continue
+            pending = set(result.not_done)
+            for fut in result.done:
+                if fut.status == "error":
+                    # the task itself died (e.g. its worker was killed too often): the runs of the
+                    # batch that finished wrote their parts; the next sweep runs the others again
+                    exc = fut.exception()
+                    say(f"runs lost ({type(exc).__name__}: {exc}); run the sweep again to resume")
+                for _ in range(futures[fut]):
+                    done += 1
+                    if bar is not None:
+                        bar.update(1)
+                    if on_done is not None:
+                        on_done(done)
+        finished = True
     finally:
+        if not finished:
+            # stopped: no run starts or writes its part from now on, and the queue is emptied
+            stop.touch()
+            try:
+                client.cancel(list(futures), force=True)
+            except Exception:  # the scheduler may be gone already
+                pass
         if bar is not None:
             bar.close()
         client.close()
         if cluster is not None:
             cluster.close()
+    return lost
 
 
-def assemble(study: Study, out: Path) -> xr.Dataset:
-    """The store: every run's part in a grid with one dimension per axis; written atomically to
-    ``out``. A run without a part (lost) is marked ``missing``."""
+def _int_variable(values: np.ndarray, dims: list[str], attrs: dict[str, Any], missing: int) -> tuple:
+    """An integer variable: NaN entries (runs without a value) stored as ``missing``, declared as the
+    ``_FillValue`` only when there are some (a reader then sees NaN)."""
+    bad = ~np.isfinite(values)
+    if not bad.any():
+        return (dims, values.astype(np.int64), attrs)
     import xarray as xr
 
+    var = xr.Variable(dims, values.astype(float), attrs)
+    var.encoding = {"dtype": "int64", "_FillValue": np.int64(missing)}
+    return var
+
+
+def assemble(study: Study, out: Path, command: str = "") -> xr.Dataset:
+    """The store: every run's part in a grid with one dimension per axis; written atomically to
+    ``out`` (``store.write_store``). A run without a part (lost) is marked ``missing``."""
+    import xarray as xr
+
+    from svbi import __version__
+
     parts: list[xr.Dataset] = []
-    status, message = [], []
+    status, message, cutoff = [], [], []
     timings = {k: [] for k in RUN_TIMINGS}
     empty: dict[str, list[str]] = {}  # variables of length 0 in the parts (write_part): name -> dims
     for r in study.runs:
@@ -517,13 +915,15 @@ def assemble(study: Study, out: Path) -> xr.Dataset:
             empty.update(json.loads(ds.attrs.get(EMPTY_VARIABLES, "{}")))
             status.append(str(ds.attrs.get("status", STATUS_FAILED)))
             message.append(str(ds.attrs.get("message", "")))
+            cutoff.append(float(ds.attrs.get(CUTOFF, np.nan)))
             for k in RUN_TIMINGS:
                 timings[k].append(float(ds.attrs.get(k, np.nan)))
             ds.attrs = {}  # the run's attributes are in status, message and the timings
             parts.append(ds)
         else:
             status.append("missing")
-            message.append("no result: re-run the sweep to resume")
+            message.append("no result: run the sweep again to resume")
+            cutoff.append(np.nan)
             for k in RUN_TIMINGS:
                 timings[k].append(np.nan)
             parts.append(xr.Dataset())
@@ -544,43 +944,116 @@ def assemble(study: Study, out: Path) -> xr.Dataset:
     )
     shape = study.shape
     dims = study.dims
+    names = study.names
     data_vars: dict[str, Any] = {}
     for name, da in stacked.data_vars.items():
         rest = [d for d in da.dims if d != "run"]
-        values = np.asarray(da.transpose("run", *rest).values)
-        if values.dtype.kind in "iub":
-            values = values.astype(float)
-        data_vars[name] = ([*dims, *rest], values.reshape(*shape, *values.shape[1:]), da.attrs)
+        values = np.asarray(da.transpose("run", *rest).values, dtype=float)
+        values = values.reshape(*shape, *values.shape[1:])
+        attrs = _metric_attrs(str(name))
+        if name == "complete":  # a run without a part did not complete
+            data_vars[name] = ([*dims, *rest], np.nan_to_num(values, nan=0.0).astype(np.int8), attrs)
+        elif name in INTEGER_METRICS:
+            data_vars[name] = _int_variable(values, [*dims, *rest], attrs, -1)
+        else:
+            data_vars[name] = ([*dims, *rest], values, attrs)
     for name, vdims in empty.items():  # in no part with a length: length 0 in the store too
         if name not in data_vars and name not in vdims:  # (a dimension's own coordinate is not kept)
             empty_shape = tuple(stacked.sizes.get(d, 0) for d in vdims)
-            data_vars[name] = ([*dims, *vdims], np.full((*shape, *empty_shape), np.nan))
-    data_vars["status"] = (dims, np.array(status, dtype=object).reshape(shape))
-    data_vars["message"] = (dims, np.array(message, dtype=object).reshape(shape))
+            data_vars[name] = ([*dims, *vdims], np.full((*shape, *empty_shape), np.nan), _metric_attrs(name))
+    data_vars[CUTOFF] = (
+        dims,
+        np.array(cutoff).reshape(shape),
+        {
+            "units": "Hz",
+            "long_name": "low-pass cutoff of peak_deck_acceleration, max(30 Hz, 1.5 f1, f3) "
+            "(EN 1990 A2.4.4.2.1(4))",
+        },
+    )
+    data_vars["status"] = (
+        dims,
+        np.array(status, dtype=object).reshape(shape),
+        {"long_name": "ok, diverged, failed or missing (no result: run the sweep again)"},
+    )
+    data_vars["message"] = (
+        dims,
+        np.array(message, dtype=object).reshape(shape),
+        {"long_name": "why the run failed or stopped"},
+    )
     for k, v in timings.items():
-        data_vars[k] = (dims, np.array(v).reshape(shape), _RUN_UNITS.get(k, {"units": "s"}))
-    data_vars["run_id"] = (dims, np.array([r.run_id for r in study.runs], dtype=object).reshape(shape))
+        values = np.array(v).reshape(shape)
+        if k == "worker_pid":
+            data_vars[k] = _int_variable(values, dims, dict(_RUN_UNITS[k]), -1)
+        else:
+            data_vars[k] = (dims, values, dict(_RUN_UNITS[k]))
+    data_vars["run_id"] = (
+        dims,
+        np.array([r.run_id for r in study.runs], dtype=object).reshape(shape),
+        {"long_name": "identity of the run: the name of its part and history files"},
+    )
     coords: dict[str, Any] = {}
     for key, values in study.spec.axes.items():
-        coords[key] = (key, _coord(values))
+        coords[names[key]] = (names[key], _coord(values), _key_attrs(key, values))
     if study.spec.zip:
         first = dims[-1]
         for key, values in study.spec.zip.items():
-            coords[key] = (first, _coord(values))
-    for d in ("span", "car", "wheel", "pier"):
+            coords[names[key]] = (first, _coord(values), _key_attrs(key, values))
+    labels = {
+        "span": "span (1 = first)",
+        "car": "car (1 = leading)",
+        "wheel": "wheel of the car (1 = leading)",
+        "end": "end of the span",
+        "joint": "joint between span j and span j + 1",
+        "pier": "pier",
+    }
+    for d, label in labels.items():
         if d in stacked.coords:
-            coords[d] = (d, stacked.coords[d].values)
+            values = np.asarray(stacked.coords[d].values)
+            attrs = {"long_name": label} | ({"units": "1"} if values.dtype.kind in "iuf" else {})
+            coords[d] = (d, values.astype(str) if values.dtype == object else values, attrs)
     attrs = {
-        "svbi_sweep": 1,
+        "Conventions": CONVENTIONS,
         "title": study.spec.title,
+        "history": history_line(command or f"svbi sweep {study.path} -o {out}"),
+        "source": "svbi sweep",
+        "svbi_version": __version__,
+        "svbi_sweep": 1,
         "study": study.text,
         "scenario": study.scenario_text,
         "scenario_file": str(study.scenario_path),
         "axes": json.dumps(dims),
+        "axis_keys": json.dumps({names[k]: k for k in [*study.spec.axes, *study.spec.zip]}),
+        "set": json.dumps(study.sets, sort_keys=True),
     }
     store = xr.Dataset(data_vars, coords=coords, attrs=attrs)
-    write_netcdf(store, out)
+    write_store(store, out)
     return store
+
+
+def _metric_attrs(name: str) -> dict[str, str]:
+    base = name[: -len("_time")] if name.endswith("_time") and name[: -len("_time")] in METRIC_DIMS else None
+    if base is not None:
+        return {"units": "s", "long_name": f"time of {base}"}
+    long = {
+        "peak_midspan_uz": "max |midspan_uz| (absolute vertical displacement)",
+        "peak_deck_acceleration": "max |deck_acceleration| at midspan, low-pass filtered at "
+        f"{CUTOFF} (EN 1990 A2.4.4.2.1(4))",
+        "peak_carbody_az": "max |carbody_az| (vertical car-body acceleration)",
+        "max_unloading_ratio": "max (P0 - P) / P0: P the filtered wheel force, P0 the static wheel load",
+        "min_contact_force_filtered": "min contact_force_filtered",
+        "lift_offs": "contact-to-lifted transitions",
+        "peak_uplift": "max wheel_uplift",
+        "peak_end_rotation": "max |end_rotation| of each span end",
+        "peak_joint_rotation": "max angle between consecutive decks (theta1 + theta2)",
+        "peak_pier_drift": "max |pier_drift| (pier top relative to the ground at its base)",
+        "complete": "1: the run finished; 0: it stopped early, failed or is missing",
+    }.get(name, name)
+    return {"units": METRIC_UNITS.get(name, "1"), "long_name": long}
+
+
+def _key_attrs(key: str, values: list[Any]) -> dict[str, str]:
+    numeric = all(isinstance(v, int | float) and not isinstance(v, bool) for v in values)
+    return {**key_units(key, numeric), "scenario_key": key}
 
 
 def _read_part(path: Path) -> xr.Dataset | None:
@@ -606,25 +1079,3 @@ def _coord(values: list[Any]) -> np.ndarray:
     if all(isinstance(v, int | float) and not isinstance(v, bool) for v in values):
         return np.asarray(values, dtype=float)
     return np.array([v if isinstance(v, str) else json.dumps(v) for v in values], dtype=object)
-
-
-def read_store(path: str | Path) -> xr.Dataset:
-    """Load a sweep store (raises ValueError when the file is not one)."""
-    import xarray as xr
-
-    with xr.open_dataset(path, engine="h5netcdf", decode_times=False) as ds:
-        data = ds.load()
-    if not data.attrs.get("svbi_sweep"):
-        raise ValueError(f"{path}: not a sweep store (no svbi_sweep attribute)")
-    return data
-
-
-def is_store(path: str | Path) -> bool:
-    """True when ``path`` is a NetCDF file written by ``svbi sweep``."""
-    try:
-        import h5py
-
-        with h5py.File(path, "r") as f:
-            return bool(f.attrs.get("svbi_sweep", 0))
-    except (OSError, ValueError):
-        return False
