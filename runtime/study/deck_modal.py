@@ -28,7 +28,6 @@ the traffic's, and a long-form bridge's modes are not those of one span.
 
 from __future__ import annotations
 
-import math
 from collections.abc import Mapping
 from dataclasses import dataclass
 from typing import Any
@@ -277,15 +276,3 @@ def deck_envelope(
         i, j = np.unravel_index(k, a.shape)
         peak[s], when[s], where[s] = a[i, j], t[i], node_x[j]
     return DeckEnvelope(peak, when, where, modes)
-
-
-def phi_dynamic_factor(determinant_length: float, maintenance: str = "standard") -> float:
-    """EN 1991-2 6.4.5.2(2): Φ2 for carefully maintained track, Φ3 for standard maintenance
-    (6.4.5.2(3): Φ3 where none is specified); ``determinant_length`` LΦ (m, Table 6.2: the span of a
-    simply supported girder)."""
-    root = math.sqrt(determinant_length) - 0.2
-    if maintenance == "careful":
-        return min(max(1.44 / root + 0.82, 1.0), 1.67)
-    if maintenance == "standard":
-        return min(max(2.16 / root + 0.73, 1.0), 2.0)
-    raise ValueError(f"track maintenance {maintenance!r}: expected careful or standard")
