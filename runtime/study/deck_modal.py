@@ -113,9 +113,7 @@ def span_mode_set(bridge: Mapping[str, Any]) -> SpanModeSet:
         w = row[1::3]
         if w[np.argmax(np.abs(w))] < 0:
             row *= -1.0
-    return SpanModeSet(
-        freq[keep], shapes, f1, f3, length, elements, float(bridge.get("damping_ratio", 0.02))
-    )
+    return SpanModeSet(freq[keep], shapes, f1, f3, length, elements, float(bridge.get("damping_ratio", 0.02)))
 
 
 def shape_values(modes: SpanModeSet, x: np.ndarray) -> np.ndarray:

@@ -15,6 +15,7 @@ The same deflection with α = 1 is the δ of the passenger-comfort criterion of 
 
 from __future__ import annotations
 
+import functools
 import math
 from collections.abc import Mapping
 from typing import Any
@@ -63,16 +64,20 @@ def _consistent_load(length: float, elements: int, points: np.ndarray, forces: n
 def lm71_deflection(bridge: Mapping[str, Any], alpha: float = 1.0) -> float:
     """Largest static deflection (m, downwards positive) of one simply supported span of the
     ``[bridge]`` shorthand under α LM71 (without Φ)."""
-    length = float(bridge["span_length"])
-    elements = int(bridge.get("elements_per_span", 16))
-    _, k = span_matrices(
-        length,
-        elements,
+    return alpha * _deflection(
+        float(bridge["span_length"]),
+        int(bridge.get("elements_per_span", 16)),
         float(bridge["youngs_modulus"]),
         float(bridge["area"]),
         float(bridge["second_moment"]),
         float(bridge["mass_per_length"]),
     )
+
+
+@functools.lru_cache(maxsize=64)
+def _deflection(length: float, elements: int, e: float, area: float, inertia: float, mu: float) -> float:
+    """LM71's largest deflection of one span (cached: every run of a study has the same bridge)."""
+    _, k = span_matrices(length, elements, e, area, inertia, mu)
     free = np.setdiff1d(np.arange(k.shape[0]), span_support_dofs(elements))
     kff = k[np.ix_(free, free)]
     # Gauss-Legendre points for the distributed load (4 per element: exact for the cubic shapes)
@@ -97,4 +102,4 @@ def lm71_deflection(bridge: Mapping[str, Any], alpha: float = 1.0) -> float:
     u = np.linalg.solve(kff, f)
     w = np.zeros((k.shape[0], u.shape[1]))
     w[free] = u
-    return float(alpha * np.max(-w[1::3]))
+    return float(np.max(-w[1::3]))
