@@ -174,6 +174,10 @@ def test_unilateral_contact_metrics_when_present():
     m = compute_metrics(ds)
     assert m.lift_offs.values.tolist() == [[0, 2, 0, 0]]
     assert float(m.peak_uplift[0, 1]) == 2e-3 and float(m.peak_uplift_time[0, 1]) == pytest.approx(0.4)
+    # lifted over samples 3-4 (back at 0.5 s) and 7: the longest loss is 0.3 ... 0.5 s
+    assert float(m.longest_contact_loss[0, 1]) == pytest.approx(0.2)
+    assert float(m.longest_contact_loss_time[0, 1]) == pytest.approx(0.3)
+    assert float(m.longest_contact_loss[0, 0]) == 0.0
     assert "lift_offs" not in compute_metrics(synthetic_results(np.zeros(t.size), np.full(t.size, 1e5), t))
 
 

@@ -8,7 +8,9 @@ load crossing the span integrated by ``scipy.integrate.odeint``, and the HSLM-A 
 that response shifted by each axle's delay (EN 1991-2 Table E.1 axle layout), evaluated at the 17
 points of the span where the model has nodes. A reduced speed set of ``examples/hslm-sweep.toml``
 (three speeds at which trains A1-A10 have their strongest responses in that study) runs through
-the real sweep; each train's peak over the speeds agrees within 3 %.
+the real sweep; each train's peak over the speeds agrees within 3 %. ``svbi check STORE`` on that
+store names the runs that exceed 3.5 m/s², the envelope and the governing train and speed, as read
+from the store here.
 
 A low-pass filter with its corner at f3 halves the third mode, Rayleigh damping fitted to modes 1
 and 2 damps it at 1.9 %, and midspan is the second mode's node: that reading is 2.6-10.6 % low
@@ -99,7 +101,7 @@ def independent_peak(train: str, speed_kmh: float) -> float:
 
 
 @pytest.fixture(scope="module")
-def store(tmp_path_factory: pytest.TempPathFactory):
+def store_path(tmp_path_factory: pytest.TempPathFactory) -> Path:
     folder = tmp_path_factory.mktemp("hslm")
     speeds = ", ".join(f"{s:.1f}" for s in SPEEDS_KMH)
     trains = ", ".join(f'"{t}"' for t in TRAINS)
@@ -111,9 +113,14 @@ def store(tmp_path_factory: pytest.TempPathFactory):
     )
     out = folder / "hslm.nc"
     run_sweep(load_study(study), out, workers=1, progress=False)
+    return out
+
+
+@pytest.fixture(scope="module")
+def store(store_path: Path):
     from svbi.runtime.study.sweep import read_store
 
-    return read_store(out)
+    return read_store(store_path)
 
 
 def test_fc_keeps_three_modes_of_the_32_m_span():
@@ -134,3 +141,32 @@ def test_sweep_peaks_agree_with_modal_truncation_per_train(store):
         report[train] = (got, truth, got / truth - 1.0)
     bad = {k: v for k, v in report.items() if abs(v[2]) > 0.03}
     assert not bad, report
+
+
+def test_check_of_the_store_names_failing_runs_envelope_and_governing_run(store_path, store):
+    from typer.testing import CliRunner
+
+    from svbi.runtime.cli.app import _register, app
+
+    if not app.registered_commands:
+        _register()
+    r = CliRunner().invoke(app, ["check", str(store_path)])
+    out = r.stdout
+    assert "traffic set" in out, out + r.stderr
+    peak = store["peak_deck_acceleration"]
+    runs = [d for d in store["status"].dims]
+    per_run = peak.max(dim=[d for d in peak.dims if d not in runs])
+    failing = int((per_run > 3.5).sum())
+    assert failing > 0 and r.exit_code == 3, out
+    line = next(x for x in out.splitlines() if x.startswith("deck acceleration (ballasted"))
+    worst = per_run.where(per_run == per_run.max(), drop=True)
+    labels = [f"{d}={_label(worst[d].values.item())}" for d in runs]
+    assert f"{float(per_run.max()):.4g} m/s^2" in line and all(lab in line for lab in labels), line
+    assert line.rstrip().endswith(f"{failing} of {per_run.size}"), line
+    assert f"FAIL deck acceleration (ballasted, A2.4.4.2.1): {failing} of {per_run.size} runs" in out
+    listed = out.split("FAIL deck acceleration")[1].splitlines()[1 : 1 + min(failing, 10)]
+    assert all(x.startswith("  train.hslm=") for x in listed), out
+
+
+def _label(value) -> str:  # noqa: ANN001
+    return str(int(value)) if isinstance(value, float) and value.is_integer() else str(value)
