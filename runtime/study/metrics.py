@@ -336,7 +336,8 @@ def _deck_acceleration(ds: xr.Dataset, t: np.ndarray) -> _Deck:
         forces = np.asarray(ds["contact_force"].transpose("time", "car", "wheel").values, dtype=float)
         try:
             env = deck_envelope(table, t, forces.reshape(t.size, -1))
-        except ValueError as exc:  # e.g. unequal output steps: the filtered midspan value below
+        except (ValueError, KeyError, OSError) as exc:  # unequal output steps, an unreadable vehicle
+            # (a topology file no longer where the scenario says): the filtered midspan value below
             env = None
             reason = str(exc)
         if env is not None:
@@ -397,6 +398,8 @@ def metrics_text(metrics: xr.Dataset) -> str:
         if name == "complete":
             lines.append(f"{name:28s} {int(da.values)}")
             continue
+        if name == "peak_deck_acceleration_x":  # shown with the deck acceleration
+            continue
         values = np.asarray(da.values, dtype=float)
         if values.size == 0 or not np.isfinite(values).any():
             lines.append(f"{name:28s} n/a")
@@ -411,5 +414,8 @@ def metrics_text(metrics: xr.Dataset) -> str:
         when = ""
         if f"{name}_time" in metrics:
             when = f" at t = {float(metrics[f'{name}_time'].values[index]):.4g} s"
+        if name == "peak_deck_acceleration" and "peak_deck_acceleration_x" in metrics:
+            x = float(np.asarray(metrics["peak_deck_acceleration_x"].values, dtype=float)[index])
+            where += f", x = {x:.4g} m" if math.isfinite(x) else ""
         lines.append(f"{name:28s} {text} {unit} ({where}{when})")
     return "\n".join(lines) + "\n"
