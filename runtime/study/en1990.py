@@ -161,7 +161,8 @@ def en1990_checks(
     table = table or {}
     which, _ = check_set(table)
     if which == SEISMIC:
-        rows = _seismic_rows(metrics, moving_load, opts)
+        bilateral = table.get("contact", {}).get("normal") == "bilateral"
+        rows = _seismic_rows(metrics, moving_load, opts, bilateral)
     else:
         rows = _traffic_rows(metrics, form, moving_load, table, opts)
     rows.append(_complete_row(metrics))
@@ -316,7 +317,9 @@ def _deflection_rows(
     return rows
 
 
-def _seismic_rows(metrics: xr.Dataset, moving_load: bool, opts: CheckOptions) -> list[Check]:
+def _seismic_rows(
+    metrics: xr.Dataset, moving_load: bool, opts: CheckOptions, bilateral: bool = False
+) -> list[Check]:
     rows: list[Check] = []
     worst = None if moving_load else _worst(metrics, "max_unloading_ratio")
     name = f"wheel unloading dP/P <= {SEISMIC_UNLOADING_LIMIT:g} (transient)"
@@ -325,7 +328,7 @@ def _seismic_rows(metrics: xr.Dataset, moving_load: bool, opts: CheckOptions) ->
     else:
         v, where, when = worst
         rows.append(Check(name, v, SEISMIC_UNLOADING_LIMIT, "1", where, when, v <= SEISMIC_UNLOADING_LIMIT))
-    unilateral = "lift_offs" in metrics
+    unilateral = "lift_offs" in metrics and not bilateral
     if moving_load or not unilateral:
         why = "prescribed axle loads" if moving_load else "bilateral contact: a wheel cannot lift"
         rows.append(Check("lift-offs", None, None, "", "", None, None, why))
@@ -343,7 +346,18 @@ def _seismic_rows(metrics: xr.Dataset, moving_load: bool, opts: CheckOptions) ->
         if w is None:
             rows.append(Check("longest contact loss", None, None, "s", "", None, None, "not in the results"))
         else:
-            rows.append(Check("longest contact loss", w[0], None, "s", w[1] if w[0] > 0 else "", w[2], None))
+            lifted = w[0] > 0
+            rows.append(
+                Check(
+                    "longest contact loss",
+                    w[0],
+                    None,
+                    "s",
+                    w[1] if lifted else "",
+                    w[2] if lifted else None,
+                    None,
+                )
+            )
         w = _worst(metrics, "peak_uplift")
         if w is None:
             rows.append(

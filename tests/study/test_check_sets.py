@@ -178,3 +178,30 @@ def test_check_of_the_paper_example_applies_the_seismic_set(tmp_path: Path):
         float(np.abs(ds.midspan_uz_rel.values).max())
     )
     assert r.exit_code == (3 if any(row.passed is False for row in rows.values()) else 0), out
+
+
+def test_seismic_rows_count_lift_offs_and_hold_uplift_to_the_flange():
+    import xarray as xr
+
+    m = xr.Dataset(
+        {
+            "max_unloading_ratio": (("car", "wheel"), [[0.9, 0.1]]),
+            "lift_offs": (("car", "wheel"), [[2, 1]]),
+            "longest_contact_loss": (("car", "wheel"), [[0.05, 0.01]]),
+            "longest_contact_loss_time": (("car", "wheel"), [[1.2, 1.3]]),
+            "peak_uplift": (("car", "wheel"), [[0.03, 0.001]]),
+            "complete": ((), 1),
+        },
+        coords={"car": [1], "wheel": [1, 2]},
+    )
+    table = {"earthquake": {"vertical": "synthetic"}, "contact": {"normal": "unilateral"}}
+    rows = {r.name: r for r in en1990_checks(m, table=table)}
+    assert rows["wheel unloading dP/P <= 0.8 (transient)"].passed is False
+    assert rows["lift-offs"].value == 3 and rows["lift-offs"].passed is None
+    assert rows["longest contact loss"].value == 0.05 and rows["longest contact loss"].when == 1.2
+    assert rows["wheel uplift <= flange height"].passed is False
+    rows = {r.name: r for r in en1990_checks(m, table=table, options=CheckOptions(flange_height=0.05))}
+    assert rows["wheel uplift <= flange height"].passed is True
+    table["contact"]["normal"] = "bilateral"
+    rows = {r.name: r for r in en1990_checks(m, table=table)}
+    assert rows["lift-offs"].passed is None and "bilateral" in rows["lift-offs"].note
