@@ -69,6 +69,8 @@ TRAFFIC_UNLOADING_LIMIT = 0.6
 """ΔP/P of running-safety practice in normal operation."""
 SEISMIC_UNLOADING_LIMIT = 0.8
 """ΔP/P of running-safety practice for short transients (earthquake)."""
+UNLOADING_LIMITS = (TRAFFIC_UNLOADING_LIMIT, SEISMIC_UNLOADING_LIMIT)
+"""Both ΔP/P limits, normal operation first (the figures of a store draw the last)."""
 FLANGE_HEIGHT = 0.028
 """m, the nominal flange height of the S1002 wheel profile (EN 13715)."""
 HSLM_MIN_SPAN = 7.0
