@@ -45,6 +45,7 @@ class RowSummary:
     runs: int = 0
     failing: list[tuple[str, float | None]] = field(default_factory=list)
     applies: int = 0
+    values: set[float] = field(default_factory=set)
 
 
 @dataclass
@@ -185,6 +186,8 @@ def _add(summary: dict[str, RowSummary], row: Check, label: str) -> None:
         s.limit = row.limit if s.limit is None else max(s.limit, row.limit)
     if row.passed is not None:
         s.applies += 1
+    if row.value is not None:
+        s.values.add(row.value)
     if row.value is not None and (s.envelope is None or row.value > s.envelope):
         s.envelope, s.governing, s.where = row.value, label, row.where
     if row.passed is False:
@@ -207,7 +210,7 @@ def store_text(report: StoreReport, name: str) -> str:
                     r.name,
                     "" if r.limit is None else f"{r.limit:.4g} {r.unit}".strip(),
                     "n/a" if r.envelope is None else f"{r.envelope:.4g} {r.unit}".strip(),
-                    r.governing,
+                    "every run" if len(r.values) == 1 and r.runs > 1 else r.governing,
                     r.where,
                     runs,
                 )
