@@ -15,9 +15,19 @@ import typer
 
 from ..run.output import RunInterrupted, signals_interrupt
 from ..run.results import write_netcdf
-from ..study.en1990 import checks_table, en1990_checks
+from ..study.en1990 import CheckOptions, check_set, checks_table, en1990_checks
 from ..study.metrics import MetricsError, compute_metrics, metrics_text, scenario_table
-from ..study.sweep import StudyError, SweepError, check_store_output, dry_run, load_study, run_sweep
+from ..study.store_checks import StoreCheckError, check_store, store_text
+from ..study.sweep import (
+    StudyError,
+    SweepError,
+    check_store_output,
+    dry_run,
+    is_store,
+    load_study,
+    read_store,
+    run_sweep,
+)
 
 if TYPE_CHECKING:
     import xarray as xr
@@ -57,7 +67,10 @@ def metrics(
 
 
 def check(
-    results: Annotated[Path, typer.Argument(metavar="RESULTS.nc", help="Results file of `svbi run`.")],
+    results: Annotated[
+        Path,
+        typer.Argument(metavar="RESULTS", help="Results file of `svbi run`, or a store of `svbi sweep`."),
+    ],
     track_form: Annotated[
         str | None,
         typer.Option(
@@ -71,10 +84,41 @@ def check(
             "--comfort", help="Comfort level required: very-good (1.0), good (1.3), acceptable (2.0)."
         ),
     ] = "acceptable",
+    maintenance: Annotated[
+        str,
+        typer.Option(
+            "--maintenance",
+            help="Track maintenance for the dynamic factor of LM71: careful (Φ2) or standard (Φ3).",
+        ),
+    ] = "standard",
+    alpha: Annotated[
+        float, typer.Option("--alpha", help="Classification factor α of LM71 (EN 1991-2 6.3.2(3)).")
+    ] = 1.0,
+    comfort_l_over_delta: Annotated[
+        float | None,
+        typer.Option(
+            "--comfort-l-over-delta",
+            help="L/δ of EN 1990 Figure A2.3 at the line speed, for the comfort check without a car body.",
+        ),
+    ] = None,
+    flange_height: Annotated[
+        float, typer.Option("--flange-height", help="Wheel flange height (m) for the uplift check.")
+    ] = 0.028,
 ) -> None:
-    """EN 1990 Annex A2 checks of one run: value, limit, where, when, pass or fail.
+    """EN 1990 Annex A2 checks of a run or of every run of a sweep store (docs/sweep.md).
 
-    Exit status 0 when every limit is met, 3 when one is exceeded, 2 on bad input."""
+    A run without an earthquake gets the traffic set (deck acceleration, deflection, end rotations,
+    comfort), a run with one the seismic running-safety set. Exit status 0 when every limit is met,
+    3 when one is exceeded, 2 on bad input."""
+    for value, name in ((alpha, "--alpha"), (flange_height, "--flange-height")):
+        if not value > 0:
+            raise _fail(f"{name} must be greater than 0")
+    if comfort_l_over_delta is not None and not comfort_l_over_delta > 0:
+        raise _fail("--comfort-l-over-delta must be greater than 0")
+    options = CheckOptions(track_form, comfort, maintenance, alpha, comfort_l_over_delta, flange_height)
+    if results.exists() and is_store(results):
+        _check_store(results, options)
+        return
     ds, m = _metrics_of(results)
     try:
         table = scenario_table(ds)
@@ -83,14 +127,28 @@ def check(
     form = track_form or str(table.get("bridge", {}).get("track_form", "ballasted"))
     moving_load = table.get("train", {}).get("vehicle") == "moving-load"
     try:
-        rows = en1990_checks(m, form, comfort, moving_load=moving_load)
+        rows = en1990_checks(m, form, comfort, moving_load=moving_load, table=table, options=options)
     except ValueError as exc:
         raise _fail(str(exc)) from None
-    typer.echo(f"EN 1990 Annex A2 checks of {results}")
+    which, why = check_set(table)
+    typer.echo(f"checks of {results}: {which} set ({why})")
     typer.echo(checks_table(rows), nl=False)
     failed = [r for r in rows if r.passed is False]
     if failed:
         typer.echo(f"{len(failed)} limit(s) exceeded", err=True)
+        raise typer.Exit(EXIT_EXCEEDED)
+
+
+def _check_store(path: Path, options: CheckOptions) -> None:
+    """``svbi check STORE``: every run's checks, their envelope and the failing runs."""
+    try:
+        store = read_store(path)
+        report = check_store(store, options)
+    except (StoreCheckError, ValueError, OSError) as exc:
+        raise _fail(f"{path}: {exc}" if str(path) not in str(exc) else str(exc)) from None
+    typer.echo(store_text(report, str(path)), nl=False)
+    if report.failed:
+        typer.echo("limit(s) exceeded or runs without results", err=True)
         raise typer.Exit(EXIT_EXCEEDED)
 
 

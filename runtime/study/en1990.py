@@ -1,27 +1,55 @@
-"""EN 1990 Annex A2 checks of one run (``svbi check``), from its metrics (``svbi.runtime.study.metrics``).
+"""The checks of ``svbi check``: EN 1990 Annex A2 for traffic, running safety for earthquakes.
 
-* peak vertical deck acceleration, filtered (EN 1990 A2.4.4.2.1(4)P): 3.5 m/s² on ballasted
-  track, 5 m/s² with direct fastening;
-* vertical car-body acceleration (EN 1990 A2.4.4.3.2, Table A2.9): 1.0 / 1.3 / 2.0 m/s² for the
-  comfort levels very good / good / acceptable;
-* wheel unloading ΔP/P: 0.6 and 0.8, as used in running-safety practice (0.8 for transient and
-  seismic loading);
-* deck end rotation (EN 1990 A2.4.4.2.3(1), ballasted track): 6.5e-3 rad at a transition to the
-  embankment, 10e-3 rad for θ1 + θ2 between consecutive decks (EN 1990 states them for the LM71
-  load model; here they are applied to the run's own loading); direct fastening: n/a;
-* run complete: a run that stopped early certifies nothing.
+Clauses are those of EN 1990:2002+A1:2005 (Annex A2, "Application for bridges") and EN 1991-2:2003.
+A run is checked against one of two sets, chosen from its scenario:
 
-The comfort row checks the level asked for (``--comfort``, default ``acceptable``) and names the
-level reached. Rows that do not apply (no car body on a moving-load train, no end rotation) are
-shown as ``n/a`` and do not count.
+**Traffic set** (no earthquake): the serviceability limits of EN 1990 A2.4.4 for rail traffic.
+
+* deck acceleration (A2.4.4.2.1(4)P): 3.5 m/s² ballasted, 5 m/s² direct fastening, for frequencies
+  up to max(30 Hz, 1.5 f1, f3) (the metric ``peak_deck_acceleration``: modal truncation, envelope
+  over the span);
+* deck twist (A2.4.4.2.2): needs the 3D model, not available (n/a);
+* vertical deflection (A2.4.4.2.3(1)): the largest deflection under LM71 x α x Φ (static, the
+  bridge's own stiffness, ``svbi.runtime.study.lm71``) at most L/600;
+* deck end rotations with ballasted track (A2.4.4.2.3(2) leaves them to EN 1991-2 6.5.4, where they
+  are implicit in the track-bridge interaction limits; the explicit values used, 6.5e-3 rad at a
+  transition to the embankment and 10e-3 rad for θ1 + θ2 between consecutive decks, are those of
+  ENV 1991-3:1995 Annex G, which national rules keep): the run's own loading;
+* passenger comfort (A2.4.4.3): with a vehicle model, the vertical car-body acceleration b_v against
+  Table A2.9 (A2.4.4.3.1: 1.0 / 1.3 / 2.0 m/s², the level asked for); without one (moving loads: no
+  interaction analysis), the deflection criterion of A2.4.4.3.2: δ under LM71 x Φ (α = 1) against
+  the L/δ of Figure A2.3 for the line speed (given by the user: the figure is not tabulated here),
+  times 0.7 for one or two simply supported spans, divided by b_v of the level asked for, and never
+  below 600;
+* wheel unloading ΔP/P <= 0.6 (running safety in normal operation; vehicle models only);
+* the load model: HSLM-A applies to simply supported spans of 7 m or more (EN 1991-2 Annex E,
+  Table E.4); shorter spans need HSLM-B, which is not built in (flagged);
+* run complete.
+
+**Seismic set** (an earthquake): EN 1990 A2.4.4 is written for traffic actions and its limits do
+not apply to a deck shaken by the ground; the run is checked for running safety instead:
+
+* wheel unloading ΔP/P <= 0.8 (the limit of running-safety practice for short transients);
+* lift-offs (counted), the longest loss of contact, and the largest uplift against the wheel's
+  flange height (a wheel that rises by its flange height can leave the rail; unilateral contact
+  only);
+* the deck quantities relative to the ground (midspan displacement ``peak_midspan_uz_rel``), and the
+  absolute deck acceleration for information;
+* run complete.
+
+Rows that do not apply show ``n/a`` and do not count.
 """
 
 from __future__ import annotations
 
+from collections.abc import Mapping
 from dataclasses import dataclass
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
+
+from .deck_modal import has_earthquake, is_simply_supported
+from .lm71 import dynamic_factor, lm71_deflection
 
 if TYPE_CHECKING:
     import xarray as xr
@@ -29,13 +57,55 @@ if TYPE_CHECKING:
 DECK_ACCELERATION_LIMIT = {"ballasted": 3.5, "direct": 5.0}
 """m/s², EN 1990 A2.4.4.2.1(4)P (the recommended values)."""
 COMFORT_LEVELS = {"very-good": 1.0, "good": 1.3, "acceptable": 2.0}
-"""m/s², EN 1990 Table A2.9: recommended levels of vertical car-body acceleration."""
+"""m/s², EN 1990 A2.4.4.3.1, Table A2.9: recommended levels of vertical car-body acceleration b_v."""
 ABUTMENT_ROTATION_LIMIT = {"ballasted": 6.5e-3}
-"""rad, EN 1990 A2.4.4.2.3(1), ballasted track: deck end at a transition to the embankment."""
+"""rad, ballasted track: deck end at a transition to the embankment (ENV 1991-3 Annex G; EN 1990
+A2.4.4.2.3(2) refers to EN 1991-2 6.5.4)."""
 JOINT_ROTATION_LIMIT = {"ballasted": 10.0e-3}
-"""rad, EN 1990 A2.4.4.2.3(1), ballasted track: θ1 + θ2 between two consecutive decks."""
-UNLOADING_LIMITS = (0.6, 0.8)
-"""ΔP/P limits of running-safety practice: 0.6 in normal operation, 0.8 under transient loading."""
+"""rad, ballasted track: θ1 + θ2 between two consecutive decks (as above)."""
+DEFLECTION_RATIO = 600.0
+"""EN 1990 A2.4.4.2.3(1): total vertical deflection at most L/600 under LM71 x α x Φ."""
+TRAFFIC_UNLOADING_LIMIT = 0.6
+"""ΔP/P of running-safety practice in normal operation."""
+SEISMIC_UNLOADING_LIMIT = 0.8
+"""ΔP/P of running-safety practice for short transients (earthquake)."""
+UNLOADING_LIMITS = (TRAFFIC_UNLOADING_LIMIT, SEISMIC_UNLOADING_LIMIT)
+"""Both ΔP/P limits, normal operation first (the figures of a store draw the last)."""
+FLANGE_HEIGHT = 0.028
+"""m, the nominal flange height of the S1002 wheel profile (EN 13715)."""
+HSLM_MIN_SPAN = 7.0
+"""m, EN 1991-2 Annex E, Table E.4: HSLM-A for simply supported spans of at least 7 m."""
+COMFORT_SPAN_FACTOR = 0.7
+"""EN 1990 A2.4.4.3.2: Figure A2.3's L/δ times 0.7 for one or two simply supported spans."""
+
+TRAFFIC, SEISMIC = "traffic", "seismic"
+
+
+@dataclass(frozen=True)
+class CheckOptions:
+    """What the user chooses: track form (None: the scenario's), comfort level, track maintenance
+    (Φ2 or Φ3), α, Figure A2.3's L/δ at the line speed and the flange height."""
+
+    track_form: str | None = None
+    comfort: str = "acceptable"
+    maintenance: str = "standard"
+    alpha: float = 1.0
+    comfort_l_over_delta: float | None = None
+    flange_height: float = FLANGE_HEIGHT
+
+
+def check_set(table: Mapping[str, Any]) -> tuple[str, str]:
+    """The set of checks a run's scenario calls for, and why."""
+    if has_earthquake(table):
+        eq = table.get("earthquake", {})
+        parts = ", ".join(
+            f"{c} = {eq.get(c)!r}" for c in ("vertical", "longitudinal") if eq.get(c, "none") != "none"
+        )
+        return SEISMIC, (
+            f"the run has an earthquake ({parts}): running safety under the earthquake; the traffic "
+            "serviceability limits of EN 1990 A2.4.4 are not applied to a deck shaken by the ground"
+        )
+    return TRAFFIC, "the run has no earthquake: EN 1990 A2.4.4 traffic serviceability limits"
 
 
 @dataclass(frozen=True)
@@ -74,66 +144,302 @@ def _worst(metrics: xr.Dataset, name: str, lowest: bool = False) -> tuple[float,
 
 
 def en1990_checks(
-    metrics: xr.Dataset, track_form: str = "ballasted", comfort: str = "acceptable", moving_load: bool = False
+    metrics: xr.Dataset,
+    track_form: str = "ballasted",
+    comfort: str = "acceptable",
+    moving_load: bool = False,
+    table: Mapping[str, Any] | None = None,
+    options: CheckOptions | None = None,
 ) -> list[Check]:
-    """The rows of ``svbi check`` for one run's metrics."""
-    if track_form not in DECK_ACCELERATION_LIMIT:
-        raise ValueError(f"track form {track_form!r}: expected one of {', '.join(DECK_ACCELERATION_LIMIT)}")
-    if comfort not in COMFORT_LEVELS:
-        raise ValueError(f"comfort level {comfort!r}: expected one of {', '.join(COMFORT_LEVELS)}")
+    """The rows of ``svbi check`` for one run's metrics; ``table`` is the run's scenario (the set and
+    the static checks come from it; without it, the traffic rows that need only the metrics)."""
+    opts = options or CheckOptions(track_form=track_form, comfort=comfort)
+    form = opts.track_form or track_form
+    if form not in DECK_ACCELERATION_LIMIT:
+        raise ValueError(f"track form {form!r}: expected one of {', '.join(DECK_ACCELERATION_LIMIT)}")
+    if opts.comfort not in COMFORT_LEVELS:
+        raise ValueError(f"comfort level {opts.comfort!r}: expected one of {', '.join(COMFORT_LEVELS)}")
+    dynamic_factor(10.0, opts.maintenance)  # raises on an unknown maintenance
+    table = table or {}
+    which, _ = check_set(table)
+    if which == SEISMIC:
+        bilateral = table.get("contact", {}).get("normal") == "bilateral"
+        rows = _seismic_rows(metrics, moving_load, opts, bilateral)
+    else:
+        rows = _traffic_rows(metrics, form, moving_load, table, opts)
+    rows.append(_complete_row(metrics))
+    return rows
+
+
+def _traffic_rows(
+    metrics: xr.Dataset, form: str, moving_load: bool, table: Mapping[str, Any], opts: CheckOptions
+) -> list[Check]:
     rows: list[Check] = []
-    limit = DECK_ACCELERATION_LIMIT[track_form]
+    limit = DECK_ACCELERATION_LIMIT[form]
     worst = _worst(metrics, "peak_deck_acceleration")
-    name = f"deck acceleration ({track_form}, A2.4.4.2.1)"
+    name = f"deck acceleration ({form}, A2.4.4.2.1)"
     if worst is None:
         rows.append(Check(name, None, limit, "m/s^2", "", None, None, "no deck acceleration"))
     else:
         v, where, when = worst
-        cutoff = metrics.attrs.get("deck_acceleration_cutoff_hz")
-        note = f"filtered to {float(cutoff):.3g} Hz" if cutoff is not None else ""
-        rows.append(Check(name, v, limit, "m/s^2", where, when, v <= limit, note))
-
-    limit = COMFORT_LEVELS[comfort]
-    name = f"car-body vertical acceleration (comfort {comfort}, Table A2.9)"
-    worst = None if moving_load else _worst(metrics, "peak_carbody_az")
-    if worst is None:
-        rows.append(Check(name, None, limit, "m/s^2", "", None, None, "no car body"))
-    else:
-        v, where, when = worst
-        reached = next((lvl for lvl, b in COMFORT_LEVELS.items() if v <= b), "below acceptable")
-        rows.append(Check(name, v, limit, "m/s^2", where, when, v <= limit, f"level reached: {reached}"))
-
-    worst = None if moving_load else _worst(metrics, "max_unloading_ratio")
-    for limit in UNLOADING_LIMITS:
-        name = f"wheel unloading dP/P <= {limit:g}"
-        if worst is None:
-            rows.append(Check(name, None, limit, "1", "", None, None, "prescribed axle loads"))
-        else:
-            v, where, when = worst
-            rows.append(Check(name, v, limit, "1", where, when, v <= limit))
-
-    rows += _rotation_rows(metrics, track_form)
-    complete = int(np.asarray(metrics["complete"].values)) if "complete" in metrics else 1
+        rows.append(
+            Check(name, v, limit, "m/s^2", _with_x(metrics, where), when, v <= limit, _deck_note(metrics))
+        )
     rows.append(
         Check(
-            "run complete",
-            float(complete),
-            1.0,
+            "deck twist (A2.4.4.2.2)",
+            None,
+            None,
             "",
             "",
             None,
-            bool(complete),
-            "" if complete else str(metrics.attrs.get("incomplete", "stopped early"))[:80],
+            None,
+            "needs the 3D model (not yet available)",
         )
     )
+    bridge = table.get("bridge", {})
+    speed = _speed_kmh(table)
+    rows += _deflection_rows(bridge, opts, moving_load, speed, metrics)
+    rows += _rotation_rows(metrics, form)
+    worst = None if moving_load else _worst(metrics, "max_unloading_ratio")
+    name = f"wheel unloading dP/P <= {TRAFFIC_UNLOADING_LIMIT:g}"
+    if worst is None:
+        rows.append(Check(name, None, TRAFFIC_UNLOADING_LIMIT, "1", "", None, None, "prescribed axle loads"))
+    else:
+        v, where, when = worst
+        rows.append(Check(name, v, TRAFFIC_UNLOADING_LIMIT, "1", where, when, v <= TRAFFIC_UNLOADING_LIMIT))
+    hslm = table.get("train", {}).get("hslm")
+    length = bridge.get("span_length")
+    if hslm and length is not None and float(length) < HSLM_MIN_SPAN and is_simply_supported(bridge):
+        rows.append(
+            Check(
+                "load model (EN 1991-2 E, Table E.4)",
+                None,
+                None,
+                "",
+                "",
+                None,
+                None,
+                f"HSLM-{hslm} on a {float(length):g} m span: spans under 7 m need HSLM-B (not built in)",
+            )
+        )
     return rows
 
 
+def _deck_note(metrics: xr.Dataset) -> str:
+    method = str(metrics.attrs.get("deck_acceleration_method", ""))
+    cutoff = metrics.attrs.get("deck_acceleration_cutoff_hz")
+    fc = f"{float(cutoff):.3g} Hz" if cutoff is not None else "fc"
+    if method.startswith("modal"):
+        return (
+            f"{int(metrics.attrs.get('deck_acceleration_modes', 0))} modes up to {fc}, envelope over the span"
+        )
+    return f"midspan, filtered to {fc}" if cutoff is not None else ""
+
+
+def _with_x(metrics: xr.Dataset, where: str) -> str:
+    """``where`` with the position along the span of the deck-acceleration peak, when known."""
+    if "peak_deck_acceleration_x" not in metrics or "span" not in where:
+        return where
+    values = np.asarray(metrics["peak_deck_acceleration"].values, dtype=float)
+    if not np.isfinite(values).any():
+        return where
+    index = np.unravel_index(int(np.nanargmax(values)), values.shape)
+    x = float(np.asarray(metrics["peak_deck_acceleration_x"].values, dtype=float)[index])
+    return f"{where}, x = {x:.4g} m" if np.isfinite(x) else where
+
+
+def _speed_kmh(table: Mapping[str, Any]) -> float | None:
+    train = table.get("train", {})
+    if train.get("speed_kmh") is not None:
+        return float(train["speed_kmh"])
+    if train.get("speed") is not None:
+        return 3.6 * float(train["speed"])
+    return None
+
+
+def _deflection_rows(
+    bridge: Mapping[str, Any], opts: CheckOptions, moving_load: bool, speed: float | None, metrics: xr.Dataset
+) -> list[Check]:
+    """A2.4.4.2.3(1) (L/600 under α LM71 Φ) and, without a car body, the comfort criterion of
+    A2.4.4.3.2 (δ under LM71 Φ, α = 1); with one, the car-body acceleration of A2.4.4.3.1."""
+    name = "vertical deflection, LM71 x alpha x Phi (A2.4.4.2.3(1))"
+    comfort_name = f"comfort, car-body acceleration b_v ({opts.comfort}, A2.4.4.3.1, Table A2.9)"
+    rows: list[Check] = []
+    b_v = COMFORT_LEVELS[opts.comfort]
+    if not bridge or not is_simply_supported(bridge):
+        rows.append(
+            Check(
+                name, None, None, "m", "", None, None, "needs the shorthand [bridge] (simply supported spans)"
+            )
+        )
+        delta = None
+    else:
+        length = float(bridge["span_length"])
+        phi = dynamic_factor(length, opts.maintenance)
+        delta = lm71_deflection(bridge, 1.0) * phi  # α = 1
+        value = opts.alpha * delta
+        limit = length / DEFLECTION_RATIO
+        phi_name = "Phi2" if opts.maintenance == "careful" else "Phi3"
+        note = f"alpha = {opts.alpha:g}, {phi_name} = {phi:.3f}; L/delta = {length / value:.0f}"
+        rows.append(Check(name, value, limit, "m", "every span", None, value <= limit, note))
+    worst = None if moving_load else _worst(metrics, "peak_carbody_az")
+    if worst is not None:
+        v, where, when = worst
+        reached = next((lvl for lvl, b in COMFORT_LEVELS.items() if v <= b), "below acceptable")
+        rows.append(Check(comfort_name, v, b_v, "m/s^2", where, when, v <= b_v, f"level reached: {reached}"))
+        return rows
+    name = f"comfort, deflection delta/L ({opts.comfort}, A2.4.4.3.2)"
+    if delta is None:
+        rows.append(Check(name, None, None, "m", "", None, None, "no car body; needs the shorthand [bridge]"))
+        return rows
+    length = float(bridge["span_length"])
+    spans = int(bridge.get("spans", 1))
+    at = f" at V = {speed:.0f} km/h" if speed is not None else ""
+    if opts.comfort_l_over_delta is None:
+        rows.append(
+            Check(
+                name,
+                delta,
+                None,
+                "m",
+                "every span",
+                None,
+                None,
+                f"no car body: L/delta = {length / delta:.0f}; give Figure A2.3's L/delta{at} "
+                "(--comfort-l-over-delta)",
+            )
+        )
+        return rows
+    required = opts.comfort_l_over_delta * (COMFORT_SPAN_FACTOR if spans <= 2 else 1.0) / b_v
+    required = max(required, DEFLECTION_RATIO)
+    limit = length / required
+    note = f"no car body: L/delta = {length / delta:.0f} against {required:.0f} (Figure A2.3{at})"
+    rows.append(Check(name, delta, limit, "m", "every span", None, delta <= limit, note))
+    return rows
+
+
+def _seismic_rows(
+    metrics: xr.Dataset, moving_load: bool, opts: CheckOptions, bilateral: bool = False
+) -> list[Check]:
+    rows: list[Check] = []
+    worst = None if moving_load else _worst(metrics, "max_unloading_ratio")
+    name = f"wheel unloading dP/P <= {SEISMIC_UNLOADING_LIMIT:g} (transient)"
+    if worst is None:
+        rows.append(Check(name, None, SEISMIC_UNLOADING_LIMIT, "1", "", None, None, "prescribed axle loads"))
+    else:
+        v, where, when = worst
+        rows.append(Check(name, v, SEISMIC_UNLOADING_LIMIT, "1", where, when, v <= SEISMIC_UNLOADING_LIMIT))
+    unilateral = "lift_offs" in metrics and not bilateral
+    if moving_load or not unilateral:
+        why = "prescribed axle loads" if moving_load else "bilateral contact: a wheel cannot lift"
+        rows.append(Check("lift-offs", None, None, "", "", None, None, why))
+        rows.append(Check("longest contact loss", None, None, "s", "", None, None, why))
+        rows.append(
+            Check("wheel uplift <= flange height", None, opts.flange_height, "m", "", None, None, why)
+        )
+    else:
+        total = float(np.nansum(np.asarray(metrics["lift_offs"].values, dtype=float)))
+        w = _worst(metrics, "lift_offs")
+        rows.append(
+            Check("lift-offs", total, None, "", w[1] if w and w[0] > 0 else "", None, None, "all wheels")
+        )
+        w = _worst(metrics, "longest_contact_loss")
+        if w is None:
+            rows.append(Check("longest contact loss", None, None, "s", "", None, None, "not in the results"))
+        else:
+            lifted = w[0] > 0
+            rows.append(
+                Check(
+                    "longest contact loss",
+                    w[0],
+                    None,
+                    "s",
+                    w[1] if lifted else "",
+                    w[2] if lifted else None,
+                    None,
+                )
+            )
+        w = _worst(metrics, "peak_uplift")
+        if w is None:
+            rows.append(
+                Check(
+                    "wheel uplift <= flange height",
+                    None,
+                    opts.flange_height,
+                    "m",
+                    "",
+                    None,
+                    None,
+                    "not in the results",
+                )
+            )
+        else:
+            v, where, when = w
+            rows.append(
+                Check(
+                    "wheel uplift <= flange height",
+                    v,
+                    opts.flange_height,
+                    "m",
+                    where,
+                    when,
+                    v <= opts.flange_height,
+                )
+            )
+    w = _worst(metrics, "peak_midspan_uz_rel")
+    if w is not None:
+        rows.append(
+            Check(
+                "deck displacement relative to the ground",
+                w[0],
+                None,
+                "m",
+                w[1],
+                w[2],
+                None,
+                "midspan, for information",
+            )
+        )
+    w = _worst(metrics, "peak_deck_acceleration")
+    if w is not None:
+        rows.append(
+            Check(
+                "deck acceleration (absolute)",
+                w[0],
+                None,
+                "m/s^2",
+                w[1],
+                w[2],
+                None,
+                "includes the ground's motion: not a traffic limit (A2.4.4.2.1) in a seismic run",
+            )
+        )
+    return rows
+
+
+def _complete_row(metrics: xr.Dataset) -> Check:
+    raw = np.asarray(metrics["complete"].values, dtype=float) if "complete" in metrics else np.array(1.0)
+    complete = int(raw) if np.isfinite(raw) else 0
+    return Check(
+        "run complete",
+        float(complete),
+        1.0,
+        "",
+        "",
+        None,
+        bool(complete),
+        "" if complete else str(metrics.attrs.get("incomplete", "stopped early"))[:80],
+    )
+
+
 def _rotation_rows(metrics: xr.Dataset, track_form: str) -> list[Check]:
-    """EN 1990 A2.4.4.2.3(1): with ballasted track, the deck end rotation at a transition to the
-    embankment (the first span's left end, the last span's right end) and the sum of the two end
-    rotations between consecutive decks. Direct fastening has project-specific limits (n/a)."""
-    name_end, name_joint = "end rotation at abutments (A2.4.4.2.3)", "rotation between decks (A2.4.4.2.3)"
+    """With ballasted track, the deck end rotation at a transition to the embankment (the first
+    span's left end, the last span's right end) and the sum of the two end rotations between
+    consecutive decks (module docstring: EN 1990 A2.4.4.2.3(2), EN 1991-2 6.5.4, the values of
+    ENV 1991-3 Annex G). Direct fastening has project-specific limits (n/a)."""
+    name_end = "end rotation at abutments (A2.4.4.2.3(2))"
+    name_joint = "rotation between decks (A2.4.4.2.3(2))"
     if "peak_end_rotation" not in metrics:
         return [Check(name_end, None, None, "rad", "", None, None, "not in the results")]
     rows = []

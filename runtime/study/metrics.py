@@ -3,12 +3,18 @@
 Every metric is a peak over the whole stored run, with the time at which it occurs (``<name>_time``):
 
 * ``peak_midspan_uz`` (span): max |``midspan_uz``|, the absolute vertical midspan displacement (m).
-* ``peak_deck_acceleration`` (span): max |a| of the vertical deck acceleration at midspan
-  (``deck_acceleration``) after the low-pass filter of EN 1990:2002+A1 A2.4.4.2.1(4): frequencies up
-  to the greater of 30 Hz, 1.5 f1 and f3 are kept, f1 and f3 the first and third bending frequencies
-  of the span (:func:`svbi.runtime.model.modes.span_modes`, from the generated span matrices). The filter is
-  a 4th-order Butterworth applied forwards and backwards (zero phase), as for the contact force
-  (``svbi.runtime.run.results``), at the output rate.
+* ``peak_deck_acceleration`` (span): the vertical deck acceleration EN 1990:2002+A1 A2.4.4.2.1(4)P
+  limits. For a run without an earthquake on a bridge of simply supported spans (the ``[bridge]``
+  shorthand): the envelope over the span's nodes and over time of the deck's response by modal
+  truncation, every bending mode up to the greater of 30 Hz, 1.5 f1 and f3 counted in full, each
+  with the damping ratio ``bridge.damping_ratio``, under the run's wheel forces
+  (:mod:`svbi.runtime.study.deck_modal`); ``peak_deck_acceleration_x`` says where along the span.
+  Otherwise (an earthquake, a long-form bridge): max |a| of the absolute midspan acceleration
+  ``deck_acceleration`` after a low-pass filter at that frequency (4th-order Butterworth, zero
+  phase, at the output rate), ``peak_deck_acceleration_x`` the midspan. The attribute
+  ``deck_acceleration_method`` says which.
+* ``peak_midspan_uz_rel`` (span): max |``midspan_uz_rel``|, the midspan displacement relative to the
+  ground under the span (results that carry it).
 * ``peak_carbody_az`` (car): max |``carbody_az``|, the vertical car-body acceleration (m/s²); NaN
   for a train of moving loads, which has no car body.
 * ``max_unloading_ratio`` (car, wheel): max over time of ΔP/P0 = (P0 - P(t)) / P0, P the filtered
@@ -16,9 +22,10 @@ Every metric is a peak over the whole stored run, with the time at which it occu
   run starts from static equilibrium on rigid track); NaN for a train of moving loads, whose
   prescribed axle loads never unload.
 * ``min_contact_force_filtered`` (car, wheel): min over time of ``contact_force_filtered`` (N).
-* ``lift_offs`` and ``peak_uplift`` (car, wheel): only when the results carry unilateral contact
-  (``contact_state``, 1 in contact and 0 lifted, and ``wheel_uplift`` in m): the number of
-  contact-to-lifted transitions and the largest uplift.
+* ``lift_offs``, ``longest_contact_loss`` and ``peak_uplift`` (car, wheel): only when the results
+  carry unilateral contact (``contact_state``, 1 in contact and 0 lifted, and ``wheel_uplift`` in
+  m): the number of contact-to-lifted transitions, the longest time a wheel stayed lifted (s, from
+  the stored times) and the largest uplift.
 * ``peak_end_rotation`` (span, end): max |``end_rotation``|, the rotation of each span end (rad);
   ``peak_joint_rotation`` (joint): max over time of the angle between consecutive decks at joint j
   (between spans j and j + 1), |θ_right(j) - θ_left(j + 1)| (rad), the θ1 + θ2 of EN 1990
@@ -40,36 +47,44 @@ from ..model.bridge import Bridge
 from ..model.modes import span_modes
 from ..run.force_filter import design, sosfiltfilt_rows
 from ..scenario.schema import BridgeSpec
+from .deck_modal import EN1990_MIN_CUTOFF_HZ, deck_envelope, has_earthquake, is_simply_supported
 
 if TYPE_CHECKING:
     import xarray as xr
 
 FILTER_ORDER = 4
-EN1990_MIN_CUTOFF_HZ = 30.0
-"""EN 1990 A2.4.4.2.1(4): the deck acceleration counts frequencies up to max(30 Hz, 1.5 f1, f3)."""
+DECK_MODAL = "modal truncation, envelope over the span's nodes"
+DECK_FILTERED = "absolute midspan acceleration, low-pass filtered"
 
 METRIC_DIMS: dict[str, tuple[str, ...]] = {
     "peak_midspan_uz": ("span",),
     "peak_deck_acceleration": ("span",),
+    "peak_deck_acceleration_x": ("span",),
+    "peak_midspan_uz_rel": ("span",),
     "peak_carbody_az": ("car",),
     "max_unloading_ratio": ("car", "wheel"),
     "min_contact_force_filtered": ("car", "wheel"),
     "lift_offs": ("car", "wheel"),
+    "longest_contact_loss": ("car", "wheel"),
     "peak_uplift": ("car", "wheel"),
     "peak_end_rotation": ("span", "end"),
     "peak_joint_rotation": ("joint",),
     "peak_pier_drift": ("pier",),
     "complete": (),
 }
-"""Every metric and its dimensions (``lift_offs`` and ``peak_uplift`` only with unilateral contact)."""
+"""Every metric and its dimensions (``lift_offs``, ``longest_contact_loss`` and ``peak_uplift`` only
+with unilateral contact, ``peak_midspan_uz_rel`` only when the results carry ``midspan_uz_rel``)."""
 
 METRIC_UNITS = {
     "peak_midspan_uz": "m",
     "peak_deck_acceleration": "m/s^2",
+    "peak_deck_acceleration_x": "m",
+    "peak_midspan_uz_rel": "m",
     "peak_carbody_az": "m/s^2",
     "max_unloading_ratio": "1",
     "min_contact_force_filtered": "N",
     "lift_offs": "1",
+    "longest_contact_loss": "s",
     "peak_uplift": "m",
     "peak_end_rotation": "rad",
     "peak_joint_rotation": "rad",
@@ -183,6 +198,7 @@ def _moving_load(ds: xr.Dataset) -> bool:
 
 METRIC_INPUTS = (
     "midspan_uz",
+    "midspan_uz_rel",
     "deck_acceleration",
     "end_rotation",
     "carbody_az",
@@ -218,14 +234,13 @@ def compute_metrics(ds: xr.Dataset) -> xr.Dataset:
     uz = np.asarray(ds["midspan_uz"].transpose("time", "span").values, dtype=float)
     put("peak_midspan_uz", *_peak_abs(uz, t), "max |midspan_uz| (absolute vertical displacement)")
 
-    acc, cutoff = filtered_deck_acceleration(ds)
-    peak, when = _peak_abs(acc, t)
-    put(
-        "peak_deck_acceleration",
-        peak,
-        when,
-        f"max |deck_acceleration| at midspan, low-pass {cutoff:.4g} Hz (EN 1990 A2.4.4.2.1)",
-    )
+    deck = _deck_acceleration(ds, t)
+    put("peak_deck_acceleration", deck.peak, deck.time, deck.doc)
+    put("peak_deck_acceleration_x", deck.x, None, "where along the span the deck acceleration peaks")
+    cutoff = deck.cutoff
+    if "midspan_uz_rel" in ds.variables:
+        rel = np.asarray(ds["midspan_uz_rel"].transpose("time", "span").values, dtype=float)
+        put("peak_midspan_uz_rel", *_peak_abs(rel, t), "max |midspan_uz_rel| (relative to the ground)")
 
     ncar = ds.sizes["car"]
     if "carbody_az" in ds.variables and not _moving_load(ds):
@@ -269,6 +284,7 @@ def compute_metrics(ds: xr.Dataset) -> xr.Dataset:
         on = state != 0
         lifts = np.sum(on[:-1] & ~on[1:], axis=0) if on.shape[0] > 1 else np.zeros(shape, int)
         put("lift_offs", lifts.astype(np.int64), None, "contact-to-lifted transitions")
+        put("longest_contact_loss", *_longest_loss(~on, t), "longest time a wheel stayed lifted")
     if "wheel_uplift" in ds.variables:
         up = np.asarray(ds["wheel_uplift"].transpose("time", "car", "wheel").values, dtype=float)
         if up.shape[0]:
@@ -296,10 +312,78 @@ def compute_metrics(ds: xr.Dataset) -> xr.Dataset:
     coords = {d: ds.coords[d].values for d in ("span", "car", "wheel", "end", "pier") if d in ds.coords}
     if "peak_joint_rotation" in out:
         coords["joint"] = np.arange(1, ds.sizes["span"])
-    attrs = {"deck_acceleration_cutoff_hz": cutoff}
+    attrs: dict[str, Any] = {
+        "deck_acceleration_cutoff_hz": cutoff,
+        "deck_acceleration_method": deck.method,
+        "deck_acceleration_modes": deck.modes,
+    }
     if not complete:
         attrs["incomplete"] = str(ds.attrs.get("incomplete", ""))
     return xr.Dataset(out, coords=coords, attrs=attrs)
+
+
+@dataclass(frozen=True)
+class _Deck:
+    peak: np.ndarray
+    time: np.ndarray
+    x: np.ndarray
+    cutoff: float
+    method: str
+    modes: int
+    doc: str
+
+
+def _deck_acceleration(ds: xr.Dataset, t: np.ndarray) -> _Deck:
+    """The deck acceleration EN 1990 A2.4.4.2.1 limits (module docstring): modal truncation for a
+    traffic run on simply supported spans, else the filtered absolute midspan acceleration."""
+    table = scenario_table(ds)
+    bridge = table["bridge"]
+    if is_simply_supported(bridge) and not has_earthquake(table) and t.size > 1:
+        forces = np.asarray(ds["contact_force"].transpose("time", "car", "wheel").values, dtype=float)
+        try:
+            env = deck_envelope(table, t, forces.reshape(t.size, -1))
+        except (ValueError, KeyError, OSError) as exc:  # unequal output steps, an unreadable vehicle
+            # (a topology file no longer where the scenario says): the filtered midspan value below
+            env = None
+            reason = str(exc)
+        if env is not None:
+            cutoff = env.modes.cutoff_hz
+            n = env.modes.frequencies_hz.size
+            doc = (
+                f"max |vertical deck acceleration| over the span's nodes, {n} bending modes up to "
+                f"{cutoff:.4g} Hz, damping ratio {env.modes.damping_ratio:g} each (EN 1990 A2.4.4.2.1)"
+            )
+            return _Deck(env.peak, env.time, env.x, cutoff, DECK_MODAL, n, doc)
+    else:
+        reason = ""
+    acc, cutoff = filtered_deck_acceleration(ds)
+    peak, when = _peak_abs(acc, t)
+    length = float(bridge.get("span_length") or np.nan)
+    doc = f"max |deck_acceleration| at midspan, low-pass {cutoff:.4g} Hz (EN 1990 A2.4.4.2.1)"
+    if reason:
+        doc += f"; no modal envelope: {reason}"
+    return _Deck(peak, when, np.full(peak.shape, 0.5 * length), cutoff, DECK_FILTERED, 0, doc)
+
+
+def _longest_loss(lifted: np.ndarray, t: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """The longest stretch of stored times a wheel was lifted (s, from the first lifted sample to
+    the next in contact) and when it began; 0 and NaN for a wheel that never lifted."""
+    shape = lifted.shape[1:]
+    flat = lifted.reshape(lifted.shape[0], -1)
+    longest = np.zeros(flat.shape[1])
+    start = np.full(flat.shape[1], np.nan)
+    end_time = t[-1] if t.size else 0.0
+    for j in range(flat.shape[1]):
+        col = flat[:, j]
+        if not col.any():
+            continue
+        edges = np.diff(np.concatenate([[0], col.astype(np.int8), [0]]))
+        begins, ends = np.nonzero(edges == 1)[0], np.nonzero(edges == -1)[0]
+        stop = np.array([t[e] if e < t.size else end_time for e in ends])
+        length = stop - t[begins]
+        k = int(np.argmax(length))
+        longest[j], start[j] = length[k], t[begins[k]]
+    return longest.reshape(shape), start.reshape(shape)
 
 
 def _complete(ds: xr.Dataset) -> int:
@@ -320,6 +404,8 @@ def metrics_text(metrics: xr.Dataset) -> str:
         if name == "complete":
             lines.append(f"{name:28s} {int(da.values)}")
             continue
+        if name == "peak_deck_acceleration_x":  # shown with the deck acceleration
+            continue
         values = np.asarray(da.values, dtype=float)
         if values.size == 0 or not np.isfinite(values).any():
             lines.append(f"{name:28s} n/a")
@@ -334,5 +420,8 @@ def metrics_text(metrics: xr.Dataset) -> str:
         when = ""
         if f"{name}_time" in metrics:
             when = f" at t = {float(metrics[f'{name}_time'].values[index]):.4g} s"
+        if name == "peak_deck_acceleration" and "peak_deck_acceleration_x" in metrics:
+            x = float(np.asarray(metrics["peak_deck_acceleration_x"].values, dtype=float)[index])
+            where += f", x = {x:.4g} m" if math.isfinite(x) else ""
         lines.append(f"{name:28s} {text} {unit} ({where}{when})")
     return "\n".join(lines) + "\n"
