@@ -49,7 +49,6 @@ from functools import cache
 import sympy as sp
 
 from svbi.codegen import frame3d
-from svbi.codegen.beam import xi
 
 # wheelset DOFs
 y_w, z_w, phi_w, psi_w = sp.symbols("y_w z_w phi_w psi_w", real=True)
