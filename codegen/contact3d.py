@@ -80,6 +80,41 @@ UE = sp.Matrix([sp.Symbol(f"ue_{name}", real=True) for name in frame3d.DOF_NAMES
 
 SIDES = (("left", 1), ("right", -1))
 
+# rates: the contact moves along the deck at the constant speed v
+v = sp.Symbol("v", positive=True)
+"""Train speed (m/s)."""
+WHEELSET_RATES = sp.symbols("ydot_w zdot_w phidot_w psidot_w", real=True)
+"""Rates of ``[y_w, z_w, phi_w, psi_w]``."""
+WHEELSET_ACCELERATIONS = sp.symbols("yddot_w zddot_w phiddot_w psiddot_w", real=True)
+"""Second time derivatives of ``[y_w, z_w, phi_w, psi_w]``."""
+UE_T = sp.Matrix([sp.Symbol(f"ue_t_{name}", real=True) for name in frame3d.DOF_NAMES])
+"""Rates of the deck element's DOFs."""
+UE_TT = sp.Matrix([sp.Symbol(f"ue_tt_{name}", real=True) for name in frame3d.DOF_NAMES])
+"""Second time derivatives of the deck element's DOFs."""
+IRREGULARITY_SLOPES = sp.symbols("r_v_x r_a_x r_c_x", real=True)
+"""x-derivatives of ``[r_v, r_a, r_c]`` under the axle."""
+IRREGULARITY_CURVATURES = sp.symbols("r_v_xx r_a_xx r_c_xx", real=True)
+"""Second x-derivatives of ``[r_v, r_a, r_c]`` under the axle."""
+
+
+def time_derivative(expr: sp.Expr) -> sp.Expr:
+    """d/dt of an expression in the state and its first rates, the contact moving at ``v``:
+    ``xi' = v / le`` (the convective terms ``v N'`` of the 2D gap, Eq. 21) and ``r' = v r_x``."""
+    pairs = [
+        *zip(WHEELSET_DOFS, WHEELSET_RATES, strict=True),
+        *zip(WHEELSET_RATES, WHEELSET_ACCELERATIONS, strict=True),
+        *zip(UE, UE_T, strict=True),
+        *zip(UE_T, UE_TT, strict=True),
+    ]
+    out = sum((sp.diff(expr, q) * qd for q, qd in pairs), sp.Integer(0))
+    out += sp.diff(expr, frame3d.xi) * v / frame3d.le
+    slopes = [
+        *zip(IRREGULARITIES, IRREGULARITY_SLOPES, strict=True),
+        *zip(IRREGULARITY_SLOPES, IRREGULARITY_CURVATURES, strict=True),
+    ]
+    out += sum((sp.diff(expr, r) * v * rx for r, rx in slopes), sp.Integer(0))
+    return out
+
 
 def deck_section(ue: sp.Matrix = UE) -> tuple[sp.Expr, sp.Expr, sp.Expr]:
     """Lateral ``v``, vertical ``w`` and twist ``phi_d`` of the deck at ``xi`` of the element."""
@@ -157,6 +192,17 @@ def contacts() -> tuple[Contact3D, Contact3D]:
                 flange,
             )
         )
+    return out[0], out[1]
+
+
+@cache
+def gap_rates() -> tuple[tuple[sp.Expr, sp.Expr], tuple[sp.Expr, sp.Expr]]:
+    """``(g_t, g_tt)`` of the left and right normal gaps: exact time derivatives along the moving
+    contact (the 3D counterpart of :func:`svbi.codegen.constraints.gap_bridge`'s ``g_t``, ``g_tt``)."""
+    out = []
+    for c in contacts():
+        g_t = time_derivative(c.gap)
+        out.append((g_t, time_derivative(g_t)))
     return out[0], out[1]
 
 

@@ -11,7 +11,9 @@ and DOF symbols are its own.
   moves forward at ``v`` and spins about its axle ``R e_y`` at ``Omega = v / r0`` (constant speed:
   the longitudinal DOF and the spin perturbation are left out) plus its roll and yaw rates; the rail
   point moves with the deck's velocity at the moving contact, ``d/dt = d/dt|_x + v d/dx`` (the
-  convective terms of the 2D gap, Eq. 21), and turns with the deck's twist, pitch and yaw rates.
+  convective terms of the 2D gap, Eq. 21), along ``x`` too (the axial displacement, less the pitch
+  times the rail height ``h`` as the 2D law's ``W_T^B``, less the deck's yaw times ``e + s b``),
+  and turns with the deck's twist, pitch and yaw rates.
 * **Kalker's linear law** (Kalker 1967; 1990, Table E.3): ``F_x = -f11 xi_x``,
   ``F_y = -f22 xi_y - f23 xi_sp`` in the contact plane and the spin moment ``M_sp = f23 xi_y - f33
   xi_sp`` about the normal, ``f11 = G a b C11``, ``f22 = G a b C22``, ``f23 = G (a b)^(3/2) C23``,
@@ -36,14 +38,11 @@ import sympy as sp
 from svbi.codegen import contact3d as c3
 from svbi.codegen import creep, frame3d
 
-v = sp.Symbol("v", positive=True)
-"""Train speed (m/s)."""
-WHEELSET_RATES = sp.symbols("ydot_w zdot_w phidot_w psidot_w", real=True)
-"""Rates of ``[y_w, z_w, phi_w, psi_w]``."""
-UE_T = sp.Matrix([sp.Symbol(f"ue_t_{name}", real=True) for name in frame3d.DOF_NAMES])
-"""Rates of the deck element's DOFs."""
-IRREGULARITY_SLOPES = sp.symbols("r_v_x r_a_x r_c_x", real=True)
-"""x-derivatives of ``[r_v, r_a, r_c]`` under the axle."""
+v = c3.v
+"""Train speed (m/s); :data:`svbi.codegen.contact3d.v`."""
+WHEELSET_RATES = c3.WHEELSET_RATES
+UE_T = c3.UE_T
+IRREGULARITY_SLOPES = c3.IRREGULARITY_SLOPES
 
 f11, f22, f23 = sp.symbols("f11 f22 f23", nonnegative=True)
 """Kalker's linear creep coefficients (N; f23 in N m)."""
@@ -61,18 +60,6 @@ def _rotation() -> sp.Matrix:
     cz, sz = sp.cos(c3.psi_w), sp.sin(c3.psi_w)
     yaw = sp.Matrix([[cz, -sz, 0], [sz, cz, 0], [0, 0, 1]])
     return yaw * roll
-
-
-def _time_derivative(expr: sp.Expr) -> sp.Expr:
-    """d/dt of a function of the wheelset DOFs, the deck DOFs at the moving ``xi`` and the
-    irregularities under the moving axle: ``xi' = v / le``, ``r' = v r_x``."""
-    out = sum(sp.diff(expr, q) * qd for q, qd in zip(c3.WHEELSET_DOFS, WHEELSET_RATES, strict=True))
-    out += sum(sp.diff(expr, u) * ud for u, ud in zip(c3.UE, UE_T, strict=True))
-    out += sp.diff(expr, frame3d.xi) * v / frame3d.le
-    out += sum(
-        sp.diff(expr, r) * v * rx for r, rx in zip(c3.IRREGULARITIES, IRREGULARITY_SLOPES, strict=True)
-    )
-    return out
 
 
 @dataclass(frozen=True)
@@ -96,21 +83,27 @@ def creepages() -> tuple[Creepages, Creepages]:
     axle = rot * sp.Matrix([0, 1, 0])
     rates = dict(zip(c3.WHEELSET_DOFS, WHEELSET_RATES, strict=True))
     # angular velocity of the wheelset: spin about the axle, roll about x, yaw about z
-    omega = (v / c3.r0) * axle + sp.Matrix([rates[c3.phi_w], 0, 0]) + sp.Matrix([0, 0, rates[c3.psi_w]])
+    # (yaw, then roll about the yawed x axis)
+    yawed_x = sp.Matrix([sp.cos(c3.psi_w), sp.sin(c3.psi_w), 0])
+    omega = (v / c3.r0) * axle + rates[c3.phi_w] * yawed_x + sp.Matrix([0, 0, rates[c3.psi_w]])
     n = frame3d.shape_functions()
-    v_d, _, phi_d = c3.deck_section()
+    _, _, phi_d = c3.deck_section()
+    u_d = (n["u"] * c3.UE)[0, 0]
     theta_d = (frame3d.d_dx(n["w"]) * c3.UE)[0, 0]
     psi_d = (frame3d.d_dx(n["v"]) * c3.UE)[0, 0]
     # the deck's angular velocity: twist about x, pitch about -y (theta = dw/dx), yaw about z
-    omega_rail = sp.Matrix([_time_derivative(phi_d), -_time_derivative(theta_d), _time_derivative(psi_d)])
-    del v_d
+    dt = c3.time_derivative
+    omega_rail = sp.Matrix([dt(phi_d), -dt(theta_d), dt(psi_d)])
     centre = sp.Matrix([v, rates[c3.y_w], rates[c3.z_w]])
     out = []
     for contact in c3.contacts():
         r_c = sp.Matrix(contact.position)
         wheel = centre + omega.cross(r_c)
         y_rail, z_rail = contact.rail
-        rail = sp.Matrix([0, _time_derivative(y_rail), _time_derivative(z_rail)])
+        # the rail head moves along x with the deck's axial displacement, its pitch (at the height
+        # h above the shear centre, as the 2D W_T^B) and its yaw (at e + s b beside it)
+        x_rail = u_d - c3.h_rail * theta_d - (c3.ecc + contact.sign * c3.b) * psi_d
+        rail = sp.Matrix([dt(x_rail), dt(y_rail), dt(z_rail)])
         slip = wheel - rail
         normal = contact.normal
         t_y = normal.cross(t_x)

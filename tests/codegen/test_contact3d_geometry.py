@@ -168,3 +168,58 @@ def test_contact_force_sways_and_twists_the_deck() -> None:
         moment_x = r[1] * force[2] - r[2] * force[1]
         expected = sp.Matrix([[force[1], force[2], moment_x, 0]])
         assert (rows.wheelset * lam_n - expected).applyfunc(sp.simplify) == sp.zeros(1, 4)
+
+
+def test_gap_rates_are_the_time_derivatives_along_the_moving_contact() -> None:
+    """``g_t`` and ``g_tt`` against central differences of ``g`` along a trajectory: wheelset and deck
+    DOFs quadratic in time, the contact moving through the element at ``v``, irregularities
+    quadratic in ``x``."""
+    rng = np.random.default_rng(2)
+    speed, le_value, xi0 = 70.0, 2.0, 0.2
+    coef = {s: rng.normal(0, 1e-3, 3) for s in (*c3.WHEELSET_DOFS, *c3.UE)}
+    irr = {s: rng.normal(0, 1e-3, 3) for s in c3.IRREGULARITIES}
+    fixed = {
+        c3.r0: 0.46,
+        c3.b: 0.75,
+        c3.lam: 0.2,
+        c3.ecc: 0.9,
+        c3.h_rail: 1.7,
+        frame3d.le: le_value,
+        c3.v: speed,
+    }
+
+    rate = dict(zip((*c3.WHEELSET_DOFS, *c3.UE), (*c3.WHEELSET_RATES, *c3.UE_T), strict=True))
+    acc = dict(zip((*c3.WHEELSET_DOFS, *c3.UE), (*c3.WHEELSET_ACCELERATIONS, *c3.UE_TT), strict=True))
+    slopes = zip(c3.IRREGULARITIES, c3.IRREGULARITY_SLOPES, c3.IRREGULARITY_CURVATURES, strict=True)
+    families = list(slopes)
+
+    def at(t: float) -> dict[sp.Symbol, float]:
+        values = dict(fixed)
+        for s, (a0, a1, a2) in coef.items():
+            values[s] = a0 + a1 * t + a2 * t * t
+            values[rate[s]] = a1 + 2 * a2 * t
+            values[acc[s]] = 2 * a2
+        x = speed * t  # distance travelled from xi0
+        values[frame3d.xi] = xi0 + x / le_value
+        for s, sx, sxx in families:
+            a0, a1, a2 = irr[s]
+            values[s] = a0 + a1 * x + a2 * x * x
+            values[sx] = a1 + 2 * a2 * x
+            values[sxx] = 2 * a2
+        return values
+
+    symbols = sorted(at(0.0), key=str)
+    step, t0 = 1e-5, 3e-3
+    for contact, (g_t, g_tt) in zip(c3.contacts(), c3.gap_rates(), strict=True):
+        funcs = [sp.lambdify(symbols, e) for e in (contact.gap, g_t, g_tt)]
+
+        def ev(f, t: float) -> float:  # noqa: ANN001
+            values = at(t)
+            return float(f(*[values[s] for s in symbols]))
+
+        g = [ev(funcs[0], t0 + k * step) for k in (-1, 0, 1)]
+        # central differences: truncation step^2 g'''/6 and step^2 g''''/12. The cubic shape
+        # functions swept at v / le = 35 /s give g''' ~ 6 (35)^3 1e-3 ~ 260 /s^3: 4e-9 against
+        # g' ~ 0.16 (2.5e-8 relative); round-off eps g / step^2 ~ 2e-9 in g''.
+        assert (g[2] - g[0]) / (2 * step) == pytest.approx(ev(funcs[1], t0), rel=1e-6)
+        assert (g[2] - 2 * g[1] + g[0]) / step**2 == pytest.approx(ev(funcs[2], t0), rel=1e-4)

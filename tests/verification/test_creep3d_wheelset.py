@@ -28,8 +28,8 @@ import numpy as np
 import pytest
 import sympy as sp
 
+from svbi.codegen import beam, creep, creep3d
 from svbi.codegen import contact3d as c3
-from svbi.codegen import creep, creep3d
 from svbi.codegen import wheelset3d as ws
 
 Y, PSI, YD, PD = ws.y, ws.psi, ws.ydot, ws.psidot
@@ -160,3 +160,43 @@ def test_kalker_coefficients_of_the_load() -> None:
     assert sp.simplify(k[creep3d.f22] / k[creep3d.f11] - creep3d.kalker_c22 / creep.kalker_c11) == 0
     ratio = k[creep3d.f23] / k[creep3d.f11] - sp.sqrt(a * bb) * creep3d.kalker_c23 / creep.kalker_c11
     assert sp.simplify(ratio) == 0
+
+
+def test_longitudinal_creepage_in_the_vertical_plane_is_the_2d_creepage() -> None:
+    """Wheelset centred and in contact (``z_w = w + r_v``), no lateral, roll or yaw motion, ``lam -> 0``:
+    both contacts' longitudinal creepage is the 2D law's (Eq. 16, codegen.creep.creepage) of a wheel
+    without longitudinal DOF on the rail head ``h_t`` above the deck's axis:
+    ``-(W_T^B u_B' + v W_T^B' u_B) / v``."""
+    idx = {name: k for k, name in enumerate(c3.frame3d.DOF_NAMES)}
+    restrict: dict[sp.Symbol, sp.Expr] = {
+        c3.y_w: 0,
+        c3.phi_w: 0,
+        c3.psi_w: 0,
+        c3.r_a: 0,
+        c3.r_c: 0,
+        c3.lam: 0,
+    }
+    lateral = ("v1", "phi1", "psi1", "v2", "phi2", "psi2")
+    restrict.update({c3.UE[idx[n]]: 0 for n in lateral})
+    restrict.update({creep3d.UE_T[idx[n]]: 0 for n in lateral})
+    ydot_w, zdot_w, phidot_w, psidot_w = creep3d.WHEELSET_RATES
+    restrict.update({ydot_w: 0, phidot_w: 0, psidot_w: 0})
+    restrict.update({s: 0 for s in creep3d.IRREGULARITY_SLOPES[1:]})
+    w_deck = (c3.frame3d.shape_functions()["w"] * c3.UE)[0, 0].xreplace(restrict)
+    restrict[c3.z_w] = w_deck + c3.r_v
+    plane = list(c3.frame3d.VERTICAL_PLANE)
+    ue = sp.Matrix([c3.UE[k] for k in plane])
+    ue_t = sp.Matrix([creep3d.UE_T[k] for k in plane])
+    tangential = {beam.h: c3.h_rail}
+    two_d = creep.creepage(
+        sp.Matrix([[0]]),
+        sp.Matrix([zdot_w]),
+        beam.tangential_row(0).xreplace(tangential),
+        ue_t,
+        beam.tangential_row(1).xreplace(tangential),
+        ue,
+        0,
+        speed=creep3d.v,
+    )[0, 0]
+    for cr in creep3d.creepages():
+        assert sp.simplify(cr.xi_x.xreplace(restrict) - two_d) == 0
