@@ -200,3 +200,30 @@ def test_longitudinal_creepage_in_the_vertical_plane_is_the_2d_creepage() -> Non
     )[0, 0]
     for cr in creep3d.creepages():
         assert sp.simplify(cr.xi_x.xreplace(restrict) - two_d) == 0
+
+
+@pytest.mark.parametrize("sway", [0.05, 1.5])
+def test_module_saturates_the_contact_forces(sway: float) -> None:
+    """Centred wheelset, deck swaying at ``sway`` m/s under it: the module's saturated forces are the
+    linear ones (creepages of the previous test) scaled by the Shen-Hedrick-Elkins factor of their
+    resultant, written out here."""
+    idx = {name: k for k, name in enumerate(c3.frame3d.DOF_NAMES)}
+    lam, r0, speed, mu, load = 0.1, 0.46, 80.0, 0.3, 7e4
+    f = {creep3d.f11: 9e6, creep3d.f22: 8e6, creep3d.f23: 2e3}
+    state = dict(c3.centred_state())
+    state.update(dict.fromkeys(creep3d.UE_T, 0))
+    state.update(dict.fromkeys(creep3d.WHEELSET_RATES, 0))
+    state.update(dict.fromkeys(creep3d.IRREGULARITY_SLOPES, 0))
+    state.update({creep3d.UE_T[idx["v1"]]: sway, creep3d.UE_T[idx["v2"]]: sway})
+    state.update({c3.lam: lam, c3.r0: r0, creep3d.v: speed, creep.friction: mu, creep3d.normal_load: load})
+    state.update(f)
+    state.update({c3.b: 0.75, c3.ecc: 1.1, c3.h_rail: 1.8, c3.frame3d.le: 2.0, c3.frame3d.xi: 0.4})
+    sin_d, cos_d = lam / np.sqrt(1 + lam**2), 1 / np.sqrt(1 + lam**2)
+    for force in creep3d.creep_forces():
+        sign = 1 if force.side == "left" else -1
+        xi_y, xi_sp = -sway * cos_d / speed, -sign * sin_d / r0
+        fy_lin = -8e6 * xi_y - 2e3 * xi_sp
+        beta = abs(fy_lin) / (mu * load)
+        eps = 1 - beta / 3 + beta**2 / 27 if beta < 3 else 1 / beta
+        assert float(force.fy.xreplace(state)) == pytest.approx(eps * fy_lin, rel=1e-12)
+        assert float(force.fx.xreplace(state)) == pytest.approx(0.0, abs=1e-9)
