@@ -161,11 +161,17 @@ def creep_force_derivative() -> sp.Expr:
     )
 
 
+def she_factor(beta: sp.Expr) -> sp.Expr:
+    """Shen-Hedrick-Elkins ε(β) = F / F_lin at ``β = F_lin / (μN)``: ``1 - β/3 + β²/27`` below 3,
+    ``1/β`` beyond (also used by the 3D law, ``svbi.codegen.creep3d``)."""
+    return sp.Piecewise((1 - beta / 3 + beta**2 / 27, beta < 3), (1 / beta, True))
+
+
 def saturation_coefficient() -> sp.Expr:
     """ε = F / F_lin as a Piecewise in ξ and N (1 at ξ = 0)."""
     f33 = kalker_f33()
     beta = f33 * sp.Abs(xi) / (friction * normal_load)
-    return sp.Piecewise((1 - beta / 3 + beta**2 / 27, beta < 3), (1 / beta, True))
+    return she_factor(beta)
 
 
 @cache

@@ -36,7 +36,7 @@ from numpy.typing import ArrayLike, NDArray
 from .piecewise import Pieces, PiecewisePolynomial, horner
 
 Level = Literal["low", "high"]
-Component = Literal["vertical", "alignment"]
+Component = Literal["vertical", "alignment", "cross-level"]
 Triple = tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]]
 
 OMEGA_C = 0.8246
@@ -48,19 +48,31 @@ GERMAN_A = {
     ("high", "vertical"): 1.080e-6,
     ("low", "alignment"): 2.119e-7,
     ("high", "alignment"): 6.125e-7,
+    ("low", "cross-level"): 4.032e-7,
+    ("high", "cross-level"): 1.080e-6,
 }
-"""Roughness coefficients A_v (vertical profile) and A_a (alignment), m² rad/m.
+"""Roughness coefficients A_v (vertical profile and cross-level) and A_a (alignment), m² rad/m.
 
 Low interference is "very good" track. Source: the German high-speed track spectra
-(docs/excitations.md). Alignment is kept for 3D models; the 2D models use "vertical".
+(docs/excitations.md). Alignment and cross-level are for 3D models; the 2D models use "vertical".
 """
+OMEGA_S = 0.4380
+"""Third corner frequency Ω_s of the German cross-level spectrum (rad/m)."""
+CROSS_LEVEL_HALF_GAUGE = 0.75
+"""Half the distance b between the rails' contact points in the cross-level spectrum (m)."""
+_PHASE_STREAM = {"vertical": None, "alignment": 1, "cross-level": 2}
+"""Seed stream of each component: the vertical profile draws from ``default_rng(seed)`` (as it
+always has), the lateral ones from ``default_rng((seed, stream))``, independent of it."""
 
 _CHUNK = 1 << 22  # elements of the (points x frequencies) work array evaluated at once (32 MiB)
 
 
 @dataclass(frozen=True)
 class GermanSpectrum:
-    """German high-speed spectrum ``S(Ω) = A Ω_c² / ((Ω² + Ω_r²)(Ω² + Ω_c²))`` (one-sided, m³/rad)."""
+    """German high-speed spectrum ``S(Ω) = A Ω_c² / ((Ω² + Ω_r²)(Ω² + Ω_c²))`` (one-sided, m³/rad)
+    of the vertical profile and the alignment (m); of the cross-level (an angle, rad: the height
+    difference of the rails over their distance ``2b``)
+    ``S(Ω) = (A_v / b²) Ω_c² Ω² / ((Ω² + Ω_r²)(Ω² + Ω_c²)(Ω² + Ω_s²))`` (rad²/(rad/m))."""
 
     level: Level = "low"
     component: Component = "vertical"
@@ -69,7 +81,7 @@ class GermanSpectrum:
         if (self.level, self.component) not in GERMAN_A:
             raise ValueError(
                 f"unknown German spectrum level={self.level!r}, component={self.component!r}: "
-                "level is 'low' or 'high', component 'vertical' or 'alignment'"
+                "level is 'low' or 'high', component 'vertical', 'alignment' or 'cross-level'"
             )
 
     @property
@@ -80,11 +92,23 @@ class GermanSpectrum:
     def density(self, omega: ArrayLike) -> NDArray[np.float64]:
         """S(Ω) at spatial angular frequency Ω (rad/m)."""
         w2 = np.asarray(omega, dtype=float) ** 2
+        if self.component == "cross-level":
+            scale = self.coefficient * OMEGA_C**2 / CROSS_LEVEL_HALF_GAUGE**2
+            return scale * w2 / ((w2 + OMEGA_R**2) * (w2 + OMEGA_C**2) * (w2 + OMEGA_S**2))
         return self.coefficient * OMEGA_C**2 / ((w2 + OMEGA_R**2) * (w2 + OMEGA_C**2))
 
     def cumulative(self, omega: ArrayLike) -> NDArray[np.float64]:
         """∫_0^Ω S dΩ in closed form (partial fractions), so bin powers are exact."""
         w = np.asarray(omega, dtype=float)
+        if self.component == "cross-level":
+            # Ω²/Π(Ω² + p_i²) = Σ K_i / (Ω² + p_i²), K_i = -p_i² / Π_{j≠i}(p_j² - p_i²)
+            poles = (OMEGA_R, OMEGA_C, OMEGA_S)
+            total = np.zeros_like(w)
+            for i, p in enumerate(poles):
+                others = [q for j, q in enumerate(poles) if j != i]
+                k = -(p**2) / ((others[0] ** 2 - p**2) * (others[1] ** 2 - p**2))
+                total = total + k * np.arctan(w / p) / p
+            return self.coefficient * OMEGA_C**2 / CROSS_LEVEL_HALF_GAUGE**2 * total
         factor = self.coefficient * OMEGA_C**2 / (OMEGA_C**2 - OMEGA_R**2)
         return factor * (np.arctan(w / OMEGA_R) / OMEGA_R - np.arctan(w / OMEGA_C) / OMEGA_C)
 
@@ -178,6 +202,9 @@ class SpectralIrregularity:
         The target spectrum (level and component).
     seed:
         Seed of ``numpy.random.default_rng``; the phases are its first N uniform draws on [0, 2π).
+        The vertical profile draws from ``default_rng(seed)``; the alignment and the cross-level
+        from ``default_rng((seed, 1))`` and ``default_rng((seed, 2))``, so that the three components
+        of one seed are independent.
     length:
         Track length (m) over which the profile is used, counted from ``ramp.start``. The sample
         repeats its statistics after 2π/ΔΩ; that period must exceed ``length``.
@@ -231,7 +258,9 @@ class SpectralIrregularity:
                 )
         edges = np.linspace(omega_min, omega_max, n + 1)
         power = np.diff(self.spectrum.cumulative(edges))
-        phases = np.random.default_rng(self.seed).uniform(0.0, 2.0 * math.pi, n)
+        stream = _PHASE_STREAM[self.spectrum.component]
+        rng = np.random.default_rng(self.seed if stream is None else (self.seed, stream))
+        phases = rng.uniform(0.0, 2.0 * math.pi, n)
         object.__setattr__(self, "frequencies", 0.5 * (edges[:-1] + edges[1:]))
         object.__setattr__(self, "amplitudes", np.sqrt(2.0 * power))
         object.__setattr__(self, "phases", phases)
@@ -437,38 +466,95 @@ class SampledIrregularity:
 
 def read_profile(path: str | Path) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
     """Two-column (x, r) profile file → arrays; validated (numbers, finite, x strictly increasing)."""
+    xs, columns = _read_columns(path, three_d=False)
+    return xs, columns[0]
+
+
+PROFILE_COLUMNS = ("vertical", "alignment", "cross-level")
+"""The optional columns of a 3D measured profile, after ``x``: ``x r [a [c]]``."""
+
+
+def read_profile_3d(path: str | Path) -> dict[str, NDArray[np.float64]]:
+    """A measured profile with optional lateral columns: ``x r``, ``x r a`` or ``x r a c``.
+
+    ``r`` is the vertical profile (m), ``a`` the alignment (m, positive left), ``c`` the cross-level
+    (rad, positive with the left rail up: the rails' height difference over their distance). Every
+    data line has the number of columns of the first. Returns ``{"x": ..., "vertical": ...,
+    "alignment": ..., "cross-level": ...}`` with the columns the file has; the same checks and
+    errors (file and line) as :func:`read_profile`.
+    """
+    xs, columns = _read_columns(path, three_d=True)
+    out = {"x": xs}
+    out.update(zip(PROFILE_COLUMNS, columns, strict=False))
+    return out
+
+
+def measured_profile_3d(path: str | Path) -> dict[str, SampledIrregularity]:
+    """:func:`measured_profile` of each column of a :func:`read_profile_3d` file, by component."""
+    from scipy.interpolate import CubicSpline
+
+    table = read_profile_3d(path)
+    xs = table["x"]
+    return {
+        name: SampledIrregularity(
+            x_min=float(xs[0]),
+            x_max=float(xs[-1]),
+            spline=CubicSpline(xs, table[name], bc_type="not-a-knot"),
+            ramp=OnsetRamp(start=float(xs[0]) - 1.0, length=0.0),
+            source=f"{path} ({name})",
+        )
+        for name in PROFILE_COLUMNS
+        if name in table
+    }
+
+
+def _read_columns(path: str | Path, three_d: bool) -> tuple[NDArray[np.float64], list[NDArray[np.float64]]]:
+    """x and the value columns of a profile file (2 columns, or 2 to 4 when ``three_d``)."""
     p = Path(path)
     try:
         text = p.read_text()
     except OSError as exc:
         raise ValueError(f"{p}: cannot read irregularity profile ({exc.strerror})") from exc
     xs: list[float] = []
-    rs: list[float] = []
+    rows: list[list[float]] = []
     prev_line = 0
+    width = 0
     for lineno, raw in enumerate(text.splitlines(), start=1):
         line = raw.split("#", 1)[0].replace(",", " ").strip()
         if not line:
             continue
         parts = line.split()
-        if len(parts) != 2:
+        if not three_d and len(parts) != 2:
             raise ValueError(f"{p}: line {lineno}: expected two columns 'x r', got {len(parts)}")
+        if three_d and not width and not 2 <= len(parts) <= 4:
+            raise ValueError(
+                f"{p}: line {lineno}: expected 2 to 4 columns 'x r [alignment [cross-level]]', "
+                f"got {len(parts)}"
+            )
+        if three_d and width and len(parts) != width:
+            raise ValueError(
+                f"{p}: line {lineno}: expected {width} columns like the first data line, got {len(parts)}"
+            )
+        width = len(parts)
         try:
-            xv, rv = float(parts[0]), float(parts[1])
+            values = [float(part) for part in parts]
         except ValueError:
             raise ValueError(f"{p}: line {lineno}: not a number: {raw.strip()!r}") from None
-        if not (math.isfinite(xv) and math.isfinite(rv)):
+        if not all(math.isfinite(value) for value in values):
             raise ValueError(f"{p}: line {lineno}: non-finite value (NaN or inf): {raw.strip()!r}")
+        xv = values[0]
         if xs and xv <= xs[-1]:
             raise ValueError(
                 f"{p}: line {lineno}: x = {xv} does not increase (previous x = {xs[-1]} at line "
                 f"{prev_line}); x must be strictly increasing"
             )
         xs.append(xv)
-        rs.append(rv)
+        rows.append(values[1:])
         prev_line = lineno
     if len(xs) < 4:
         raise ValueError(f"{p}: an irregularity profile needs at least 4 points (found {len(xs)})")
-    return np.array(xs), np.array(rs)
+    table = np.array(rows)
+    return np.array(xs), [table[:, j].copy() for j in range(table.shape[1])]
 
 
 def read_profile_cached(path: str | Path) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
