@@ -34,6 +34,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from .piecewise import Pieces, PiecewisePolynomial, horner
+from .textfile import decode_text
 
 Level = Literal["low", "high"]
 Component = Literal["vertical", "alignment"]
@@ -439,7 +440,7 @@ def read_profile(path: str | Path) -> tuple[NDArray[np.float64], NDArray[np.floa
     """Two-column (x, r) profile file → arrays; validated (numbers, finite, x strictly increasing)."""
     p = Path(path)
     try:
-        text = p.read_text()
+        text = decode_text(p.read_bytes(), str(p))  # UTF-8, a byte-order mark dropped
     except OSError as exc:
         raise ValueError(f"{p}: cannot read irregularity profile ({exc.strerror})") from exc
     xs: list[float] = []

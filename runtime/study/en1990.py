@@ -13,11 +13,13 @@
 
 The comfort row checks the level asked for (``--comfort``, default ``acceptable``) and names the
 level reached. Rows that do not apply (no car body on a moving-load train, no end rotation) are
-shown as ``n/a`` and do not count.
+shown as ``n/a`` and do not count. A checked quantity that is NaN (not a number), or whose samples
+in the results hold NaN, fails as ``invalid``: a NaN certifies nothing.
 """
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 from typing import TYPE_CHECKING
 
@@ -36,6 +38,40 @@ JOINT_ROTATION_LIMIT = {"ballasted": 10.0e-3}
 """rad, EN 1990 A2.4.4.2.3(1), ballasted track: θ1 + θ2 between two consecutive decks."""
 UNLOADING_LIMITS = (0.6, 0.8)
 """ΔP/P limits of running-safety practice: 0.6 in normal operation, 0.8 under transient loading."""
+
+
+CHECK_INPUTS: dict[str, tuple[str, ...]] = {
+    "peak_deck_acceleration": ("deck_acceleration",),
+    "peak_carbody_az": ("carbody_az",),
+    "max_unloading_ratio": ("contact_force", "contact_force_filtered"),
+    "peak_end_rotation": ("end_rotation",),
+    "peak_joint_rotation": ("end_rotation",),
+}
+"""The results variables behind each checked metric: a NaN sample in one makes the check invalid."""
+
+
+def nan_samples(results: xr.Dataset) -> dict[str, int]:
+    """Number of NaN samples in each results variable of :data:`CHECK_INPUTS` that has any."""
+    out: dict[str, int] = {}
+    for name in sorted({v for names in CHECK_INPUTS.values() for v in names}):
+        if name in results.variables:
+            count = int(np.isnan(np.asarray(results[name].values, dtype=float)).sum())
+            if count:
+                out[name] = count
+    return out
+
+
+def _invalid(metrics: xr.Dataset, name: str, nans: dict[str, int]) -> str:
+    """Why the metric ``name`` is not a valid number ("" when it is): NaN samples or values."""
+    found = [f"{nans[v]} NaN sample(s) in {v}" for v in CHECK_INPUTS.get(name, ()) if nans.get(v)]
+    if found:
+        return "invalid: " + ", ".join(found)
+    if name in metrics:
+        values = np.asarray(metrics[name].values, dtype=float)
+        bad = int(np.isnan(values).sum())
+        if bad:
+            return f"invalid: {name} is NaN ({bad} of {values.size} values)"
+    return ""
 
 
 @dataclass(frozen=True)
@@ -74,9 +110,15 @@ def _worst(metrics: xr.Dataset, name: str, lowest: bool = False) -> tuple[float,
 
 
 def en1990_checks(
-    metrics: xr.Dataset, track_form: str = "ballasted", comfort: str = "acceptable", moving_load: bool = False
+    metrics: xr.Dataset,
+    track_form: str = "ballasted",
+    comfort: str = "acceptable",
+    moving_load: bool = False,
+    nans: dict[str, int] | None = None,
 ) -> list[Check]:
-    """The rows of ``svbi check`` for one run's metrics."""
+    """The rows of ``svbi check`` for one run's metrics; ``nans``: :func:`nan_samples` of its
+    results (a NaN sample in a checked quantity fails that check as invalid)."""
+    nans = nans or {}
     if track_form not in DECK_ACCELERATION_LIMIT:
         raise ValueError(f"track form {track_form!r}: expected one of {', '.join(DECK_ACCELERATION_LIMIT)}")
     if comfort not in COMFORT_LEVELS:
@@ -85,7 +127,10 @@ def en1990_checks(
     limit = DECK_ACCELERATION_LIMIT[track_form]
     worst = _worst(metrics, "peak_deck_acceleration")
     name = f"deck acceleration ({track_form}, A2.4.4.2.1)"
-    if worst is None:
+    invalid = _invalid(metrics, "peak_deck_acceleration", nans)
+    if invalid:
+        rows.append(_failed(name, limit, "m/s^2", invalid))
+    elif worst is None:
         rows.append(Check(name, None, limit, "m/s^2", "", None, None, "no deck acceleration"))
     else:
         v, where, when = worst
@@ -96,7 +141,10 @@ def en1990_checks(
     limit = COMFORT_LEVELS[comfort]
     name = f"car-body vertical acceleration (comfort {comfort}, Table A2.9)"
     worst = None if moving_load else _worst(metrics, "peak_carbody_az")
-    if worst is None:
+    invalid = "" if moving_load else _invalid(metrics, "peak_carbody_az", nans)
+    if invalid:
+        rows.append(_failed(name, limit, "m/s^2", invalid))
+    elif worst is None:
         rows.append(Check(name, None, limit, "m/s^2", "", None, None, "no car body"))
     else:
         v, where, when = worst
@@ -104,15 +152,18 @@ def en1990_checks(
         rows.append(Check(name, v, limit, "m/s^2", where, when, v <= limit, f"level reached: {reached}"))
 
     worst = None if moving_load else _worst(metrics, "max_unloading_ratio")
+    invalid = "" if moving_load else _invalid(metrics, "max_unloading_ratio", nans)
     for limit in UNLOADING_LIMITS:
         name = f"wheel unloading dP/P <= {limit:g}"
-        if worst is None:
+        if invalid:
+            rows.append(_failed(name, limit, "1", invalid))
+        elif worst is None:
             rows.append(Check(name, None, limit, "1", "", None, None, "prescribed axle loads"))
         else:
             v, where, when = worst
             rows.append(Check(name, v, limit, "1", where, when, v <= limit))
 
-    rows += _rotation_rows(metrics, track_form)
+    rows += _rotation_rows(metrics, track_form, nans)
     complete = int(np.asarray(metrics["complete"].values)) if "complete" in metrics else 1
     rows.append(
         Check(
@@ -129,13 +180,24 @@ def en1990_checks(
     return rows
 
 
-def _rotation_rows(metrics: xr.Dataset, track_form: str) -> list[Check]:
+def _failed(name: str, limit: float | None, unit: str, why: str) -> Check:
+    """The row of a check whose quantity is NaN: it fails (a NaN certifies nothing)."""
+    return Check(name, math.nan, limit, unit, "", None, False, why)
+
+
+def _rotation_rows(metrics: xr.Dataset, track_form: str, nans: dict[str, int]) -> list[Check]:
     """EN 1990 A2.4.4.2.3(1): with ballasted track, the deck end rotation at a transition to the
     embankment (the first span's left end, the last span's right end) and the sum of the two end
     rotations between consecutive decks. Direct fastening has project-specific limits (n/a)."""
     name_end, name_joint = "end rotation at abutments (A2.4.4.2.3)", "rotation between decks (A2.4.4.2.3)"
     if "peak_end_rotation" not in metrics:
         return [Check(name_end, None, None, "rad", "", None, None, "not in the results")]
+    invalid = _invalid(metrics, "peak_end_rotation", nans)
+    if invalid:
+        rows = [_failed(name_end, ABUTMENT_ROTATION_LIMIT.get(track_form), "rad", invalid)]
+        if "peak_joint_rotation" in metrics and metrics["peak_joint_rotation"].size:
+            rows.append(_failed(name_joint, JOINT_ROTATION_LIMIT.get(track_form), "rad", invalid))
+        return rows
     rows = []
     end = metrics["peak_end_rotation"]
     when = metrics["peak_end_rotation_time"]
@@ -164,6 +226,12 @@ def _rotation_rows(metrics: xr.Dataset, track_form: str) -> list[Check]:
     return rows
 
 
+def _value_text(r: Check) -> str:
+    if r.value is None:
+        return "n/a"
+    return "NaN" if math.isnan(r.value) else f"{r.value:.4g} {r.unit}".strip()
+
+
 def checks_table(rows: list[Check]) -> str:
     """Plain-text table: check, value, limit, where, when, status, note."""
     head = ("check", "value", "limit", "where", "when (s)", "status", "note")
@@ -172,7 +240,7 @@ def checks_table(rows: list[Check]) -> str:
         cells.append(
             (
                 r.name,
-                "n/a" if r.value is None else f"{r.value:.4g} {r.unit}".strip(),
+                _value_text(r),
                 "" if r.limit is None else f"{r.limit:g} {r.unit}".strip(),
                 r.where,
                 "" if r.when is None else f"{r.when:.4g}",

@@ -43,9 +43,11 @@ from pydantic import (
     ValidationError,
 )
 
+from ..excitation.textfile import TextFileError, decode_text
 from ..run.atomic import write_atomic
 from ..run.results import write_netcdf
 from ..run.simulate import simulate
+from ..scenario.kinds import wrong_kind
 from ..scenario.schema import Problem, ScenarioError, key_lines, load_scenario, loads_scenario
 from .metrics import METRIC_INPUTS, compute_metrics
 
@@ -154,15 +156,20 @@ def load_study(path: str | Path) -> Study:
     path = Path(path)
     source = str(path)
     try:
-        text = path.read_text(encoding="utf-8")
-    except (OSError, UnicodeDecodeError) as exc:
+        text = decode_text(path.read_bytes(), source)  # UTF-8, a byte-order mark dropped
+    except OSError as exc:
         raise StudyError([Problem("<file>", f"cannot read: {exc}", source)], source) from None
+    except TextFileError as exc:
+        raise StudyError([Problem("<file>", exc.problem, exc.where)], source) from None
     try:
         data = tomllib.loads(text)
     except tomllib.TOMLDecodeError as exc:
         line = getattr(exc, "lineno", None)
         where = f"{source}:{line}" if line else source
         raise StudyError([Problem("<toml>", f"malformed TOML: {exc}", where)], source) from None
+    kind = wrong_kind(data, "study", source)
+    if kind:
+        raise StudyError([Problem("", kind, source)], source)
     lines = key_lines(text)
 
     def where(key: str) -> str:
@@ -219,7 +226,7 @@ def load_study(path: str | Path) -> Study:
                     break
     if problems:
         raise StudyError(problems, source)
-    study = Study(path, spec, scenario_path, scenario_path.read_text(encoding="utf-8"), text)
+    study = Study(path, spec, scenario_path, scenario_path.read_text(encoding="utf-8-sig"), text)
     study.runs = grid_runs(study)
     return study
 
@@ -263,7 +270,7 @@ def run_one(scenario_path: str, overrides: dict[str, Any], part: str, history: s
 
     texts = _WORKER.setdefault("scenarios", {})
     if scenario_path not in texts:
-        texts[scenario_path] = Path(scenario_path).read_text(encoding="utf-8")
+        texts[scenario_path] = Path(scenario_path).read_text(encoding="utf-8-sig")
     status, message = STATUS_OK, ""
     timings: dict[str, float] = {}
     try:
