@@ -93,5 +93,6 @@ def echo_caught(caught: list[Any], indent: str = "") -> None:
 
 
 def install() -> None:
-    """Print every warning of this process as :func:`show_warning` does."""
+    """Print every warning of the command about to run as :func:`show_warning` does (each once)."""
+    _SHOWN.clear()
     warnings.showwarning = show_warning

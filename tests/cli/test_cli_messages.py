@@ -66,6 +66,9 @@ def _lines(output: str) -> list[str]:
 # library warnings
 
 
+ILL_CONDITIONED = "Ill-conditioned matrix (rcond=1e-20): result may not be accurate."
+
+
 def test_a_linalg_warning_is_one_translated_line(capsys: pytest.CaptureFixture[str]) -> None:
     from scipy.linalg import LinAlgWarning
 
@@ -75,11 +78,12 @@ def test_a_linalg_warning_is_one_translated_line(capsys: pytest.CaptureFixture[s
     with warnings.catch_warnings():
         messages.install()
         warnings.simplefilter("always")
-        warnings.warn("Ill-conditioned matrix (rcond=1e-20): result may not be accurate.", LinAlgWarning)
-        warnings.warn("Ill-conditioned matrix (rcond=1e-20): result may not be accurate.", LinAlgWarning)
+        for _ in range(2):
+            warnings.warn(ILL_CONDITIONED, LinAlgWarning, stacklevel=1)
     err = _lines(capsys.readouterr().err)
     assert len(err) == 1
-    assert err[0].startswith("warning: a linear system of the model is ill-conditioned (Ill-conditioned matrix")
+    head = "warning: a linear system of the model is ill-conditioned"
+    assert err[0].startswith(f"{head} ({ILL_CONDITIONED[:-1]})")
     assert "unit slip" in err[0]
 
 
@@ -97,6 +101,7 @@ def test_an_all_nan_slice_is_translated_and_a_dask_port_warning_silenced(
             "Port 8787 is already in use.\nPerhaps you already have a cluster running?\nHosting the HTTP "
             "server on port 41234 instead",
             UserWarning,
+            stacklevel=1,
         )
     err = _lines(capsys.readouterr().err)
     assert err == [
@@ -106,7 +111,7 @@ def test_an_all_nan_slice_is_translated_and_a_dask_port_warning_silenced(
     assert all(reason for _, reason in messages.SILENCED)
 
 
-def test_svbi_metrics_of_an_all_nan_file_prints_no_source_line(tmp_path: Path) -> None:
+def test_svbi_plot_of_an_all_nan_file_prints_one_translated_line_not_numpys(tmp_path: Path) -> None:
     import xarray as xr
 
     out = tmp_path / "r.nc"
@@ -119,8 +124,14 @@ def test_svbi_metrics_of_an_all_nan_file_prints_no_source_line(tmp_path: Path) -
             ds[name].values[...] = np.nan
     bad = tmp_path / "nan.nc"
     ds.to_netcdf(bad)
-    result = _invoke("metrics", str(bad))
-    assert "Warning" not in result.output and "warnings.warn" not in result.output, result.output
+    result = _invoke("plot", str(bad), "-o", str(tmp_path / "figures"))
+    assert result.exit_code == 0, result.output
+    assert "RuntimeWarning" not in result.output and "All-NaN" not in result.output, result.output
+    warned = [line for line in result.output.splitlines() if line.startswith("warning:")]
+    assert warned == [
+        "warning: a quantity is NaN (not a number) everywhere it was looked at: its peak is NaN; the run's "
+        "values or the results file are not valid numbers"
+    ]
 
 
 # --------------------------------------------------------------------------------------------------
@@ -162,8 +173,15 @@ def test_a_divergence_whose_partial_file_cannot_be_written_reports_both(
     sim.register_backend("casadi", {"localized-dynamic": _Exploding})
     try:
         result = _invoke(
-            "run", str(scenario), "-o", str(tmp_path / "run.nc"), "-q", "--set", "solver.backend=casadi",
-            "--set", "solver.output_every=1",
+            "run",
+            str(scenario),
+            "-o",
+            str(tmp_path / "run.nc"),
+            "-q",
+            "--set",
+            "solver.backend=casadi",
+            "--set",
+            "solver.output_every=1",
         )
     finally:
         registry.unregister_backend("casadi")
@@ -215,7 +233,8 @@ def test_svbi_check_fails_the_unloading_rows_when_the_wheel_force_has_nan(
     result = _invoke("check", str(bad))
     assert result.exit_code == 3
     rows = [line for line in result.output.splitlines() if line.startswith("wheel unloading")]
-    assert len(rows) == 2 and all("FAIL" in r and "NaN sample(s) in contact_force_filtered" in r for r in rows)
+    assert len(rows) == 2
+    assert all("FAIL" in r and "NaN sample(s) in contact_force_filtered" in r for r in rows)
 
 
 # --------------------------------------------------------------------------------------------------

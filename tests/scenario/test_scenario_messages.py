@@ -180,13 +180,15 @@ def test_a_byte_order_mark_is_accepted_in_a_profile_a_record_and_a_study(tmp_pat
     rec = read_record(_write(tmp_path, record, "r.txt", bom=True), dt=0.01)
     assert rec.accel.size == 400
     _write(tmp_path, SHORT, "base.toml", bom=True)
-    study = _write(tmp_path, 'scenario = "base.toml"\n[axes]\n"train.speed_kmh" = [200.0, 250.0]\n', "st.toml", bom=True)
+    text = 'scenario = "base.toml"\n[axes]\n"train.speed_kmh" = [200.0, 250.0]\n'
+    study = _write(tmp_path, text, "st.toml", bom=True)
     assert len(load_study(study).runs) == 2
 
 
 def test_a_profile_that_is_not_utf8_names_the_profile_the_line_and_the_key(tmp_path: Path) -> None:
     lines = [f"{x:.1f} 0.001" for x in range(-100, 200)]
-    raw = ("\n".join(lines[:6]) + "\n").encode() + b"6.0 0.001 \xb5m\n" + ("\n".join(lines[7:]) + "\n").encode()
+    head, tail = ("\n".join(lines[:6]) + "\n").encode(), ("\n".join(lines[7:]) + "\n").encode()
+    raw = head + b"6.0 0.001 \xb5m\n" + tail
     (tmp_path / "prof.txt").write_bytes(raw)
     path = _write(tmp_path, SHORT + '\n[track]\nirregularity = "prof.txt"\n')
     (p,) = _problems(path)
