@@ -49,8 +49,11 @@ against the modules)."""
 
 @app.callback()
 def _commands() -> None:
-    # A group, also when only one command is registered (main: the one invoked).
-    pass
+    # A group, also when only one command is registered (main: the one invoked). Every warning of
+    # a command is one line, translated or silenced (cli.messages).
+    from .messages import install
+
+    install()
 
 
 def _register(command: str | None = None) -> None:

@@ -26,6 +26,7 @@ from ..run.atomic import write_atomic
 from ..run.results import write_netcdf
 from ..run.simulate import SimulationIncomplete, simulate
 from ..scenario.schema import ScenarioError, load_scenario
+from .messages import echo_caught
 
 METHODS = ("localized-dynamic", "coupled-dynamic", "coupled-classic")
 EXAMPLE = "paper-2020.toml"
@@ -87,9 +88,7 @@ def demo(
         with warnings.catch_warnings(record=True) as caught:
             warnings.simplefilter("always")
             ds = simulate(sc, progress=not quiet, clock_start=started)
-        for w in caught:
-            if not issubclass(w.category, SimulationIncomplete):
-                typer.echo(f"  warning: {w.message}", err=True)
+        echo_caught([w for w in caught if not issubclass(w.category, SimulationIncomplete)], "  ")
         written = write_netcdf(ds, out / f"{method}.nc")
         status = "" if ds.attrs.get("complete", 1) else f"  (stopped: {ds.attrs.get('incomplete', '')})"
         a = ds.attrs
@@ -122,8 +121,7 @@ def _strong_shaking(path: Path, overrides: list[str], backend: str | None, out: 
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always")
         ds = simulate(sc, progress=not quiet, clock_start=started)
-    for w in caught:
-        typer.echo(f"  warning: {w.message}", err=True)
+    echo_caught(caught, "  ")
     written = write_netcdf(ds, out / f"{STRONG_NAME}.nc")
     a = ds.attrs
     typer.echo(

@@ -6,6 +6,7 @@ import json
 import math
 import tomllib
 from enum import StrEnum
+from pathlib import Path
 from typing import TYPE_CHECKING, Any, NoReturn
 
 import typer
@@ -16,6 +17,7 @@ from ...examples import paper_section_keys
 from ..model.hslm import hslm_axles
 from ..model.modes import span_modes, vehicle_modes
 from ..scenario.build import bridge_from_scenario
+from ..scenario.kinds import wrong_kind
 from ..scenario.schema import ScenarioError, load_scenario, vehicle_ref
 
 if TYPE_CHECKING:
@@ -29,6 +31,10 @@ BRIDGE_KEYS = {
     **paper_section_keys(),
     "elements_per_span": 16,
 }
+
+MIN_FREQUENCY_HZ = 1.0e-4
+"""Span and bridge frequencies below this (a period of 2.8 hours; printed as 0.0000 Hz) are no
+bridge's: `svbi modes` refuses them (stiffness over mass out of range, or a unit slip)."""
 
 
 class Format(StrEnum):
@@ -210,6 +216,7 @@ def modes(
     Given a scenario file, its vehicle (with ``train.parameters``) and its bridge's spans."""
     import numpy as np
 
+    model_path = model + "".join(f" --set {item}" for item in set_)
     scenario = _scenario_modes(model, set_)
     spans = ""
     if scenario is not None:
@@ -235,6 +242,12 @@ def modes(
     whole = bridge.pop("whole", None) if bridge else None
     if whole is not None:
         out["bridge_frequencies_hz"] = [float(f) for f in whole.natural_frequencies(count)]
+        if not all(f >= MIN_FREQUENCY_HZ for f in out["bridge_frequencies_hz"]):  # NaN or 0 Hz
+            _fail_file(
+                f"{model_path}: bridge: the bridge's lowest frequencies are "
+                f"{', '.join(f'{f:g}' for f in out['bridge_frequencies_hz'])} Hz: not a bridge that "
+                "stands (sections out of range: a unit slip?)"
+            )
     if bridge:
         b = {**BRIDGE_KEYS, **bridge}
         if b["elements_per_span"] != int(b["elements_per_span"]) or b["elements_per_span"] > 10_000:
@@ -250,14 +263,29 @@ def modes(
                     b["mass_per_length"],
                 )
             finite = bool(np.isfinite(fb).all() and np.isfinite(fa).all())
-        except (ValueError, np.linalg.LinAlgError):  # scipy's eigh on overflowing matrices
-            finite = False
-        if not finite:
-            given = ", ".join(f"{k}={v:g}" for k, v in bridge.items())
-            _fail(
-                f"{given}: the span's frequencies are not finite numbers with these values "
-                "(stiffness over mass_per_length out of range)"
+            # a degenerate span: frequencies at 0 Hz, below what the eigensolver resolves
+            positive = finite and bool(
+                (fb[:count] >= MIN_FREQUENCY_HZ).all() and (fa[:count] >= MIN_FREQUENCY_HZ).all()
             )
+        except (ValueError, np.linalg.LinAlgError):  # scipy's eigh on overflowing matrices
+            finite = positive = False
+        if not positive:
+            given = ", ".join(f"{k}={v:g}" for k, v in bridge.items())
+            what = (
+                "not finite numbers"
+                if not finite
+                else f"below {MIN_FREQUENCY_HZ:g} Hz, printed as 0 Hz (a degenerate span)"
+            )
+            message = (
+                f"the span's frequencies are {what} with these values (stiffness over "
+                "mass_per_length out of range: a unit slip?)"
+            )
+            if scenario is not None:
+                _fail_file(
+                    f"{model_path}: bridge.span_length, mass_per_length, youngs_modulus, area, "
+                    f"second_moment: {message}"
+                )
+            _fail(f"{given}: {message}")
         out["bridge"] = b
         out["span_frequencies_hz"] = [float(f) for f in fb[:count]]
         out["span_axial_frequencies_hz"] = [float(f) for f in fa[:count]]
@@ -302,6 +330,12 @@ def _fail(message: str) -> NoReturn:
     raise typer.Exit(2)
 
 
+def _fail_file(message: str) -> NoReturn:
+    """One line on stderr about the scenario file, exit status 2."""
+    typer.echo(f"error: {message}", err=True)
+    raise typer.Exit(2)
+
+
 def _load(model: str) -> VehicleModel:
     from svbi.codegen.topology import load_topology
     from svbi.codegen.vehicle import derive_vehicle
@@ -311,15 +345,23 @@ def _load(model: str) -> VehicleModel:
         vehicle.numeric()  # the topology's own values: a mechanism is refused here (one line)
         return vehicle
     except TopologyError as exc:
-        typer.echo(f"error: {exc}", err=True)
+        typer.echo(f"error: {_other_kind(model) or exc}", err=True)
         raise typer.Exit(2) from None
+
+
+def _other_kind(path: str) -> str:
+    """``path: this is a study file...`` when ``path`` is a TOML file of another kind than a topology."""
+    try:
+        data = tomllib.loads(Path(path).read_text(encoding="utf-8-sig"))
+    except (OSError, ValueError):  # not a readable TOML file: the topology loader's message stands
+        return ""
+    kind = wrong_kind(data, "topology", path)
+    return f"{path}: {kind}" if kind else ""
 
 
 def _scenario_modes(path: str, sets: list[str]) -> tuple[str, dict[str, Any], dict[str, float], int] | None:
     """A scenario file (a TOML file with ``[bridge]`` and ``[train]`` tables, not a topology) as
     (vehicle reference, its parameter values, its span's keys); None for anything else."""
-    from pathlib import Path
-
     p = Path(path)
     if p.suffix != ".toml" or not p.is_file():
         return None

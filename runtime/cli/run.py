@@ -28,6 +28,7 @@ from ..run.output import (
 from ..run.results import write_netcdf
 from ..run.simulate import SimulationIncomplete, simulate
 from ..scenario.schema import ScenarioError, ScenarioWarning, load_scenario
+from .messages import echo_caught
 
 EXIT_INVALID = 2
 EXIT_DIVERGED = 3
@@ -95,9 +96,7 @@ def _run(
         except ScenarioError as exc:
             typer.echo(f"error: {exc}", err=True)
             raise typer.Exit(EXIT_INVALID) from None
-    for w in caught:
-        if issubclass(w.category, ScenarioWarning):
-            typer.echo(f"warning: {w.message}", err=True)
+    echo_caught([w for w in caught if issubclass(w.category, ScenarioWarning)])
 
     try:  # before anything is computed: a bad path would otherwise lose the whole run
         path = check_output(output, run_inputs(sc))
@@ -111,7 +110,7 @@ def _run(
     except RunInterrupted as exc:
         if exc.results is None:
             raise
-        partial = _write(exc.results, incomplete_path(path))
+        partial = _write(exc.results, incomplete_path(path), exc.results.attrs["incomplete"])
         typer.echo(
             f"error: {exc.results.attrs['incomplete']}; partial results written to {partial}", err=True
         )
@@ -119,7 +118,8 @@ def _run(
 
     attrs = ds.attrs
     complete = bool(attrs.get("complete", 1))
-    written = _write(ds, path if complete else incomplete_path(path))
+    cause = "" if complete else str(attrs.get("incomplete", "run did not complete"))
+    written = _write(ds, path if complete else incomplete_path(path), cause)
     if not complete:
         typer.echo(
             f"error: {attrs.get('incomplete', 'run did not complete')}; partial results written to {written}",
@@ -145,8 +145,8 @@ def _run(
             drift = np.abs(ds["pier_drift"].transpose("time", "pier").values)
             k, i = np.unravel_index(int(np.argmax(drift)), drift.shape)
             typer.echo(
-                f"pier drift: peak {1e3 * float(drift[k, i]):.3g} mm (pier {i + 1} on support line "
-                f"{int(ds['pier_line'].values[i])}, t = {float(ds['time'].values[k]):.4g} s)"
+                f"pier drift: peak {1e3 * float(drift[k, i]):.3g} mm (pier {i + 1} = bridge.piers[{i}], "
+                f"on support line {int(ds['pier_line'].values[i])}, t = {float(ds['time'].values[k]):.4g} s)"
             )
 
 
@@ -158,25 +158,26 @@ def _simulate(sc, quiet: bool, started: float):  # noqa: ANN001, ANN202 - Scenar
         except (ValueError, NotImplementedError, FileNotFoundError) as exc:
             typer.echo(f"error: {exc}", err=True)
             raise typer.Exit(EXIT_INVALID) from None
-    for w in caught:
-        if not issubclass(w.category, SimulationIncomplete):
-            typer.echo(f"warning: {w.message}", err=True)
+    echo_caught([w for w in caught if not issubclass(w.category, SimulationIncomplete)])
     return ds
 
 
-def _write(ds, path: Path) -> Path:  # noqa: ANN001 - xarray.Dataset, imported lazily
+def _write(ds, path: Path, cause: str = "") -> Path:  # noqa: ANN001 - xarray.Dataset, imported lazily
     """Write the results atomically; a failed write (full disk...) or a signal during it is one line,
-    and whatever was at ``path`` before stays."""
+    and whatever was at ``path`` before stays. ``cause``: why the run is incomplete (partial
+    results), reported with the failed write so that it is not lost."""
+    first = f"error: {cause}; " if cause else "error: "
     try:
         return write_netcdf(ds, path)
     except OSError as exc:
         reason = exc.strerror or str(exc)
         kept = "the previous file is kept" if path.exists() else "nothing written"
-        typer.echo(f"error: cannot write {path}: {reason}; {kept}", err=True)
+        what = "partial results to " if cause else ""
+        typer.echo(f"{first}cannot write {what}{path}: {reason}; {kept}", err=True)
         raise typer.Exit(EXIT_WRITE) from None
     except RunInterrupted as exc:
         kept = "the previous file is kept" if path.exists() else "nothing written"
-        typer.echo(f"error: interrupted by {exc.signal_name} while writing {path}; {kept}", err=True)
+        typer.echo(f"{first}interrupted by {exc.signal_name} while writing {path}; {kept}", err=True)
         raise typer.Exit(exc.exit_code) from None
 
 

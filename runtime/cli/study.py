@@ -15,7 +15,7 @@ import typer
 
 from ..run.output import RunInterrupted, signals_interrupt
 from ..run.results import write_netcdf
-from ..study.en1990 import CheckOptions, check_set, checks_table, en1990_checks
+from ..study.en1990 import CheckOptions, check_set, checks_table, en1990_checks, nan_samples
 from ..study.metrics import MetricsError, compute_metrics, metrics_text, scenario_table
 from ..study.store_checks import StoreCheckError, check_store, store_text
 from ..study.sweep import (
@@ -127,15 +127,20 @@ def check(
     form = track_form or str(table.get("bridge", {}).get("track_form", "ballasted"))
     moving_load = table.get("train", {}).get("vehicle") == "moving-load"
     try:
-        rows = en1990_checks(m, form, comfort, moving_load=moving_load, table=table, options=options)
+        rows = en1990_checks(
+            m, form, comfort, moving_load=moving_load, table=table, options=options, nans=nan_samples(ds)
+        )
     except ValueError as exc:
         raise _fail(str(exc)) from None
     which, why = check_set(table)
     typer.echo(f"checks of {results}: {which} set ({why})")
     typer.echo(checks_table(rows), nl=False)
     failed = [r for r in rows if r.passed is False]
+    invalid = [r for r in failed if r.note.startswith("invalid")]
     if failed:
-        typer.echo(f"{len(failed)} limit(s) exceeded", err=True)
+        parts = [f"{len(failed) - len(invalid)} limit(s) exceeded"] if len(failed) > len(invalid) else []
+        parts += [f"{len(invalid)} check(s) invalid: NaN values in the results"] if invalid else []
+        typer.echo("; ".join(parts), err=True)
         raise typer.Exit(EXIT_EXCEEDED)
 
 
@@ -212,6 +217,7 @@ def sweep(
         st = load_study(study, set_ or [])
     except StudyError as exc:
         raise _fail(str(exc)) from None
+    _base_warnings(st.scenario_path)
     try:
         out = check_store_output(output, st)
     except SweepError as exc:
@@ -269,6 +275,23 @@ def sweep(
         what = " and ".join(f"{n} of {report.total} runs {s}" for s, n in bad.items() if n)
         typer.echo(f"{what}: see status and message in {report.store}", err=True)
         raise typer.Exit(EXIT_RUNS_FAILED)
+
+
+def _base_warnings(path: Path) -> None:
+    """The study's base scenario's warnings (a coarse time step, a value outside the usual bands),
+    printed once before the runs (whose own loads are silent)."""
+    import warnings
+
+    from ..scenario.schema import ScenarioError, ScenarioWarning, load_scenario
+    from .messages import echo_caught
+
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        try:
+            load_scenario(path)
+        except ScenarioError:
+            return  # a base scenario that only the axes make valid: each run reports its own
+    echo_caught([w for w in caught if issubclass(w.category, ScenarioWarning)])
 
 
 def register(app: typer.Typer) -> None:

@@ -9,7 +9,7 @@ or wheel positions on the approach ground). Three spatial models:
   c_app that reaches ``x_ref`` (default 0, the first support) at the arrival time. An infinite
   velocity gives the synchronous motion exactly (the delay is 0.0);
 * **one record per support**: ``records`` is a list, one per support position; x must be one of
-  those positions.
+  those positions. A ``"none"`` in the list is a support that stays at rest.
 
 A component given as ``"none"`` is identically zero. Every history starts with q = q' = q'' = 0 (the
 records' tapers, see :mod:`~svbi.runtime.excitation.processing`), and is at rest after it ends.
@@ -199,6 +199,18 @@ def _history(
     return process_record(record, scale=scale, target_pga=target_pga, arrival=arrival, options=options)
 
 
+def _is_none(source: Source) -> bool:
+    return not isinstance(source, Record) and str(source) == "none"
+
+
+def _at_rest(arrival: float) -> MotionHistory:
+    """The history of a support listed as ``"none"`` among per-support records: it stays at rest."""
+    zero = np.zeros(2)
+    return MotionHistory(
+        name="none", source="none", dt=1.0, accel=zero, vel=zero.copy(), disp=zero.copy(), arrival=arrival
+    )
+
+
 def _source_names(spec: Source | Sequence[Source]) -> list[str]:
     specs = [spec] if isinstance(spec, str | Path | Record) else list(spec)
     out = []
@@ -277,7 +289,9 @@ def ground_motion(
                 f"earthquake.{name}: {len(specs)} records given for {n_pos} support positions; "
                 "one record per support needs support_positions of the same length"
             )
-        histories = tuple(_checked(_history(s, name, **kwargs), name) for s in specs)
+        histories = tuple(
+            _at_rest(arrival) if _is_none(s) else _checked(_history(s, name, **kwargs), name) for s in specs
+        )
         comps[name] = ComponentMotion(histories, np.asarray(support_positions, dtype=float))
     motion = GroundMotion(
         vertical=comps["vertical"],

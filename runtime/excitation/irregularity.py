@@ -34,6 +34,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from .piecewise import Pieces, PiecewisePolynomial, horner
+from .textfile import decode_text
 
 Level = Literal["low", "high"]
 Component = Literal["vertical", "alignment", "cross-level"]
@@ -512,7 +513,7 @@ def _read_columns(path: str | Path, three_d: bool) -> tuple[NDArray[np.float64],
     """x and the value columns of a profile file (2 columns, or 2 to 4 when ``three_d``)."""
     p = Path(path)
     try:
-        text = p.read_text()
+        text = decode_text(p.read_bytes(), str(p))  # UTF-8, a byte-order mark dropped
     except OSError as exc:
         raise ValueError(f"{p}: cannot read irregularity profile ({exc.strerror})") from exc
     xs: list[float] = []

@@ -160,7 +160,7 @@ def read_record(
     """
     p = Path(path)
     try:
-        lines = p.read_text(errors="replace").splitlines()
+        lines = p.read_text(encoding="utf-8-sig", errors="replace").splitlines()
     except OSError as exc:
         raise RecordError(f"{p}: cannot read record ({exc.strerror})") from exc
     label = name if name is not None else p.name

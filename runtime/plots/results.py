@@ -29,6 +29,7 @@ from matplotlib.figure import Figure
 from matplotlib.lines import Line2D
 
 from ..run.atomic import write_atomic
+from ..scenario.kinds import wrong_kind
 
 try:
     import tomllib
@@ -182,9 +183,29 @@ def read_results(path: str | os.PathLike[str]) -> xr.Dataset:
         with xr.open_dataset(path, decode_times=False, decode_timedelta=False) as ds:
             data = ds.load()
     except Exception as exc:  # any backend failure means "not a readable NetCDF file"
+        kind = _toml_kind(path)
+        if kind:
+            raise ResultsFileError(f"{path}: {kind}") from None
         raise ResultsFileError(f"{path}: cannot read as a NetCDF results file ({exc})") from None
+    if data.attrs.get("svbi_sweep"):
+        raise ResultsFileError(
+            f"{path}: this is a sweep store (`svbi sweep`: the metrics of every run of a study), not "
+            f"the results of one run: `svbi plot {path}` draws it, and each run's results are in "
+            f"{path}.histories/ when the study keeps them"
+        )
     check_results(data, str(path))
     return data
+
+
+def _toml_kind(path: Path) -> str:
+    """What a TOML file given as results is (a scenario, a study...), "" when it is not one."""
+    import tomllib
+
+    try:
+        data = tomllib.loads(path.read_text(encoding="utf-8-sig"))
+    except (OSError, ValueError):
+        return ""
+    return wrong_kind(data, "results", str(path))
 
 
 def check_results(ds: xr.Dataset, name: str = "results") -> None:

@@ -64,6 +64,12 @@ MIN_FILTER_SHARE = 1.0e-5
 """``output.force_filter_hz`` over the Nyquist frequency: below, the Butterworth filter's initial
 conditions form a singular system."""
 
+MAX_GIRDER_RATIO = 2000.0
+"""Longest span over the shortest element of one continuous girder (``bridge.girders[i].spans``,
+``elements_per_span`` elements each): the girder's stiffness matrix has a condition number of about
+this ratio to the fourth power, 1.6e13 at the limit, and its modes (which fit the girder's Rayleigh
+damping) lose every digit at about 1e4. Real girders' spans differ by a factor of 5 at most."""
+
 MAX_PGA = 50.0 * 9.81
 """Peak ground acceleration (m/s², 50 g): more than ten times the largest ever recorded (about 4 g)."""
 
@@ -246,6 +252,25 @@ def size_problems(s: Scenario, values: Mapping[str, Any]) -> Iterable[tuple[str,
             "earthquake.target_pga",
             f"{eq.target_pga:.3g} m/s² is above the limit of {MAX_PGA:g} m/s² (50 g); it is in m/s², not g",
         )
+
+
+def girder_problems(b: Any) -> Iterable[tuple[str, str]]:
+    """(key, message) for each continuous girder of the long form ``b`` (``BridgeSpec``) whose spans
+    differ too much for its matrices to be solved (:data:`MAX_GIRDER_RATIO`)."""
+    for i, g in enumerate(b.girders or []):
+        if len(g.spans) < 2:
+            continue
+        longest = max(g.spans)
+        j = min(range(len(g.spans)), key=lambda k: g.spans[k])
+        element = g.spans[j] / b.elements_per_span
+        if longest / element > MAX_GIRDER_RATIO:
+            yield (
+                f"bridge.girders[{i}].spans[{j}]",
+                f"{g.spans[j]:g} m in a girder continuous with a {longest:g} m span: with "
+                f"{b.elements_per_span} elements per span its elements are {element:.3g} m long, and "
+                f"longest span / shortest element = {longest / element:.3g} is above the limit of "
+                f"{MAX_GIRDER_RATIO:g} (the girder's stiffness matrix cannot be solved accurately)",
+            )
 
 
 def creep_warnings(s: Scenario) -> list[str]:

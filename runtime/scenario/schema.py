@@ -12,6 +12,7 @@ A time step too coarse for the vehicle is a :class:`ScenarioWarning`, not an err
 
 from __future__ import annotations
 
+import copy
 import math
 import re
 import tomllib
@@ -25,10 +26,13 @@ import tomli_w
 from pydantic import BaseModel, ConfigDict, Field, PrivateAttr, ValidationError, model_validator
 
 from ..excitation.irregularity import read_profile_cached
+from ..excitation.textfile import TextFileError, decode_text
 from ..model.bridge import Girder, Pier, Section
 from ..model.modes import vehicle_modes
 from ..model.train import topology, vehicle_model
-from .limits import creep_warnings, size_problems, vehicle_ref
+from .kinds import wrong_kind
+from .limits import creep_warnings, girder_problems, size_problems, vehicle_ref
+from .plausibility import plausibility_warnings
 
 METHODS = ("localized-dynamic", "coupled-dynamic", "coupled-classic")
 BACKENDS = ("numpy", "casadi", "c")
@@ -54,8 +58,8 @@ class Problem:
     where: str = ""
 
     def __str__(self) -> str:
-        prefix = f"{self.where}: " if self.where else ""
-        return f"{prefix}{self.key}: {self.message}"
+        parts = [self.where, self.key, self.message]
+        return ": ".join(p for p in parts if p)
 
 
 class ScenarioError(ValueError):
@@ -376,9 +380,11 @@ def load_scenario(
     """Read, override, validate a scenario file. Raises :class:`ScenarioError` naming file and line."""
     path = Path(path)
     try:
-        text = path.read_text(encoding="utf-8")
-    except (OSError, UnicodeDecodeError) as exc:
+        text = decode_text(path.read_bytes(), str(path))
+    except OSError as exc:
         raise ScenarioError([Problem("<file>", f"cannot read: {exc}", str(path))], str(path)) from None
+    except TextFileError as exc:
+        raise ScenarioError([Problem("<file>", exc.problem, exc.where)], str(path)) from None
     return loads_scenario(
         text, source=str(path), base_dir=path.resolve().parent, overrides=overrides, check=check
     )
@@ -399,10 +405,58 @@ def loads_scenario(
         where = f"{source}:{line}" if line else source
         msg = getattr(exc, "msg", None) or re.sub(r"\s*\(at line \d+, column \d+\)", "", str(exc))
         raise ScenarioError([Problem("<toml>", f"malformed TOML: {msg}", where)], source) from None
+    kind = wrong_kind(data, "scenario", source)
+    if kind:
+        raise ScenarioError([Problem("", kind, source)], source)
+    base = copy.deepcopy(data) if overrides else None
     overridden = apply_overrides(data, overrides or [])
-    return validate_scenario(
-        data, source=source, base_dir=base_dir, text=text, overridden=overridden, check=check
-    )
+    try:
+        return validate_scenario(
+            data, source=source, base_dir=base_dir, text=text, overridden=overridden, check=check
+        )
+    except ScenarioError as exc:
+        if base is None:
+            raise
+        raise _blame_overrides(exc, base, overrides or [], source, base_dir, check) from None
+
+
+def _blame_overrides(
+    exc: ScenarioError,
+    base: dict[str, Any],
+    overrides: Sequence[str] | Mapping[str, Any],
+    source: str,
+    base_dir: str | Path | None,
+    check: bool,
+) -> ScenarioError:
+    """The problems of a scenario with overrides, each placed where it comes from: a problem that the
+    file alone does not have comes from the ``--set`` value(s) that bring it (each tried alone on the
+    file), not from the file line of its key."""
+    mapping = isinstance(overrides, Mapping)
+    items: list[Any] = list(overrides.items()) if isinstance(overrides, Mapping) else list(overrides)
+    specs = [f"{k}={v!r}" for k, v in items] if mapping else [str(i) for i in items]
+
+    def problems_with(chosen: list[Any]) -> set[tuple[str, str]]:
+        data = copy.deepcopy(base)
+        try:
+            apply_overrides(data, dict(chosen) if mapping else chosen)
+            with warnings.catch_warnings():
+                warnings.simplefilter("ignore")
+                validate_scenario(data, source=source, base_dir=base_dir, check=check)
+        except ScenarioError as e:
+            return {(p.key, p.message) for p in e.problems}
+        return set()
+
+    in_file = problems_with([])
+    alone = [problems_with([item]) for item in items]
+    out = []
+    for p in exc.problems:
+        if p.where.startswith("--set") or (p.key, p.message) in in_file:
+            out.append(p)
+            continue
+        culprits = [spec for spec, found in zip(specs, alone, strict=True) if (p.key, p.message) in found]
+        where = " and ".join(f"--set {spec}" for spec in (culprits or specs))
+        out.append(Problem(p.key, p.message, where))
+    return ScenarioError(out, exc.source)
 
 
 def validate_scenario(
@@ -419,7 +473,7 @@ def validate_scenario(
 
     def where(key: str) -> str:
         for k, spec in overridden.items():
-            if key == k or key.startswith(k + ".") or k.startswith(key + "."):
+            if key == k or key.startswith((k + ".", k + "[")) or k.startswith((key + ".", key + "[")):
                 return f"--set {spec}"
         parts = key.split(".")
         while parts:
@@ -442,6 +496,9 @@ def validate_scenario(
             raise ScenarioError([Problem(k, m, where(k)) for k, m in problems], source)
         for message in time_step_warnings(scenario) + creep_warnings(scenario):
             warnings.warn(f"{source}: {message}" if source else message, ScenarioWarning, stacklevel=3)
+        for key, message in plausibility_warnings(scenario):
+            place = where(key)
+            warnings.warn(f"{place}: {message}" if place else message, ScenarioWarning, stacklevel=3)
     return scenario
 
 
@@ -467,17 +524,56 @@ def apply_overrides(data: dict[str, Any], overrides: Sequence[str] | Mapping[str
         parts = key.split(".")
         if not key or any(not p for p in parts):
             raise ScenarioError([Problem(key, "empty key in override", f"--set {specs[key]}")])
-        node = data
-        for i, part in enumerate(parts[:-1]):
-            child = node.setdefault(part, {})
-            if not isinstance(child, dict):
-                where = ".".join(parts[: i + 1])
+        steps: list[str | int] = []
+        for part in parts:
+            m = _INDEXED.fullmatch(part)
+            if not m:
                 raise ScenarioError(
-                    [Problem(where, "is not a table; cannot set a key inside it", f"--set {specs[key]}")]
+                    [
+                        Problem(
+                            key,
+                            f"{part!r} is not a key or a key with list indices such as girders[0]",
+                            f"--set {specs[key]}",
+                        )
+                    ]
                 )
-            node = child
-        node[parts[-1]] = value
+            steps.append(m.group(1))
+            steps.extend(int(i) for i in re.findall(r"\[(\d+)\]", m.group(2)))
+        _set_path(data, steps, value, f"--set {specs[key]}")
     return specs
+
+
+_INDEXED = re.compile(r"([A-Za-z0-9_\-]+)((?:\[\d+\])*)")
+
+
+def _set_path(data: dict[str, Any], steps: Sequence[str | int], value: Any, where: str) -> None:
+    """Set ``value`` at ``steps`` (table keys and list indices) of ``data``: missing tables are
+    created, a list entry must exist (``bridge.girders[1]`` of a file with two girders or more)."""
+    node: Any = data
+    for i, step in enumerate(steps):
+        last = i == len(steps) - 1
+        here = _dotted(steps[: i + 1])
+        if isinstance(step, int):
+            if not isinstance(node, list):
+                raise ScenarioError([Problem(here, f"{_dotted(steps[:i])} is not a list", where)])
+            if step >= len(node):
+                entries = "1 entry (0)" if len(node) == 1 else f"{len(node)} entries (0 … {len(node) - 1})"
+                count = f"has {entries}" if node else "is empty"
+                message = f"{_dotted(steps[:i])} {count}; --set replaces list entries, it adds none"
+                raise ScenarioError([Problem(here, message, where)])
+            if last:
+                node[step] = value
+                return
+            node = node[step]
+            continue
+        if not isinstance(node, dict):
+            raise ScenarioError(
+                [Problem(_dotted(steps[:i]), "is not a table; cannot set a key inside it", where)]
+            )
+        if last:
+            node[step] = value
+            return
+        node = node.setdefault(step, {} if isinstance(steps[i + 1], str) else [])
 
 
 def parse_literal(raw: str) -> Any:
@@ -496,7 +592,7 @@ def _semantic_problems(s: Scenario) -> Iterable[tuple[str, str]]:
     from svbi.codegen.plain_types import TopologyError
 
     t, sol, trk = s.train, s.solver, s.track
-    bridge_problems = s.bridge.long_form_problems()
+    bridge_problems = s.bridge.long_form_problems() + list(girder_problems(s.bridge))
     yield from bridge_problems
     if bridge_problems:
         return

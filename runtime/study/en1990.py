@@ -42,6 +42,7 @@ Rows that do not apply show ``n/a`` and do not count.
 
 from __future__ import annotations
 
+import math
 from collections.abc import Mapping
 from dataclasses import dataclass
 from typing import TYPE_CHECKING, Any
@@ -150,9 +151,12 @@ def en1990_checks(
     moving_load: bool = False,
     table: Mapping[str, Any] | None = None,
     options: CheckOptions | None = None,
+    nans: dict[str, int] | None = None,
 ) -> list[Check]:
     """The rows of ``svbi check`` for one run's metrics; ``table`` is the run's scenario (the set and
-    the static checks come from it; without it, the traffic rows that need only the metrics)."""
+    the static checks come from it; without it, the traffic rows that need only the metrics);
+    ``nans``: :func:`nan_samples` of its results (a NaN sample in a checked quantity, or a NaN
+    metric, fails that check as invalid: a NaN certifies nothing)."""
     opts = options or CheckOptions(track_form=track_form, comfort=comfort)
     form = opts.track_form or track_form
     if form not in DECK_ACCELERATION_LIMIT:
@@ -168,7 +172,62 @@ def en1990_checks(
     else:
         rows = _traffic_rows(metrics, form, moving_load, table, opts)
     rows.append(_complete_row(metrics))
-    return rows
+    return [_validated(row, metrics, nans or {}) for row in rows]
+
+
+CHECK_INPUTS: dict[str, tuple[str, ...]] = {
+    "peak_deck_acceleration": ("deck_acceleration",),
+    "peak_carbody_az": ("carbody_az",),
+    "max_unloading_ratio": ("contact_force", "contact_force_filtered"),
+    "peak_end_rotation": ("end_rotation",),
+    "peak_joint_rotation": ("end_rotation",),
+}
+"""The results variables behind each checked metric: a NaN sample in one makes the check invalid."""
+
+ROW_METRICS: tuple[tuple[str, str], ...] = (
+    ("deck acceleration", "peak_deck_acceleration"),
+    ("comfort, car-body acceleration", "peak_carbody_az"),
+    ("wheel unloading", "max_unloading_ratio"),
+    ("end rotation at abutments", "peak_end_rotation"),
+    ("rotation between decks", "peak_joint_rotation"),
+)
+"""The metric each row of the table reads, by the start of the row's name."""
+
+
+def nan_samples(results: xr.Dataset) -> dict[str, int]:
+    """Number of NaN samples in each results variable of :data:`CHECK_INPUTS` that has any."""
+    out: dict[str, int] = {}
+    for name in sorted({v for names in CHECK_INPUTS.values() for v in names}):
+        if name in results.variables:
+            count = int(np.isnan(np.asarray(results[name].values, dtype=float)).sum())
+            if count:
+                out[name] = count
+    return out
+
+
+def _invalid(metrics: xr.Dataset, name: str, nans: dict[str, int]) -> str:
+    """Why the metric ``name`` is not a valid number ("" when it is): NaN samples or values."""
+    found = [f"{nans[v]} NaN sample(s) in {v}" for v in CHECK_INPUTS.get(name, ()) if nans.get(v)]
+    if found:
+        return "invalid: " + ", ".join(found)
+    if name in metrics:
+        values = np.asarray(metrics[name].values, dtype=float)
+        bad = int(np.isnan(values).sum())
+        if bad:
+            return f"invalid: {name} is NaN ({bad} of {values.size} values)"
+    return ""
+
+
+def _validated(row: Check, metrics: xr.Dataset, nans: dict[str, int]) -> Check:
+    """``row``, or a failed row when the metric it reads is NaN or has NaN inputs. A row that does
+    not apply (``passed`` None with no value: prescribed axle loads, no car body) stays as it is."""
+    metric = next((m for start, m in ROW_METRICS if row.name.startswith(start)), None)
+    if metric is None or (row.passed is None and row.value is None):
+        return row
+    why = _invalid(metrics, metric, nans)
+    if not why:
+        return row
+    return Check(row.name, math.nan, row.limit, row.unit, "", None, False, why)
 
 
 def _traffic_rows(

@@ -52,10 +52,12 @@ from pydantic import (
     ValidationError,
 )
 
+from ..excitation.textfile import TextFileError, decode_text
 from ..run.atomic import write_atomic
 from ..run.output import folder_problem, same_file
 from ..run.results import write_netcdf
 from ..run.simulate import simulate
+from ..scenario.kinds import wrong_kind
 from ..scenario.schema import (
     Problem,
     ScenarioError,
@@ -236,15 +238,20 @@ def load_study(path: str | Path, sets: Sequence[str] | dict[str, Any] = ()) -> S
     source = str(path)
     sets = dict(sets) if isinstance(sets, dict) else parse_sets(sets)
     try:
-        text = path.read_text(encoding="utf-8")
-    except (OSError, UnicodeDecodeError) as exc:
+        text = decode_text(path.read_bytes(), source)  # UTF-8, a byte-order mark dropped
+    except OSError as exc:
         raise StudyError([Problem("<file>", f"cannot read: {exc}", source)], source) from None
+    except TextFileError as exc:
+        raise StudyError([Problem("<file>", exc.problem, exc.where)], source) from None
     try:
         data = tomllib.loads(text)
     except tomllib.TOMLDecodeError as exc:
         line = getattr(exc, "lineno", None)
         where = f"{source}:{line}" if line else source
         raise StudyError([Problem("<toml>", f"malformed TOML: {exc}", where)], source) from None
+    kind = wrong_kind(data, "study", source)
+    if kind:
+        raise StudyError([Problem("", kind, source)], source)
     lines = key_lines(text)
 
     def where(key: str) -> str:
@@ -310,7 +317,7 @@ def load_study(path: str | Path, sets: Sequence[str] | dict[str, Any] = ()) -> S
                     break
     if problems:
         raise StudyError(problems, source)
-    study = Study(path, spec, scenario_path, scenario_path.read_text(encoding="utf-8"), text, sets=sets)
+    study = Study(path, spec, scenario_path, scenario_path.read_text(encoding="utf-8-sig"), text, sets=sets)
     study.runs = grid_runs(study)
     return study
 
@@ -357,7 +364,7 @@ def run_one(
 
     texts = _WORKER.setdefault("scenarios", {})
     if scenario_path not in texts:
-        texts[scenario_path] = Path(scenario_path).read_text(encoding="utf-8")
+        texts[scenario_path] = Path(scenario_path).read_text(encoding="utf-8-sig")
     status, message = STATUS_OK, ""
     timings: dict[str, float] = {}
     try:

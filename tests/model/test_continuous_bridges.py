@@ -394,4 +394,4 @@ def test_svbi_run_reports_the_peak_pier_drift(tmp_path):
 
     with xr.open_dataset(tmp_path / "r.nc") as ds:
         peak = float(np.abs(ds.pier_drift).max())
-    assert f"{1e3 * peak:.3g} mm (pier 1 on support line 1" in line
+    assert f"{1e3 * peak:.3g} mm (pier 1 = bridge.piers[0], on support line 1" in line
