@@ -355,6 +355,9 @@ def test_committed_glue_is_what_a_topology_file_gets():
     assert committed[c_glue.TOPOLOGY_HEADER] == c_glue.topology("pioneer-2d", 14, 4)[c_glue.TOPOLOGY_HEADER]
     assert committed[c_glue.TYPES_HEADER] == c_glue.solver_types()[c_glue.TYPES_HEADER]
     assert committed[c_glue.ROWS_HEADER] == c_glue.contact_rows()[c_glue.ROWS_HEADER]
+    # the row table's structure the generator renders (from the kernels) is the one the runtime
+    # reads (the plain data of the generated bridge module)
+    assert c_glue.row_structure() == c_solver_build.row_structure()
     # a topology that is not built in (or disagrees with the committed header) gets its own
     other = c_solver_build.glue_sources(c_solver_build.LoopSpec("pioneer-2d", 12, 2))[
         c_glue.TOPOLOGY_HEADER

@@ -66,6 +66,7 @@ from ...model.kernels import frame2d
 from ...toolchain import generated_root
 
 _CTYPES: dict[str, Any] = {
+    # the ctypes mirror of every Field kind (loop_abi.C_TYPES spells them in C)
     "int": ctypes.c_int,
     "long": ctypes.c_long,
     "double": ctypes.c_double,
