@@ -17,11 +17,12 @@ from typing import Any
 
 import numpy as np
 
+from svbi.codegen.loop_abi import METHOD_CODES
+
 from ..methods.steppers import numpy_steppers
 from ..model.contact_rows import ContactRows
 from ..model.system import Model, State
 from ..toolchain import load_kernels
-from .c.build import METHOD_CODES
 
 UNIT_INPUTS = 2 + 6 + 6 + 3
 """history (P_ug, Q_ug), P_ue, Q_ue, track (r, r', r''): the inputs ``h_B`` is linear in."""

@@ -26,14 +26,13 @@ def _is_file_target(target: str) -> bool:
 def _render(target: str, embedded: bool = False) -> tuple[str, dict[str, bytes]]:
     """Every generated file of a model folder: the C kernels, build files and CasADi Functions
     (``c_emit``), the NumPy module (``python_emit``) that the runtime calls, and the C time loop's
-    glue of the model (``svbi.runtime.backends.c.glue``: the topology header of a vehicle, the contact rows
+    glue of the model (``svbi.codegen.loop_glue``: the topology header of a vehicle, the contact rows
     and creep law of frame2d). A moving-load vehicle has only its NumPy module (its data) and its
     topology header."""
     from svbi.codegen import c_emit, python_emit
+    from svbi.codegen import loop_glue as c_glue
     from svbi.codegen.frame3d import FRAME3D
     from svbi.codegen.kernels import FRAME2D, frame2d_model_spec, skip_reason, vehicle_model_spec
-
-    from ..backends.c import glue as c_glue
 
     if target == FRAME3D:
         # the 3D element is not yet in the C loop: its NumPy module only
@@ -69,7 +68,7 @@ def _targets() -> list[str]:
 def _builtin_tree() -> dict[str, dict[str, bytes]]:
     """``{folder: files}`` of the whole committed tree: every built-in model and the loop's
     ``solver/`` folder, which belongs to no model."""
-    from ..backends.c import glue as c_glue
+    from svbi.codegen import loop_glue as c_glue
 
     tree = dict(_render(model) for model in _targets())
     tree[c_glue.SOLVER_FOLDER] = c_glue.solver_types()
@@ -227,7 +226,7 @@ def export(
     exported: dict[str, bytes] = {}
     name = model
     if not reason:
-        from ..backends.c.glue import GLUE_NAMES
+        from svbi.codegen.loop_abi import GLUE_NAMES
 
         name, files = _render(model, embedded=embedded)
         exported = {n: d for n, d in files.items() if n.endswith(EXPORTED_SUFFIXES) and n not in GLUE_NAMES}

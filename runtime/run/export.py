@@ -20,6 +20,8 @@ from typing import Any
 
 import numpy as np
 
+from svbi.codegen import loop_abi
+
 from ...examples import paper_section_keys
 from ..backends.c import build as c_solver_build
 from ..backends.c.stepper import CStepper
@@ -31,7 +33,7 @@ from .simulate import DivergenceGuard, build_model
 GENERATOR = "svbi.runtime.run.export"
 PER_LINE = 4
 PROGRAM = "svbi_solver_example"
-OUTPUT_NAMES = c_solver_build.OUTPUT_NAMES
+OUTPUT_NAMES = loop_abi.OUTPUT_NAMES
 
 
 def example_scenario(vehicle: str) -> dict[str, Any]:
@@ -104,7 +106,7 @@ class _Baker:
 
     def ppoly(self, p: Any, name: str) -> str:
         fields = []
-        for f in c_solver_build.PPOLY_FIELDS:
+        for f in loop_abi.PPOLY_FIELDS:
             value = getattr(p, f.name)
             if f.kind == "double*":
                 fields.append(self.array(value, f"{name}_{f.name}"))
@@ -160,7 +162,7 @@ def scenario_files(
     baker = _Baker(known)
 
     setup = []
-    for f in c_solver_build.SETUP_FIELDS:
+    for f in loop_abi.SETUP_FIELDS:
         value = getattr(stepper.setup, f.name)
         if f.kind in ("int*", "double*"):
             setup.append({"name": f.name, "value": baker.array(value, f"setup_{f.name}")})
@@ -169,7 +171,7 @@ def scenario_files(
         else:
             setup.append({"name": f.name, "value": str(int(value)) + ("L" if f.kind == "long" else "")})
     st = []
-    for f in c_solver_build.STATE_FIELDS:
+    for f in loop_abi.STATE_FIELDS:
         value = getattr(stepper.cstate, f.name)
         if f.kind == "double":
             st.append({"name": f.name, "value": _double(value)})
@@ -178,7 +180,7 @@ def scenario_files(
     exc = []
     ppolys = []
     e = stepper.excitation.struct
-    for f in c_solver_build.EXCITATION_FIELDS:
+    for f in loop_abi.EXCITATION_FIELDS:
         value = getattr(e, f.name)
         if f.kind == "ppoly":
             ppolys.append(
@@ -256,7 +258,7 @@ def scenario_files(
     }
     if spec.model != model_name and Path(spec.model).name != model_name:
         raise ValueError(f"the scenario's vehicle is {spec.model!r}, not the exported model {model_name!r}")
-    from ..backends.c.glue import environment
+    from svbi.codegen.loop_glue import environment
 
     env = environment()
     files = {**(extra or {}), **c_solver_build.render_sources(spec, embedded=embedded)}

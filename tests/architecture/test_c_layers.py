@@ -248,3 +248,88 @@ def test_newmark_relations_have_one_home():
     """Newmark's relations are written in newmark.h only."""
     files, _ = layered_sources()
     assert newmark_lines(files) == []
+
+
+# ------------------------------------------------------------------------------------------------
+# the workspace's parts: each used only by the files its type names
+
+CARVER = "solver.c"
+"""The file that carves the workspace and fills it at set-up: it touches every part."""
+
+
+def work_parts(header: str) -> dict[str, tuple[str, set[str]]]:
+    """``{member: (type, users)}`` of ``work_t``'s parts in ``internal.h``: every part is a
+    ``typedef struct { ... } NAME;`` whose comment names its users (``used by: a.c b.c``)."""
+    users: dict[str, set[str]] = {}
+    for comment, name in re.findall(
+        r"/\*((?:(?!\*/).)*?used by:(?:(?!\*/).)*)\*/\s*typedef struct \{.*?\}\s*(\w+);", header, re.S
+    ):
+        listed = comment.split("used by:", 1)[1].replace("*", " ")
+        users[name] = set(listed.split())
+    body = re.search(r"typedef struct \{([^}]*)\}\s*work_t;", header, re.S)
+    assert body, "work_t not found"
+    members = re.findall(r"(\w+)\s+(\w+)\s*;", strip_c(body.group(1)))
+    return {member: (kind, users.get(kind, set())) for kind, member in members if kind in users}
+
+
+def part_uses(files: dict[str, str], parts: dict[str, tuple[str, set[str]]]) -> dict[str, set[str]]:
+    """``{part member: files that use it}``: ``w->part.`` or ``w.part.`` in a stripped source."""
+    uses: dict[str, set[str]] = {m: set() for m in parts}
+    for name, text in files.items():
+        for member in re.findall(r"\bw\s*(?:->|\.)\s*(\w+)\s*\.", strip_c(text)):
+            if member in uses:
+                uses[member].add(name)
+    return uses
+
+
+def misplaced(files: dict[str, str], header: str) -> list[str]:
+    """Uses of a part by a file its type does not name (the carver aside), and files named that do
+    not use it."""
+    parts = work_parts(header)
+    out = []
+    for member, found in sorted(part_uses(files, parts).items()):
+        kind, users = parts[member]
+        out += [f"{f} uses {member} ({kind})" for f in sorted(found - users - {CARVER})]
+        out += [f"{f} is named by {kind} but uses none of it" for f in sorted(users - found)]
+    return out
+
+
+PLANTED_HEADER = """
+/* What a contact is.
+ * used by: a.c b.c */
+typedef struct { double* x; } contact_t;
+/* The bridge.
+ * used by: b.c */
+typedef struct { double* u; int blocked; } bridge_t;
+typedef struct { const void* kind; contact_t ct; bridge_t br; } work_t;
+"""
+
+
+def test_part_check_finds_a_planted_misuse():
+    files = {
+        "a.c": "void f(work_t* w) { w->ct.x[0] = 1.0; /* w->br.u in a comment */ }\n",
+        "b.c": "void g(work_t* w) { w->ct.x[0] = w->br.u[0]; }\n",
+        CARVER: "void carve(work_t w) { w.ct.x = 0; w.br.u = 0; }\n",
+    }
+    parts = work_parts(PLANTED_HEADER)
+    assert parts == {"ct": ("contact_t", {"a.c", "b.c"}), "br": ("bridge_t", {"b.c"})}
+    assert misplaced(files, PLANTED_HEADER) == []
+    files["a.c"] = "void f(work_t* w) { w->ct.x[0] = w -> br.blocked; }\n"
+    assert misplaced(files, PLANTED_HEADER) == ["a.c uses br (bridge_t)"]
+    files["b.c"] = "void g(work_t* w) { w->br.u[0] = 0.0; }\n"
+    assert misplaced(files, PLANTED_HEADER) == [
+        "a.c uses br (bridge_t)",
+        "b.c is named by contact_t but uses none of it",
+    ]
+
+
+def test_every_part_of_the_workspace_is_used_only_by_the_files_it_names():
+    files, _ = layered_sources()
+    header = files["internal.h"]
+    parts = work_parts(header)
+    assert len(parts) >= 8, parts  # the parts are found (contacts, bridge, interface, ...)
+    body = re.search(r"typedef struct \{([^}]*)\}\s*work_t;", header, re.S)
+    assert body
+    members = re.findall(r"(\w+)\s*;", strip_c(body.group(1)))
+    assert set(members) == {"kind", *parts}, members  # nothing but the kind's table and the parts
+    assert misplaced(files, header) == []

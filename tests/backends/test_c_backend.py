@@ -333,13 +333,13 @@ def test_loop_library_exports_its_interface_and_hides_the_rest():
 
 def test_builtin_loop_imports_neither_jinja2_nor_casadi():
     """A built-in model's loop is the static C plus committed glue: building and loading it
-    imports no template engine and no CasADi (svbi.runtime.backends.c.glue is for generation only)."""
+    imports no template engine and no CasADi (svbi.codegen.loop_glue is for generation only)."""
     code = (
         "import sys\n"
         "from svbi.runtime.backends.c import build as c_solver_build\n"
         "c_solver_build.load_loop(c_solver_build.LoopSpec('pioneer-2d', 14, 4))\n"
         "c_solver_build.load_loop(c_solver_build.LoopSpec('moving-load', 0, 0))\n"
-        "print(sorted(m for m in ('jinja2', 'casadi', 'svbi.runtime.backends.c.glue') if m in sys.modules))\n"
+        "print(sorted(m for m in ('jinja2', 'casadi', 'svbi.codegen.loop_glue') if m in sys.modules))\n"
     )
     done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
     assert done.stdout.strip() == "[]", done.stdout + done.stderr
@@ -348,13 +348,16 @@ def test_builtin_loop_imports_neither_jinja2_nor_casadi():
 def test_committed_glue_is_what_a_topology_file_gets():
     """A topology file has its svbi_topology.h rendered at run time; for a built-in topology that
     is byte for byte the committed header, and the rest of the glue is the committed files."""
-    from svbi.runtime.backends.c import glue as c_glue
+    from svbi.codegen import loop_glue as c_glue
 
     spec = c_solver_build.LoopSpec("pioneer-2d", 14, 4)
     committed = c_solver_build.glue_sources(spec)
     assert committed[c_glue.TOPOLOGY_HEADER] == c_glue.topology("pioneer-2d", 14, 4)[c_glue.TOPOLOGY_HEADER]
     assert committed[c_glue.TYPES_HEADER] == c_glue.solver_types()[c_glue.TYPES_HEADER]
     assert committed[c_glue.ROWS_HEADER] == c_glue.contact_rows()[c_glue.ROWS_HEADER]
+    # the row table's structure the generator renders (from the kernels) is the one the runtime
+    # reads (the plain data of the generated bridge module)
+    assert c_glue.row_structure() == c_solver_build.row_structure()
     # a topology that is not built in (or disagrees with the committed header) gets its own
     other = c_solver_build.glue_sources(c_solver_build.LoopSpec("pioneer-2d", 12, 2))[
         c_glue.TOPOLOGY_HEADER

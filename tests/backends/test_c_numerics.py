@@ -22,6 +22,7 @@ import pytest
 import scipy.interpolate
 import scipy.linalg
 
+from svbi.codegen import loop_abi
 from svbi.runtime import toolchain as kernel_cache
 from svbi.runtime.backends.c import build as c_solver_build
 
@@ -43,7 +44,7 @@ def _layout_source() -> bytes:
     """C that reports sizeof and offsetof of every struct member of svbi_solver_types.h."""
     lines = ["#include <stddef.h>", '#include "svbi_solver_types.h"', ""]
     for ctype, (key, _) in STRUCTS.items():
-        fields = c_solver_build.STRUCTS[key]
+        fields = loop_abi.STRUCTS[key]
         values = [f"(long)sizeof({ctype})"] + [f"(long)offsetof({ctype}, {f.name})" for f in fields]
         lines.append(f"const long svbi_layout_{key}[{len(values)}] = {{{', '.join(values)}}};")
     return ("\n".join(lines) + "\n").encode()
@@ -53,10 +54,8 @@ def _layout_source() -> bytes:
 def library() -> ctypes.CDLL:
     static = c_solver_build.static_sources()
     sources = {n: static[n] for n in ("band.c", "band.h", "tables.c", "tables.h", "roots.c", "roots.h")}
-    types = c_solver_build.glue_sources(c_solver_build.LoopSpec("moving-load", 0, 0))[
-        c_solver_build.TYPES_HEADER
-    ]
-    sources[c_solver_build.TYPES_HEADER] = types
+    types = c_solver_build.glue_sources(c_solver_build.LoopSpec("moving-load", 0, 0))[loop_abi.TYPES_HEADER]
+    sources[loop_abi.TYPES_HEADER] = types
     sources["layout.c"] = _layout_source()
     lib = kernel_cache.load_library(sources, "svbi_test_c_numerics", flags=c_solver_build.LOOP_FLAGS)
     lib.svbi_band_cholesky.argtypes = [DP, ctypes.c_int, ctypes.c_int]
@@ -139,7 +138,7 @@ def lower_band(a: np.ndarray, p: int) -> np.ndarray:
 @pytest.mark.parametrize("ctype", sorted(STRUCTS))
 def test_generated_structs_match_the_ctypes_mirrors(ctype: str) -> None:
     key, mirror = STRUCTS[ctype]
-    fields = c_solver_build.STRUCTS[key]
+    fields = loop_abi.STRUCTS[key]
     values = (ctypes.c_long * (len(fields) + 1)).in_dll(library(), f"svbi_layout_{key}")
     assert values[0] == ctypes.sizeof(mirror)
     for i, f in enumerate(fields):
@@ -156,7 +155,7 @@ def test_band_cholesky_and_solve_match_scipy(n: int, p: int) -> None:
     a = spd_band(rng, n, p)
     ab = lower_band(a, p)
     factor = np.array(ab.T, order="C")  # band.h: L[j * (p + 1) + (i - j)] = column j, row i
-    assert library().svbi_band_cholesky(dp(factor), n, p) == c_solver_build.STATUS_OK
+    assert library().svbi_band_cholesky(dp(factor), n, p) == loop_abi.STATUS_OK
     np.testing.assert_allclose(factor.T, scipy.linalg.cholesky_banded(ab, lower=True), rtol=1e-13, atol=1e-14)
     b = rng.standard_normal(n)
     x = b.copy()
@@ -174,7 +173,7 @@ def test_band_solve_blocked_solves_every_right_hand_side(nblk: int) -> None:
     a = spd_band(rng, n, p)
     ab = lower_band(a, p)
     factor = np.array(ab.T, order="C")
-    assert library().svbi_band_cholesky(dp(factor), n, p) == c_solver_build.STATUS_OK
+    assert library().svbi_band_cholesky(dp(factor), n, p) == loop_abi.STATUS_OK
     dinv = np.ascontiguousarray(1.0 / factor[:, 0])
     b = rng.standard_normal((n, m))
     x = b.copy()
@@ -198,7 +197,7 @@ def test_band_solve_lanes_solves_every_lane(p: int, m: int, permuted: bool) -> N
     a = spd_band(rng, n, p)
     ab = lower_band(a, p)
     factor = np.array(ab.T, order="C")
-    assert library().svbi_band_cholesky(dp(factor), n, p) == c_solver_build.STATUS_OK
+    assert library().svbi_band_cholesky(dp(factor), n, p) == loop_abi.STATUS_OK
     fw, bk, dinv2 = np.zeros(n * p), np.zeros(n * p), np.zeros(n)
     library().svbi_band_unit_factor(dp(factor), n, p, dp(fw), dp(bk), dp(dinv2))
     rows = (rng.permutation(n + 3)[:n] if permuted else np.arange(n)).astype(np.int32)
@@ -217,7 +216,7 @@ def test_band_cholesky_reports_a_matrix_that_is_not_positive_definite() -> None:
     a = spd_band(np.random.default_rng(5), 10, 2)
     a[6, 6] = -1.0
     factor = np.array(lower_band(a, 2).T, order="C")
-    assert library().svbi_band_cholesky(dp(factor), 10, 2) == c_solver_build.STATUS_NOT_SPD
+    assert library().svbi_band_cholesky(dp(factor), 10, 2) == loop_abi.STATUS_NOT_SPD
 
 
 # --------------------------------------------------------------------------------------------------
@@ -251,7 +250,7 @@ def test_banded_lu_matches_scipy_solve_banded(n: int, bw: int) -> None:
         a[0, 0] = 0.7
     ab = lapack_band(a, bw)
     piv = np.zeros(n, dtype=np.int32)
-    assert library().svbi_gb_factor(dp(ab), n, bw, ip(piv)) == c_solver_build.STATUS_OK
+    assert library().svbi_gb_factor(dp(ab), n, bw, ip(piv)) == loop_abi.STATUS_OK
     if n > 1:
         assert np.any(piv != np.arange(n))  # it did pivot
     b = rng.standard_normal(n)
@@ -272,7 +271,7 @@ def test_banded_lu_reports_a_singular_matrix() -> None:
     a[:, 4] = 0.0
     ab = lapack_band(a, 2)
     piv = np.zeros(8, dtype=np.int32)
-    assert library().svbi_gb_factor(dp(ab), 8, 2, ip(piv)) == c_solver_build.STATUS_SINGULAR
+    assert library().svbi_gb_factor(dp(ab), 8, 2, ip(piv)) == loop_abi.STATUS_SINGULAR
 
 
 # the reciprocal-pivot variant of the localized interface, factor and solve in one pass
@@ -298,9 +297,9 @@ def test_reciprocal_pivot_lu_matches_scipy(n: int, bw: int) -> None:
         a[0, 0] = 0.7
     b = rng.standard_normal(n)
     status, _, piv, _, x = factor_solve_r(a, bw, b)
-    assert status == c_solver_build.STATUS_OK
+    assert status == loop_abi.STATUS_OK
     ref, ref_piv = lapack_band(a, bw), np.zeros(n, dtype=np.int32)
-    assert library().svbi_gb_factor(dp(ref), n, bw, ip(ref_piv)) == c_solver_build.STATUS_OK
+    assert library().svbi_gb_factor(dp(ref), n, bw, ip(ref_piv)) == loop_abi.STATUS_OK
     np.testing.assert_array_equal(piv, ref_piv)  # the same pivoting
     if n > 1:
         assert np.any(piv != np.arange(n))  # it did pivot
@@ -352,7 +351,7 @@ def test_reciprocal_pivot_lu_without_swaps_is_the_textbook_elimination(n: int, b
     a[np.arange(n), np.arange(n)] = 2.0 * bw + 1.0 + rng.uniform(0.0, 1.0, n)
     b = rng.standard_normal(n)
     status, ab, piv, rpiv, x = factor_solve_r(a, bw, b)
-    assert status == c_solver_build.STATUS_OK
+    assert status == loop_abi.STATUS_OK
     np.testing.assert_array_equal(piv, np.arange(n))
     lu, ref_rpiv = doolittle_reciprocal(a, bw)
     np.testing.assert_array_equal(rpiv, ref_rpiv)
@@ -371,9 +370,9 @@ def test_reciprocal_pivot_lu_swaps_from_the_first_column_that_needs_it(bw: int) 
     a[np.arange(n // 2), np.arange(n // 2)] = 2.0 * bw + 1.0
     b = rng.standard_normal(n)
     status, _, piv, _, x = factor_solve_r(a, bw, b)
-    assert status == c_solver_build.STATUS_OK
+    assert status == loop_abi.STATUS_OK
     ref, ref_piv = lapack_band(a, bw), np.zeros(n, dtype=np.int32)
-    assert library().svbi_gb_factor(dp(ref), n, bw, ip(ref_piv)) == c_solver_build.STATUS_OK
+    assert library().svbi_gb_factor(dp(ref), n, bw, ip(ref_piv)) == loop_abi.STATUS_OK
     np.testing.assert_array_equal(piv, ref_piv)
     first_swap = int(np.flatnonzero(piv != np.arange(n))[0])
     assert n // 2 - bw <= first_swap  # the dominant half kept its diagonal
@@ -384,7 +383,7 @@ def test_reciprocal_pivot_lu_swaps_from_the_first_column_that_needs_it(bw: int) 
 def test_reciprocal_pivot_lu_reports_a_singular_matrix() -> None:
     a = general_band(np.random.default_rng(3), 8, 2)
     a[:, 4] = 0.0
-    assert factor_solve_r(a, 2, np.ones(8))[0] == c_solver_build.STATUS_SINGULAR
+    assert factor_solve_r(a, 2, np.ones(8))[0] == loop_abi.STATUS_SINGULAR
 
 
 # --------------------------------------------------------------------------------------------------
@@ -397,14 +396,14 @@ def test_dense_cholesky_solve_matches_numpy(n: int) -> None:
     m = rng.standard_normal((n, n))
     a = m @ m.T + n * np.eye(n)
     factor = np.array(a, order="C")
-    assert library().svbi_dense_cholesky(dp(factor), n) == c_solver_build.STATUS_OK
+    assert library().svbi_dense_cholesky(dp(factor), n) == loop_abi.STATUS_OK
     np.testing.assert_allclose(np.tril(factor), np.linalg.cholesky(a), rtol=1e-13, atol=1e-14)
     b = rng.standard_normal(n)
     x = b.copy()
     library().svbi_dense_solve(dp(factor), n, dp(x))
     np.testing.assert_allclose(x, np.linalg.solve(a, b), rtol=1e-12, atol=1e-14)
     a[0, 0] = -1.0
-    assert library().svbi_dense_cholesky(dp(np.ascontiguousarray(a)), n) == c_solver_build.STATUS_NOT_SPD
+    assert library().svbi_dense_cholesky(dp(np.ascontiguousarray(a)), n) == loop_abi.STATUS_NOT_SPD
 
 
 # --------------------------------------------------------------------------------------------------

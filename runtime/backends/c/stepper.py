@@ -34,6 +34,7 @@ from typing import Any
 
 import numpy as np
 
+from svbi.codegen import loop_abi
 from svbi.codegen.plain_types import GRAVITY
 
 from ...excitation.ground import GroundMotion
@@ -364,7 +365,7 @@ class CStepper:
         self.iwork = np.zeros(n_int.value, dtype=np.int32)
         status = self.library.init(ctypes.byref(self.setup), self.work.ctypes.data, self.iwork.ctypes.data)
         if status:
-            raise CLoopError(f"C loop set-up failed: {c_solver_build.STATUS_NAMES.get(status, status)}")
+            raise CLoopError(f"C loop set-up failed: {loop_abi.STATUS_NAMES.get(status, status)}")
         self.info = c_solver_build.Info()
         self._scratch: dict[str, np.ndarray] = {}
 
@@ -427,7 +428,7 @@ class CStepper:
         m, ref = self.model, self.reference
         b, tr, s = m.bridge, m.train, m.settings
         nm = Newmark(s.time_step)
-        code = c_solver_build.METHOD_CODES[self.method]
+        code = loop_abi.METHOD_CODES[self.method]
         classic = self.method == "coupled-classic"
         kappa, zeta = (0.0, 0.0) if classic else (s.kappa, s.zeta)
         point = ref.point
@@ -744,7 +745,7 @@ class CStepper:
     def _outputs(self, recorder: Any) -> Any:
         d = recorder.data
         out = c_solver_build.Outputs(row=recorder.count, nout=recorder.nout)
-        for name in c_solver_build.OUTPUT_NAMES:
+        for name in loop_abi.OUTPUT_NAMES:
             setattr(out, name, c_solver_build.pointer(d.get(name)))
         out.forces = c_solver_build.pointer(recorder.forces)
         if self.active_set_in_c:
@@ -800,7 +801,7 @@ class CStepper:
             recorder.steps_done = int(self.info.steps_done)
             self.state.t = self.cstate.t
             if self.active_set_in_c:
-                hit = (int(self.info.step) + 1, -1) if status == c_solver_build.STATUS_EVENT else None
+                hit = (int(self.info.step) + 1, -1) if status == loop_abi.STATUS_EVENT else None
             else:
                 hit = self._tensile(recorder, done_before) if snap is not None else None
             if hit is not None:
@@ -919,9 +920,9 @@ class CStepper:
     def _stop(self, status: int, recorder: Any, guard: Any) -> None:
         info, st = self.info, self.state
         st.t = self.cstate.t
-        if status in (c_solver_build.STATUS_NOT_FINITE, c_solver_build.STATUS_FORCE_LIMIT):
+        if status in (loop_abi.STATUS_NOT_FINITE, loop_abi.STATUS_FORCE_LIMIT):
             guard.check_finite(st)  # raises Diverged with the NumPy backend's message
-        elif status == c_solver_build.STATUS_GAP_LIMIT:
+        elif status == loop_abi.STATUS_GAP_LIMIT:
             k = recorder.count - 1
             gaps = {
                 "support": recorder.data["gap_support"][k],
@@ -931,15 +932,15 @@ class CStepper:
             if "contact_state" in recorder.data:  # the state of that row (airborne wheels' gaps)
                 st.contact_state = recorder.data["contact_state"][k].reshape(-1).astype(bool)
             guard.check_gaps(st, gaps)
-        elif status == c_solver_build.STATUS_SINGULAR:
+        elif status == loop_abi.STATUS_SINGULAR:
             raise np.linalg.LinAlgError(
                 f"singular interface matrix at t = {st.t:.6g} s (C loop, step {info.step})"
             )
-        name = c_solver_build.STATUS_NAMES.get(status, str(status))
+        name = loop_abi.STATUS_NAMES.get(status, str(status))
         if status in (
-            c_solver_build.STATUS_NOT_FINITE,
-            c_solver_build.STATUS_FORCE_LIMIT,
-            c_solver_build.STATUS_GAP_LIMIT,
+            loop_abi.STATUS_NOT_FINITE,
+            loop_abi.STATUS_FORCE_LIMIT,
+            loop_abi.STATUS_GAP_LIMIT,
         ):
             raise Diverged(f"run diverged at t = {st.t:.6g} s: {name} ({info.value:.4g})")
         raise CLoopError(f"C loop stopped at t = {st.t:.6g} s (step {info.step}): {name}")
@@ -960,8 +961,8 @@ class CStepper:
             self.setup.output_every = every
         self.state.t = self.cstate.t
         if status:
-            name = c_solver_build.STATUS_NAMES.get(status, str(status))
-            if status not in (c_solver_build.STATUS_NOT_FINITE, c_solver_build.STATUS_FORCE_LIMIT):
+            name = loop_abi.STATUS_NAMES.get(status, str(status))
+            if status not in (loop_abi.STATUS_NOT_FINITE, loop_abi.STATUS_FORCE_LIMIT):
                 raise CLoopError(f"C loop stopped at t = {self.state.t:.6g} s: {name}")
         self.contacts = self.model.contacts(self.state.t)
         return self.state
@@ -1002,4 +1003,4 @@ def c_stepper(method: str) -> Callable[[Model, State], Any]:
 
 def steppers() -> dict[str, Callable[[Model, State], Any]]:
     """The ``"c"`` backend's steppers by method (``svbi.runtime.backends.registry``)."""
-    return {m: c_stepper(m) for m in c_solver_build.METHOD_CODES}
+    return {m: c_stepper(m) for m in loop_abi.METHOD_CODES}

@@ -15,12 +15,12 @@ void svbi_place(const setup_t* S, work_t* w, int i, int span, double local, cons
   xi = local - element;
   if (xi < 0.0) xi = 0.0;
   if (xi > 1.0) xi = 1.0;
-  w->cspan[i] = span;
-  w->cfirst[i] = 3 * (int)element;
-  w->cxi[i] = xi;
+  w->ct.cspan[i] = span;
+  w->ct.cfirst[i] = 3 * (int)element;
+  w->ct.cxi[i] = xi;
   pw[0] = 1.0;
   for (p = 1; p <= ROW_DEG; ++p) pw[p] = pw[p - 1] * xi;
-  svbi_contact_rows(pw, cf, w->crow + (long)i * ROW_COLS); /* generated: the structural non-zeros */
+  svbi_contact_rows(pw, cf, w->ct.crow + (long)i * ROW_COLS); /* generated: the structural non-zeros */
 }
 
 #if !SVBI_MOVING_LOAD
@@ -29,13 +29,13 @@ double svbi_rail_height(const setup_t* S, const work_t* w, int c) {
   double rail;
   int j;
   (void)S;
-  if (w->con[c]) {
-    const double* N0 = w->crow + (long)c * ROW_COLS + COL_N0;
+  if (w->ct.con[c]) {
+    const double* N0 = w->ct.crow + (long)c * ROW_COLS + COL_N0;
     rail = 0.0;
-    for (j = 0; j < NNZ_N0; ++j) rail += N0[nz_N0[j]] * BR(w->bu, w->cspan[c], w->cfirst[c] + nz_N0[j]);
+    for (j = 0; j < NNZ_N0; ++j) rail += N0[nz_N0[j]] * BR(w->br.bu, w->ct.cspan[c], w->ct.cfirst[c] + nz_N0[j]);
   } else {
-    rail = w->under[c];
+    rail = w->ct.under[c];
   }
-  return rail + w->rail[c];
+  return rail + w->ct.rail[c];
 }
 #endif

@@ -40,7 +40,7 @@
 
 #define NE 6 /* DOFs of one bridge element (frame2d) */
 #define VLANES 4 /* cars per chunk of the localized vehicles' lane layout (as LW) */
-#define SC_NNZ_MAX 8 /* contact-row non-zeros up to which the interface uses work_t SC */
+#define SC_NNZ_MAX 8 /* contact-row non-zeros up to which the interface uses work_t br.SC */
 #define CAR_KMAX (3 * VLANES / VW) /* registers of three chunks (vehicle.c) */
 
 typedef svbi_solver_setup setup_t;
@@ -66,9 +66,11 @@ enum {
 
 typedef struct svbi_bridge_kind svbi_bridge_kind;
 
+/* Where the contacts are and what lies under them: written by the excitation and the bridge kind's
+ * locate, read by every step.
+ * used by: excite.c contacts.c bridge.c spans.c general.c vehicle.c localized.c coupled.c impact.c
+ *          record.c internal.h */
 typedef struct {
-  const svbi_bridge_kind* kind; /* the bridge kind's table (solver.c sets it before the first step) */
-  /* contacts */
   double* cx;    /* nc: x */
   double* cxi;   /* nc: local coordinate in the element */
   double* crow;  /* nc x ROW_COLS: contact rows at xi */
@@ -78,55 +80,30 @@ typedef struct {
   int* con;      /* nc: on the bridge */
   int* cspan;    /* nc: span */
   int* cfirst;   /* nc: first span DOF of the element */
-  int* cpos;     /* nc: position in track order */
-  int* active;   /* nc: the active set of a unilateral step's passes */
   double* rows_now; /* (ROW_DEG + 1) x ROW_COLS: this step's contact rows (a changing speed) */
   double v, a;      /* the train's speed and acceleration at this step */
-  /* supports and recorded ground */
+  int* slist;    /* nc: contacts grouped by span */
+  int* sstart;   /* spans + 1 */
+} contact_work_t;
+
+/* The support motion of the step: the targets q, q', q'' (the excitation) and q^ (the bridge kind).
+ * used by: excite.c bridge.c spans.c general.c coupled.c record.c */
+typedef struct {
   double* qs;    /* 3 x spans * ns: support targets q, q', q'' */
-  double* grec;  /* 2 x nrec: ground_uz, ground_ux */
   double* qhat;  /* spans * ns */
-  /* bridge */
+} support_work_t;
+
+/* The bridge state the step works on, its Newmark histories and the chain of spans' factors: the
+ * bridge kinds own it; the methods, the recording and the guard read the state.
+ * used by: bridge.c spans.c general.c contacts.c vehicle.c localized.c impact.c record.c guard.c
+ *          internal.h */
+typedef struct {
   double* PB;    /* spans x nd */
   double* QB;    /* spans x nd */
   double* fb;    /* nd */
   double* rf;    /* nd */
   double* Lff;   /* nfree x (band_pf + 1): factor of K^ on the free DOFs */
-  double* Kb;    /* nd x (band_p + 1): factor of the span block K^_B (coupled, set once) */
-  double* xB;    /* spans x nd: span right-hand sides / solutions (coupled) */
   int* loaded;   /* spans */
-  /* vehicles and aux points */
-  double* PVh;   /* cars x NV: Newmark history P - a0 u of the vehicle increment */
-  double* QVh;   /* cars x NV */
-  /* localized: the cars as lanes (vehicle.c, svbi_vehicle_predictors): u, P~, Q~, f, du as
-   * [NV][vcp] and the wheels' W^T u~, W^T P, W^T Q and P_V as [NW][vcp], cars padded to VLANES */
-  double* VL;
-  long vcp;
-  double* xV;    /* cars x NV (coupled) */
-  double* Kv;    /* NV x NV: Cholesky factor of the car's effective matrix (coupled, set once) */
-  double* G;     /* NV x NW: K^-1 W, the same for every car (coupled, set once) */
-  double* WG;    /* NW x NW: W^T K^-1 W (coupled, set once) */
-  double* Pg;    /* nc */
-  double* Qg;    /* nc */
-  double* pt;    /* nc */
-  double* dV;    /* nc */
-  double* hB;    /* nc */
-  double* rhs;   /* nc */
-  double* mB;    /* nc */
-  double* HB;    /* nc */
-  double* HV;    /* nc */
-  double* xg;    /* nc */
-  /* interface (contact forces, or multipliers) */
-  double* band;  /* nmult x (3 bw_max + 1) */
-  double* bsol;  /* nmult */
-  double* rl;    /* nmult: multiplier right-hand sides */
-  double* HG;    /* spans * ns */
-  double* Z;     /* attachment vectors of the span blocks */
-  int* piv;      /* nmult */
-  double* rpiv;  /* nmult: reciprocal pivots of the interface LU (localized) */
-  int* mpos;     /* nmult: track-order position of each multiplier */
-  int* slist;    /* nc: contacts grouped by span */
-  int* sstart;   /* spans + 1 */
   /* the bridge state the step works on. coupled methods: the state itself, span after span.
    * localized-dynamic: DOF after DOF over the spans padded to a multiple of LW ([DOF][pad]), so that
    * one factor solves every span at once with inner loops over LW lanes (vectorised) */
@@ -151,8 +128,6 @@ typedef struct {
   double* SC;    /* ncd x ncd, ncd = sc_h nd / (NE / 2) */
   int sc_h;
   int ncd;
-  int* rr_ptr;   /* ns + 1: the support rows' DOFs where M, C or K is non-zero (record.c) */
-  int* rr_idx;   /* ns x nd */
   int* lidx;     /* spans: index among the loaded spans, -1 if unloaded */
   int* lspan;    /* spans: the loaded spans */
   /* localized: the factor on the free DOFs as the unit triangle U = L D^-1 (D = diag L), dense in
@@ -161,18 +136,64 @@ typedef struct {
    * (backward sweep) */
   double* fw_d;  /* nfree x band_pf */
   double* bk_d;  /* nfree x band_pf */
+} bridge_work_t;
+
+/* The interface system of a step: contact forces or multipliers, right-hand sides, band and order.
+ * used by: spans.c general.c interface.c localized.c coupled.c */
+typedef struct {
+  int* cpos;     /* nc: position in track order */
+  double* Pg;    /* nc */
+  double* Qg;    /* nc */
+  double* pt;    /* nc */
+  double* dV;    /* nc */
+  double* hB;    /* nc */
+  double* rhs;   /* nc */
+  double* band;  /* nmult x (3 bw_max + 1) */
+  double* bsol;  /* nmult */
+  double* Z;     /* attachment vectors of the span blocks */
+  int* piv;      /* nmult */
+  double* rpiv;  /* nmult: reciprocal pivots of the interface LU (localized) */
+  int* aid;      /* ns + nc: attachments' multiplier */
+  int* afirst;   /* ns + nc: first span DOF */
+  int* alen;     /* ns + nc: number of entries */
+} interface_work_t;
+
+/* The localized step's vehicles as lanes, and the creep law.
+ * used by: vehicle.c localized.c */
+typedef struct {
+  /* localized: the cars as lanes (vehicle.c, svbi_vehicle_predictors): u, P~, Q~, f, du as
+   * [NV][vcp] and the wheels' W^T u~, W^T P, W^T Q and P_V as [NW][vcp], cars padded to VLANES */
+  double* VL;
+  long vcp;
   /* vehicles: the non-zeros of V_K, V_M, V_C and V_kinv column by column (y = x^T A, vehicle.c) */
   int* vnz_ptr;  /* 4 x (NV + 1) */
   int* vnz_idx;  /* 4 x NV x NV */
   double* vnz_val; /* 4 x NV x NV */
   double* creepc; /* NW x CREEP_NC: coefficients of the creep law of every wheel */
+} vehicle_work_t;
+
+/* The coupled methods: their constant factors (set once by svbi_coupled_init) and scratch; vehicle.c
+ * loads the creep forces into xB.
+ * used by: coupled.c vehicle.c */
+typedef struct {
+  double* Kb;    /* nd x (band_p + 1): factor of the span block K^_B (coupled, set once) */
+  double* xB;    /* spans x nd: span right-hand sides / solutions (coupled) */
+  double* PVh;   /* cars x NV: Newmark history P - a0 u of the vehicle increment */
+  double* QVh;   /* cars x NV */
+  double* xV;    /* cars x NV (coupled) */
+  double* Kv;    /* NV x NV: Cholesky factor of the car's effective matrix (coupled, set once) */
+  double* G;     /* NV x NW: K^-1 W, the same for every car (coupled, set once) */
+  double* WG;    /* NW x NW: W^T K^-1 W (coupled, set once) */
+  double* mB;    /* nc */
+  double* HB;    /* nc */
+  double* HV;    /* nc */
+  double* xg;    /* nc */
+  double* rl;    /* nmult: multiplier right-hand sides */
+  double* HG;    /* spans * ns */
+  int* mpos;     /* nmult: track-order position of each multiplier */
   double* DG;    /* ns: scale of the support rows */
   double* ab;    /* (ns + nc) x NE: attachments' B entries */
   double* ac;    /* (ns + nc) x NE: attachments' C entries */
-  int* aid;      /* ns + nc: attachments' multiplier */
-  int* afirst;   /* ns + nc: first span DOF */
-  int* alen;     /* ns + nc: number of entries */
-  /* ---- coupled methods (coupled.c; set once by svbi_coupled_init) ---- */
   double* Kinv;  /* nd x nd: K^_B^-1, dense (row-major, symmetric) */
   double* Kdinv; /* nd: reciprocal diagonal of the span factor Kb */
   double* Kfw;   /* nd x band_p: Kb as a unit triangle (svbi_band_unit_factor; band_p <= FS_PMAX) */
@@ -180,7 +201,11 @@ typedef struct {
   double* Kd2;   /* nd */
   double* XB;    /* nd x pad: span right-hand sides, DOF after DOF over the spans padded to SW */
   double* Kvinv; /* NV x NV: inverse of the car's effective matrix */
-  /* ---- a bridge of substructures (general.c) ---- */
+} coupled_work_t;
+
+/* A bridge of substructures joined by links; the impact reads the link forces.
+ * used by: general.c impact.c */
+typedef struct {
   int* lpos;     /* nlinks: interface position of every link */
   double* lam;   /* nlinks: link forces of the contact forces, Lambda' */
   double* lam0;  /* nlinks: link forces closing the predictor */
@@ -191,7 +216,12 @@ typedef struct {
   int* kmem_ptr; /* nkind + 1 */
   int* kmem;     /* nsub: the substructures, kind after kind */
   double* qact;  /* nact: the active supports' q' of the step */
-  /* ---- unilateral contact: landings and the plastic impact (localized.c, impact.c) ---- */
+} general_work_t;
+
+/* Unilateral contact: the active set, landings and the plastic impact.
+ * used by: localized.c impact.c interface.c */
+typedef struct {
+  int* active;   /* nc: the active set of a unilateral step's passes */
   int* landing;  /* nc: a landing wheel's row is the position-level g_{n+1} = 0 */
   int* flip;     /* nc: the wheels a pass of a complementarity problem flips */
   int* onrail;   /* nc: the wheels the landing impulses keep on the rail */
@@ -207,11 +237,35 @@ typedef struct {
   double* IaV;   /* cars x NV */
   double *dB1, *dB2, *dB3; /* whole-bridge fields (layout of bu) */
   double* LAM;   /* nlinks x (band_links + 1): Cholesky factor of L S_M L^T (springs: 1) */
+} unilateral_work_t;
+
+/* The recording: the support rows of the reactions, and the recorded ground (the excitation writes it).
+ * used by: record.c excite.c */
+typedef struct {
+  double* grec;  /* 2 x nrec: ground_uz, ground_ux */
+  int* rr_ptr;   /* ns + 1: the support rows' DOFs where M, C or K is non-zero (record.c) */
+  int* rr_idx;   /* ns x nd */
+} record_work_t;
+
+/* The workspace: one part per concern, each used only by the files its type names (and carved and
+ * filled by solver.c; tests/architecture/test_c_layers.py). The parts are plain members: w->br.bu costs what w->bu
+ * did (a constant offset). */
+typedef struct {
+  const svbi_bridge_kind* kind; /* the bridge kind's table (solver.c sets it before the first step) */
+  contact_work_t ct;
+  support_work_t sp;
+  bridge_work_t br;
+  interface_work_t it;
+  vehicle_work_t ve;
+  coupled_work_t cp;
+  general_work_t ge;
+  unilateral_work_t un;
+  record_work_t rc;
 } work_t;
 
 /* Element (s, i) of a bridge-state array: span after span, or DOF after DOF over the spans padded
  * to a multiple of LW (localized). */
-#define BR(b, s, i) ((b)[w->blocked ? (long)(i) * w->pad + (s) : (long)(s) * S->nd + (i)])
+#define BR(b, s, i) ((b)[w->br.blocked ? (long)(i) * w->br.pad + (s) : (long)(s) * S->nd + (i)])
 
 /* Support slots: ns per span, or three per substructure (general: S->g_slot_*). */
 static inline long n_slots(const setup_t* S) { return S->general ? 3L * S->nsub : (long)S->spans * S->ns; }
@@ -272,7 +326,7 @@ struct svbi_bridge_kind {
   /* u -= S N^T P for prescribed forces P (moving loads) */
   void (*prescribed)(const setup_t* S, work_t* w, const double* P);
   /* vehicles only (NULL for moving loads): */
-  /* the interface's order (work_t cpos) and half bandwidth of the step */
+  /* the interface's order (work_t it.cpos) and half bandwidth of the step */
   int (*order)(const setup_t* S, work_t* w, int* bandwidth);
   /* (F* + F_B) P = rhs, an airborne wheel's row P_i = 0, a landing wheel's g_{n+1} = 0 */
   int (*interface)(const setup_t* S, work_t* w, int bandwidth, const int* active, const int* landing, double* P);
@@ -350,19 +404,19 @@ void svbi_creep_bridge_load(const setup_t* S, const double* force, work_t* w);
  * inline: it runs for every wheel of every step. */
 static inline double svbi_row_target(const setup_t* S, const work_t* w, int i, double Pg, double Qg) {
   int nc = S->nc, k;
-  const double* row = w->crow + (long)i * ROW_COLS;
-  double r = w->rail[i], r1 = w->rail[nc + i], r2 = w->rail[2 * nc + i];
-  if (w->con[i]) {
-    int s = w->cspan[i], f = w->cfirst[i];
+  const double* row = w->ct.crow + (long)i * ROW_COLS;
+  double r = w->ct.rail[i], r1 = w->ct.rail[nc + i], r2 = w->ct.rail[2 * nc + i];
+  if (w->ct.con[i]) {
+    int s = w->ct.cspan[i], f = w->ct.cfirst[i];
     double sp = 0.0, sq = 0.0;
-    for (k = 0; k < NNZ_C_P_UE; ++k) sp += row[COL_C_P_UE + nz_c_P_ue[k]] * BR(w->PB, s, f + nz_c_P_ue[k]);
-    for (k = 0; k < NNZ_C_Q_UE; ++k) sq += row[COL_C_Q_UE + nz_c_Q_ue[k]] * BR(w->QB, s, f + nz_c_Q_ue[k]);
+    for (k = 0; k < NNZ_C_P_UE; ++k) sp += row[COL_C_P_UE + nz_c_P_ue[k]] * BR(w->br.PB, s, f + nz_c_P_ue[k]);
+    for (k = 0; k < NNZ_C_Q_UE; ++k) sq += row[COL_C_Q_UE + nz_c_Q_ue[k]] * BR(w->br.QB, s, f + nz_c_Q_ue[k]);
     return row[COL_C_P_UG] * Pg + row[COL_C_Q_UG] * Qg + sp + sq + row[COL_C_R] * r +
            row[COL_C_R_X] * r1 + row[COL_C_R_XX] * r2;
   } else {
-    double v = w->v;
-    double q = w->under[i], q1 = w->under[nc + i], q2 = w->under[2 * nc + i];
-    double track2 = w->a == 0.0 ? v * v * r2 : v * v * r2 + w->a * r1; /* Z'' = q'' + v^2 r'' + a r' */
+    double v = w->ct.v;
+    double q = w->ct.under[i], q1 = w->ct.under[nc + i], q2 = w->ct.under[2 * nc + i];
+    double track2 = w->ct.a == 0.0 ? v * v * r2 : v * v * r2 + w->ct.a * r1; /* Z'' = q'' + v^2 r'' + a r' */
     return S->p_P * Pg + S->p_Q * Qg + S->p_q2 * (q2 + track2) + S->p_q1 * (q1 + v * r1) + S->p_q * (q + r);
   }
 }

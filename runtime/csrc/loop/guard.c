@@ -23,7 +23,7 @@ static double sum_all(const double* x, long n) {
 /* simulate._Guard.check_finite: NaN or Inf anywhere, or a contact force beyond the limit. */
 int svbi_guard(const setup_t* S, const state_t* X, const work_t* w, info_t* I) {
   long i;
-  double sp = sum_all(X->P, S->nc), sb = sum_all(w->bu, w->nb), sv = 0.0, pmax = 0.0;
+  double sp = sum_all(X->P, S->nc), sb = sum_all(w->br.bu, w->br.nb), sv = 0.0, pmax = 0.0;
 #if !SVBI_MOVING_LOAD
   sv = sum_all(X->uV, (long)S->cars * NV);
 #endif

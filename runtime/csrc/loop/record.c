@@ -12,7 +12,7 @@ static void worst_of(double* worst, double g) {
 
 /* svbi.runtime.methods.reactions.support_reactions: what the span's equation of motion leaves over at each
  * support DOF, R = [M a + C (v - T q') + K u]_s + [N P]_s (beyond the dead load, added in Python),
- * over the DOFs where a support row of M, C or K is non-zero (work_t rr_*; the terms left out are
+ * over the DOFs where a support row of M, C or K is non-zero (work_t rc.rr_*; the terms left out are
  * exact zeros). */
 static void support_reactions(const setup_t* S, const state_t* X, outputs_t* O, const work_t* w, long row) {
   int s, j, d, i, k, nd = S->nd, ns = S->ns, NS = S->spans * S->ns;
@@ -20,12 +20,13 @@ static void support_reactions(const setup_t* S, const state_t* X, outputs_t* O, 
   const double* Cr = S->react_rows + (long)ns * nd;
   const double* Kr = S->react_rows + 2L * ns * nd;
   for (s = 0; s < S->spans; ++s) {
-    const double* q1 = w->qs + NS + (long)s * ns;
+    const double* q1 = w->sp.qs + NS + (long)s * ns;
     for (j = 0; j < ns; ++j) {
       double r = 0.0;
-      for (k = w->rr_ptr[j]; k < w->rr_ptr[j + 1]; ++k) {
-        d = w->rr_idx[k];
-        r += Mr[j * nd + d] * BR(w->ba, s, d) + Cr[j * nd + d] * BR(w->bv, s, d) + Kr[j * nd + d] * BR(w->bu, s, d);
+      for (k = w->rc.rr_ptr[j]; k < w->rc.rr_ptr[j + 1]; ++k) {
+        d = w->rc.rr_idx[k];
+        r += Mr[j * nd + d] * BR(w->br.ba, s, d) + Cr[j * nd + d] * BR(w->br.bv, s, d) +
+             Kr[j * nd + d] * BR(w->br.bu, s, d);
       }
       for (i = 0; i < ns; ++i) r -= S->CT[S->sup[j] * ns + i] * q1[i];
       O->support_reaction[row * NS + s * ns + j] = r;
@@ -34,12 +35,12 @@ static void support_reactions(const setup_t* S, const state_t* X, outputs_t* O, 
   for (i = 0; i < S->nc; ++i) {
     int c = i, q; /* index order: the sum of the NumPy side (np.add.at) */
     const double* N0;
-    if (!w->con[c]) continue;
-    N0 = w->crow + (long)c * ROW_COLS + COL_N0;
+    if (!w->ct.con[c]) continue;
+    N0 = w->ct.crow + (long)c * ROW_COLS + COL_N0;
     for (q = 0; q < NNZ_N0; ++q) {
-      int dof = w->cfirst[c] + nz_N0[q];
+      int dof = w->ct.cfirst[c] + nz_N0[q];
       for (j = 0; j < ns; ++j)
-        if (S->sup[j] == dof) O->support_reaction[row * NS + w->cspan[c] * ns + j] += N0[nz_N0[q]] * X->P[c];
+        if (S->sup[j] == dof) O->support_reaction[row * NS + w->ct.cspan[c] * ns + j] += N0[nz_N0[q]] * X->P[c];
     }
   }
 }
@@ -53,31 +54,31 @@ int svbi_record(const setup_t* S, const state_t* X, const excitation_t* E, outpu
   for (s = 0; s < S->spans; ++s) {
     double uz = 0.0, ux = 0.0, az = 0.0;
     const double* mid_w = S->general ? S->g_mid_w + NE * s : S->mid_w; /* its span's element length */
-    for (j = 0; j < NE; ++j) uz += BR(w->bu, s, S->mid_first + j) * mid_w[j];
-    for (j = 0; j < NE; ++j) ux += BR(w->bu, s, S->mid_first + j) * S->mid_u[j];
-    for (j = 0; j < NE; ++j) az += BR(w->ba, s, S->mid_first + j) * mid_w[j];
+    for (j = 0; j < NE; ++j) uz += BR(w->br.bu, s, S->mid_first + j) * mid_w[j];
+    for (j = 0; j < NE; ++j) ux += BR(w->br.bu, s, S->mid_first + j) * S->mid_u[j];
+    for (j = 0; j < NE; ++j) az += BR(w->br.ba, s, S->mid_first + j) * mid_w[j];
     O->midspan_uz[row * S->spans + s] = uz;
     O->midspan_ux[row * S->spans + s] = ux;
     O->deck_acceleration[row * S->spans + s] = az;
-    O->end_rotation[(row * S->spans + s) * 2] = BR(w->bu, s, 2);
-    O->end_rotation[(row * S->spans + s) * 2 + 1] = BR(w->bu, s, S->nd - 1);
+    O->end_rotation[(row * S->spans + s) * 2] = BR(w->br.bu, s, 2);
+    O->end_rotation[(row * S->spans + s) * 2 + 1] = BR(w->br.bu, s, S->nd - 1);
   }
   if (S->general && S->nsub > S->spans) { /* the pier tops */
     int np = S->nsub - S->spans;
-    for (j = 0; j < np; ++j) O->pier_top_ux[row * np + j] = BR(w->bu, S->spans + j, 3 * S->elements);
+    for (j = 0; j < np; ++j) O->pier_top_ux[row * np + j] = BR(w->br.bu, S->spans + j, 3 * S->elements);
   }
   if (E->ground_per_support) {
     long nrec = n_recorded(S);
     for (j = 0; j < nrec; ++j) {
-      O->ground_uz[row * nrec + j] = w->grec[j];
-      O->ground_ux[row * nrec + j] = w->grec[nrec + j];
+      O->ground_uz[row * nrec + j] = w->rc.grec[j];
+      O->ground_ux[row * nrec + j] = w->rc.grec[nrec + j];
     }
   } else {
-    O->ground_uz[row] = w->grec[0];
-    O->ground_ux[row] = w->grec[1];
+    O->ground_uz[row] = w->rc.grec[0];
+    O->ground_ux[row] = w->rc.grec[1];
   }
   for (i = 0; i < nc; ++i) O->contact_force[row * nc + i] = X->P[i];
-  for (i = 0; i < nc; ++i) O->irregularity[row * nc + i] = w->rail[i];
+  for (i = 0; i < nc; ++i) O->irregularity[row * nc + i] = w->ct.rail[i];
 #if !SVBI_MOVING_LOAD
   if (S->creep) {
     for (i = 0; i < nc; ++i) O->creep_force[row * nc + i] = X->creep_force[i];
@@ -87,7 +88,7 @@ int svbi_record(const setup_t* S, const state_t* X, const excitation_t* E, outpu
   if (S->general) {
     for (j = 0; j < S->nact; ++j) {
       int k = S->g_act_slot[j];
-      double g = w->qs[k] - BR(w->bu, k / 3, S->g_slot_dof[k]);
+      double g = w->sp.qs[k] - BR(w->br.bu, k / 3, S->g_slot_dof[k]);
       O->gap_support[row * S->nact + j] = g;
       worst_of(&worst_s, g);
     }
@@ -96,7 +97,7 @@ int svbi_record(const setup_t* S, const state_t* X, const excitation_t* E, outpu
     for (s = 0; s < S->spans; ++s) {
       for (j = 0; j < ns; ++j) {
         int k = s * ns + j;
-        double g = w->qs[k] - BR(w->bu, s, S->sup[j]);
+        double g = w->sp.qs[k] - BR(w->br.bu, s, S->sup[j]);
         O->gap_support[row * NS + k] = g;
         worst_of(&worst_s, g);
       }

@@ -49,7 +49,7 @@ static int* take_i(carver_t* c, long n) {
   return p;
 }
 
-/* work_t sc_h: the DOFs per node of SC, where N0 and W_hat share their non-zeros, NNZ_N0 / 2 at
+/* work_t br.sc_h: the DOFs per node of SC, where N0 and W_hat share their non-zeros, NNZ_N0 / 2 at
  * each node of an element in the same place, in whole registers (localized, plain spans); else 0. */
 static int sc_dofs_per_node(const setup_t* S) {
 #if SVBI_MOVING_LOAD
@@ -70,147 +70,147 @@ static void carve(const setup_t* S, carver_t* c, work_t* w) {
   long subs = n_subs(S);
   long nm = n_multipliers(S);
   long nv = SVBI_NV;
-  w->cx = take_d(c, nc);
-  w->cxi = take_d(c, nc);
-  w->crow = take_d(c, nc * ROW_COLS);
-  w->rail = take_d(c, 3 * nc);
-  w->under = take_d(c, 3 * nc);
-  w->ulon = take_d(c, nc);
-  w->con = take_i(c, nc);
-  w->cspan = take_i(c, nc);
-  w->cfirst = take_i(c, nc);
-  w->cpos = take_i(c, nc);
-  w->active = take_i(c, nc);
-  w->rows_now = take_d(c, (S->general ? S->nrclass : 1) * (ROW_DEG + 1) * ROW_COLS);
-  w->qs = take_d(c, 3 * NSL);
-  w->grec = take_d(c, 2 * n_recorded(S));
-  w->qhat = take_d(c, NSL);
-  w->PB = take_d(c, subs * nd);
-  w->QB = take_d(c, subs * nd);
-  w->fb = take_d(c, nd);
-  w->rf = take_d(c, nd);
-  w->Lff = take_d(c, (long)S->nfree * (S->band_pf + 1));
-  w->Kb = take_d(c, nd * (S->band_p + 1));
-  w->xB = take_d(c, spans * nd);
-  w->loaded = take_i(c, spans);
-  w->PVh = take_d(c, S->cars * nv);
-  w->QVh = take_d(c, S->cars * nv);
-  w->vcp = (S->cars + VLANES - 1) / VLANES * VLANES;
-  w->VL = take_d(c, S->method == 0 && nv ? (5 * nv + 4L * S->nw) * w->vcp : 0);
-  w->xV = take_d(c, S->cars * nv);
-  w->Kv = take_d(c, nv * nv);
-  w->G = take_d(c, nv * (nv ? S->nw : 0));
-  w->WG = take_d(c, nv ? S->nw * S->nw : 0);
-  w->Pg = take_d(c, nc);
-  w->Qg = take_d(c, nc);
-  w->pt = take_d(c, nc);
-  w->dV = take_d(c, nc);
-  w->hB = take_d(c, nc);
-  w->rhs = take_d(c, nc);
-  w->mB = take_d(c, nc);
-  w->HB = take_d(c, nc);
-  w->HV = take_d(c, nc);
-  w->xg = take_d(c, nc);
-  w->band = take_d(c, nm * (3L * S->bw_max + 1));
-  w->bsol = take_d(c, nm);
-  w->rl = take_d(c, nm);
-  w->HG = take_d(c, NS);
-  w->Z = take_d(c, S->method == 0 ? 0 : (NS + nc) * nd);
-  w->piv = take_i(c, nm);
-  w->rpiv = take_d(c, S->method == 0 ? nm : 0);
-  w->mpos = take_i(c, nm);
-  w->slist = take_i(c, nc);
-  w->sstart = take_i(c, spans + 1);
-  w->DG = take_d(c, S->ns);
-  w->ab = take_d(c, (S->ns + nc) * NE);
-  w->ac = take_d(c, (S->ns + nc) * NE);
-  w->aid = take_i(c, S->ns + nc);
-  w->afirst = take_i(c, S->ns + nc);
-  w->alen = take_i(c, S->ns + nc);
+  w->ct.cx = take_d(c, nc);
+  w->ct.cxi = take_d(c, nc);
+  w->ct.crow = take_d(c, nc * ROW_COLS);
+  w->ct.rail = take_d(c, 3 * nc);
+  w->ct.under = take_d(c, 3 * nc);
+  w->ct.ulon = take_d(c, nc);
+  w->ct.con = take_i(c, nc);
+  w->ct.cspan = take_i(c, nc);
+  w->ct.cfirst = take_i(c, nc);
+  w->it.cpos = take_i(c, nc);
+  w->un.active = take_i(c, nc);
+  w->ct.rows_now = take_d(c, (S->general ? S->nrclass : 1) * (ROW_DEG + 1) * ROW_COLS);
+  w->sp.qs = take_d(c, 3 * NSL);
+  w->rc.grec = take_d(c, 2 * n_recorded(S));
+  w->sp.qhat = take_d(c, NSL);
+  w->br.PB = take_d(c, subs * nd);
+  w->br.QB = take_d(c, subs * nd);
+  w->br.fb = take_d(c, nd);
+  w->br.rf = take_d(c, nd);
+  w->br.Lff = take_d(c, (long)S->nfree * (S->band_pf + 1));
+  w->cp.Kb = take_d(c, nd * (S->band_p + 1));
+  w->cp.xB = take_d(c, spans * nd);
+  w->br.loaded = take_i(c, spans);
+  w->cp.PVh = take_d(c, S->cars * nv);
+  w->cp.QVh = take_d(c, S->cars * nv);
+  w->ve.vcp = (S->cars + VLANES - 1) / VLANES * VLANES;
+  w->ve.VL = take_d(c, S->method == 0 && nv ? (5 * nv + 4L * S->nw) * w->ve.vcp : 0);
+  w->cp.xV = take_d(c, S->cars * nv);
+  w->cp.Kv = take_d(c, nv * nv);
+  w->cp.G = take_d(c, nv * (nv ? S->nw : 0));
+  w->cp.WG = take_d(c, nv ? S->nw * S->nw : 0);
+  w->it.Pg = take_d(c, nc);
+  w->it.Qg = take_d(c, nc);
+  w->it.pt = take_d(c, nc);
+  w->it.dV = take_d(c, nc);
+  w->it.hB = take_d(c, nc);
+  w->it.rhs = take_d(c, nc);
+  w->cp.mB = take_d(c, nc);
+  w->cp.HB = take_d(c, nc);
+  w->cp.HV = take_d(c, nc);
+  w->cp.xg = take_d(c, nc);
+  w->it.band = take_d(c, nm * (3L * S->bw_max + 1));
+  w->it.bsol = take_d(c, nm);
+  w->cp.rl = take_d(c, nm);
+  w->cp.HG = take_d(c, NS);
+  w->it.Z = take_d(c, S->method == 0 ? 0 : (NS + nc) * nd);
+  w->it.piv = take_i(c, nm);
+  w->it.rpiv = take_d(c, S->method == 0 ? nm : 0);
+  w->cp.mpos = take_i(c, nm);
+  w->ct.slist = take_i(c, nc);
+  w->ct.sstart = take_i(c, spans + 1);
+  w->cp.DG = take_d(c, S->ns);
+  w->cp.ab = take_d(c, (S->ns + nc) * NE);
+  w->cp.ac = take_d(c, (S->ns + nc) * NE);
+  w->it.aid = take_i(c, S->ns + nc);
+  w->it.afirst = take_i(c, S->ns + nc);
+  w->it.alen = take_i(c, S->ns + nc);
   {
     long padded = S->method == 0 && !S->general ? (spans + LW - 1) / LW * LW : 0;
-    w->TU = take_d(c, padded * nd);
-    w->TV = take_d(c, padded * nd);
-    w->TA = take_d(c, padded * nd);
-    w->qb = take_d(c, 2L * S->ns * (padded > 0 ? padded : LW));
-    w->RF = take_d(c, padded * (long)S->nfree);
+    w->br.TU = take_d(c, padded * nd);
+    w->br.TV = take_d(c, padded * nd);
+    w->br.TA = take_d(c, padded * nd);
+    w->br.qb = take_d(c, 2L * S->ns * (padded > 0 ? padded : LW));
+    w->br.RF = take_d(c, padded * (long)S->nfree);
     if (padded) {
       /* the Newmark histories of the blocked state */
-      w->PB = take_d(c, padded * nd);
-      w->QB = take_d(c, padded * nd);
+      w->br.PB = take_d(c, padded * nd);
+      w->br.QB = take_d(c, padded * nd);
     }
   }
-  w->dinv2 = take_d(c, S->nfree);
-  w->freeidx = take_i(c, nd);
-  w->sc_h = sc_dofs_per_node(S);
-  w->ncd = w->sc_h * (S->nd / (NE / 2));
-  w->SC = take_d(c, (long)w->ncd * w->ncd);
-  w->rr_ptr = take_i(c, S->general ? 0 : S->ns + 1);
-  w->rr_idx = take_i(c, S->general ? 0 : (long)S->ns * nd);
-  w->lidx = take_i(c, spans);
-  w->lspan = take_i(c, spans);
+  w->br.dinv2 = take_d(c, S->nfree);
+  w->br.freeidx = take_i(c, nd);
+  w->br.sc_h = sc_dofs_per_node(S);
+  w->br.ncd = w->br.sc_h * (S->nd / (NE / 2));
+  w->br.SC = take_d(c, (long)w->br.ncd * w->br.ncd);
+  w->rc.rr_ptr = take_i(c, S->general ? 0 : S->ns + 1);
+  w->rc.rr_idx = take_i(c, S->general ? 0 : (long)S->ns * nd);
+  w->br.lidx = take_i(c, spans);
+  w->br.lspan = take_i(c, spans);
   {
     int blocked = S->method == 0 && !S->general;
     long nz = blocked ? (long)S->nfree * S->band_pf : 0;
-    w->fw_d = take_d(c, nz);
-    w->bk_d = take_d(c, nz);
+    w->br.fw_d = take_d(c, nz);
+    w->br.bk_d = take_d(c, nz);
   }
-  w->creepc = take_d(c, nv ? S->nw * SVBI_CREEP_NC : 0);
-  w->vnz_ptr = take_i(c, 4 * (nv + 1));
-  w->vnz_idx = take_i(c, 4 * nv * nv);
-  w->vnz_val = take_d(c, 4 * nv * nv);
+  w->ve.creepc = take_d(c, nv ? S->nw * SVBI_CREEP_NC : 0);
+  w->ve.vnz_ptr = take_i(c, 4 * (nv + 1));
+  w->ve.vnz_idx = take_i(c, 4 * nv * nv);
+  w->ve.vnz_val = take_d(c, 4 * nv * nv);
   {
     /* coupled methods (coupled.c) */
     long on = S->method != 0, cpad = on ? (spans + SW - 1) / SW * SW : 0;
-    w->Kinv = take_d(c, on * nd * nd);
-    w->Kdinv = take_d(c, on * nd);
-    w->Kfw = take_d(c, on * nd * S->band_p);
-    w->Kbk = take_d(c, on * nd * S->band_p);
-    w->Kd2 = take_d(c, on * nd);
-    w->XB = take_d(c, cpad * nd);
-    w->Kvinv = take_d(c, on * nv * nv);
+    w->cp.Kinv = take_d(c, on * nd * nd);
+    w->cp.Kdinv = take_d(c, on * nd);
+    w->cp.Kfw = take_d(c, on * nd * S->band_p);
+    w->cp.Kbk = take_d(c, on * nd * S->band_p);
+    w->cp.Kd2 = take_d(c, on * nd);
+    w->cp.XB = take_d(c, cpad * nd);
+    w->cp.Kvinv = take_d(c, on * nv * nv);
   }
   {
     /* a bridge of substructures (general.c) */
     long nl = S->general ? S->nlinks : 0;
-    w->lpos = take_i(c, nl);
-    w->lam = take_d(c, nl);
-    w->lam0 = take_d(c, nl);
-    w->LA = take_d(c, nl * (S->band_links + 1));
-    w->KF = take_d(c, S->general ? S->g_kff_ptr[S->nkind] : 0);
-    w->KD = take_d(c, S->general ? S->nkind * nd : 0);
-    w->GB = take_d(c, S->general ? nd * (S->nsub + SW) : 0);
-    w->kmem_ptr = take_i(c, S->general ? S->nkind + 1 : 0);
-    w->kmem = take_i(c, S->general ? S->nsub : 0);
-    w->qact = take_d(c, S->general ? S->nact : 0);
+    w->ge.lpos = take_i(c, nl);
+    w->ge.lam = take_d(c, nl);
+    w->ge.lam0 = take_d(c, nl);
+    w->ge.LA = take_d(c, nl * (S->band_links + 1));
+    w->ge.KF = take_d(c, S->general ? S->g_kff_ptr[S->nkind] : 0);
+    w->ge.KD = take_d(c, S->general ? S->nkind * nd : 0);
+    w->ge.GB = take_d(c, S->general ? nd * (S->nsub + SW) : 0);
+    w->ge.kmem_ptr = take_i(c, S->general ? S->nkind + 1 : 0);
+    w->ge.kmem = take_i(c, S->general ? S->nsub : 0);
+    w->ge.qact = take_d(c, S->general ? S->nact : 0);
   }
   {
     /* unilateral contact, localized (impact.c) */
     long u = S->unilateral, lanes = (spans + LW - 1) / LW * LW; /* the blocked layout's spans */
     long field = u ? (lanes > subs ? lanes : subs) * nd : 0;
-    w->landing = take_i(c, nc);
-    w->flip = take_i(c, nc);
-    w->onrail = take_i(c, nc);
-    w->P0 = take_d(c, nc);
-    w->rland = take_d(c, nc);
-    w->IG = take_d(c, u * nc * nc);
-    w->IGs = take_d(c, u * nc * nc);
-    w->iidx = take_i(c, nc);
-    w->idrop = take_i(c, nc);
-    w->iunk = take_i(c, nc);
-    w->ib = take_d(c, nc);
-    w->ib2 = take_d(c, nc);
-    w->ib3 = take_d(c, nc);
-    w->iv1 = take_d(c, nc);
-    w->iv2 = take_d(c, nc);
-    w->iv3 = take_d(c, nc);
-    w->iv4 = take_d(c, nc);
-    w->IdV = take_d(c, u * S->cars * nv);
-    w->IaV = take_d(c, u * S->cars * nv);
-    w->dB1 = take_d(c, field);
-    w->dB2 = take_d(c, field);
-    w->dB3 = take_d(c, field);
-    w->LAM = take_d(c, u && S->general ? (long)S->nlinks * (S->band_links + 1) : 0);
+    w->un.landing = take_i(c, nc);
+    w->un.flip = take_i(c, nc);
+    w->un.onrail = take_i(c, nc);
+    w->un.P0 = take_d(c, nc);
+    w->un.rland = take_d(c, nc);
+    w->un.IG = take_d(c, u * nc * nc);
+    w->un.IGs = take_d(c, u * nc * nc);
+    w->un.iidx = take_i(c, nc);
+    w->un.idrop = take_i(c, nc);
+    w->un.iunk = take_i(c, nc);
+    w->un.ib = take_d(c, nc);
+    w->un.ib2 = take_d(c, nc);
+    w->un.ib3 = take_d(c, nc);
+    w->un.iv1 = take_d(c, nc);
+    w->un.iv2 = take_d(c, nc);
+    w->un.iv3 = take_d(c, nc);
+    w->un.iv4 = take_d(c, nc);
+    w->un.IdV = take_d(c, u * S->cars * nv);
+    w->un.IaV = take_d(c, u * S->cars * nv);
+    w->un.dB1 = take_d(c, field);
+    w->un.dB2 = take_d(c, field);
+    w->un.dB3 = take_d(c, field);
+    w->un.LAM = take_d(c, u && S->general ? (long)S->nlinks * (S->band_links + 1) : 0);
   }
 }
 
@@ -233,24 +233,24 @@ static work_t workspace(const setup_t* S, double* work, int* iwork) {
 int svbi_solver_init(const setup_t* S, double* work, int* iwork) {
   work_t w = workspace(S, work, iwork);
   int k, status;
-  for (k = 0; k < S->nd; ++k) w.freeidx[k] = -1;
-  for (k = 0; k < S->nfree; ++k) w.freeidx[S->free[k]] = k;
-  if (w.sc_h) { /* work_t SC */
-    int a, b, h = w.sc_h, nd = S->nd;
-    for (a = 0; a < w.ncd; ++a)
-      for (b = 0; b < w.ncd; ++b)
-        w.SC[(long)a * w.ncd + b] = S->S[(long)((b / h) * (NE / 2) + nz_N0[b % h]) * nd + (a / h) * (NE / 2) + nz_N0[a % h]];
+  for (k = 0; k < S->nd; ++k) w.br.freeidx[k] = -1;
+  for (k = 0; k < S->nfree; ++k) w.br.freeidx[S->free[k]] = k;
+  if (w.br.sc_h) { /* work_t br.SC */
+    int a, b, h = w.br.sc_h, nd = S->nd;
+    for (a = 0; a < w.br.ncd; ++a)
+      for (b = 0; b < w.br.ncd; ++b)
+        w.br.SC[(long)a * w.br.ncd + b] = S->S[(long)((b / h) * (NE / 2) + nz_N0[b % h]) * nd + (a / h) * (NE / 2) + nz_N0[a % h]];
   }
   if (!S->general) { /* the support rows' non-zeros (record.c, support_reactions) */
     int j, d, n = 0, nd = S->nd, ns = S->ns;
     for (j = 0; j < ns; ++j) {
-      w.rr_ptr[j] = n;
+      w.rc.rr_ptr[j] = n;
       for (d = 0; d < nd; ++d) {
         long o = (long)j * nd + d, a = (long)ns * nd;
-        if (S->react_rows[o] != 0.0 || S->react_rows[a + o] != 0.0 || S->react_rows[2 * a + o] != 0.0) w.rr_idx[n++] = d;
+        if (S->react_rows[o] != 0.0 || S->react_rows[a + o] != 0.0 || S->react_rows[2 * a + o] != 0.0) w.rc.rr_idx[n++] = d;
       }
     }
-    w.rr_ptr[ns] = n;
+    w.rc.rr_ptr[ns] = n;
   }
 #if !SVBI_MOVING_LOAD
   if (!S->moving_load) {
@@ -262,9 +262,9 @@ int svbi_solver_init(const setup_t* S, double* work, int* iwork) {
     mats[2] = S->V_C;
     mats[3] = S->method == 0 ? S->V_kinv : 0;
     for (a = 0; a < 4; ++a) {
-      int* ptr = w.vnz_ptr + a * (NV + 1);
-      int* idx = w.vnz_idx + a * NV * NV;
-      double* val = w.vnz_val + a * NV * NV;
+      int* ptr = w.ve.vnz_ptr + a * (NV + 1);
+      int* idx = w.ve.vnz_idx + a * NV * NV;
+      double* val = w.ve.vnz_val + a * NV * NV;
       int n = 0;
       for (d = 0; d < NV; ++d) {
         ptr[d] = n;
@@ -286,7 +286,7 @@ int svbi_solver_init(const setup_t* S, double* work, int* iwork) {
       casadi_int iw[SVBI_CREEP_SPLIT_MAX_SZ_IW] = {0};
       casadi_real wk[SVBI_CREEP_SPLIT_MAX_SZ_W];
       arg[0] = S->creep_params + 8 * k;
-      res[0] = w.creepc + CREEP_NC * k;
+      res[0] = w.ve.creepc + CREEP_NC * k;
       status = CREEP_KERNEL(COEFFICIENTS)(arg, res, iw, wk, 0);
       if (status) return ST_NOT_FINITE;
     }
@@ -294,28 +294,28 @@ int svbi_solver_init(const setup_t* S, double* work, int* iwork) {
 #endif
   if (S->method != 0) {
     /* coupled: every span block is the same constant K^_B; factor it once */
-    memcpy(w.Kb, S->Khat_band, sizeof(double) * (size_t)S->nd * (size_t)(S->band_p + 1));
-    status = svbi_band_cholesky(w.Kb, S->nd, S->band_p);
+    memcpy(w.cp.Kb, S->Khat_band, sizeof(double) * (size_t)S->nd * (size_t)(S->band_p + 1));
+    status = svbi_band_cholesky(w.cp.Kb, S->nd, S->band_p);
     if (status) return status;
   }
 #if !SVBI_MOVING_LOAD
   if (S->method != 0 && !S->moving_load) {
     /* coupled: every car's effective matrix is the same constant; factor it and K^-1 W once */
     int i, a, b, d;
-    memcpy(w.Kv, S->V_khat, sizeof(double) * NV * NV);
-    status = svbi_dense_cholesky(w.Kv, NV);
+    memcpy(w.cp.Kv, S->V_khat, sizeof(double) * NV * NV);
+    status = svbi_dense_cholesky(w.cp.Kv, NV);
     if (status) return status;
     for (i = 0; i < NW; ++i) {
       double g[NV];
       for (d = 0; d < NV; ++d) g[d] = S->V_W[d * NW + i];
-      svbi_dense_solve(w.Kv, NV, g);
-      for (d = 0; d < NV; ++d) w.G[d * NW + i] = g[d];
+      svbi_dense_solve(w.cp.Kv, NV, g);
+      for (d = 0; d < NV; ++d) w.cp.G[d * NW + i] = g[d];
     }
     for (a = 0; a < NW; ++a) {
       for (b = 0; b < NW; ++b) {
         double wg = 0.0;
-        for (d = 0; d < NV; ++d) wg += S->V_W[d * NW + a] * w.G[d * NW + b];
-        w.WG[a * NW + b] = wg;
+        for (d = 0; d < NV; ++d) wg += S->V_W[d * NW + a] * w.cp.G[d * NW + b];
+        w.cp.WG[a * NW + b] = wg;
       }
     }
   }
@@ -325,19 +325,19 @@ int svbi_solver_init(const setup_t* S, double* work, int* iwork) {
     if (status) return status;
   }
   if (S->unilateral && S->general && S->nlinks) { /* the rigid links' mass matrix (impact.c) */
-    memcpy(w.LAM, S->I_lk_A, sizeof(double) * (size_t)S->nlinks * (size_t)(S->band_links + 1));
-    status = svbi_band_cholesky(w.LAM, S->nlinks, S->band_links);
+    memcpy(w.un.LAM, S->I_lk_A, sizeof(double) * (size_t)S->nlinks * (size_t)(S->band_links + 1));
+    status = svbi_band_cholesky(w.un.LAM, S->nlinks, S->band_links);
     if (status) return status;
   }
   if (S->general) {
     status = svbi_general_init(S, &w);
     if (status) return status;
   } else if (S->method == 0) {
-    memcpy(w.Lff, S->Khat_ff_band, sizeof(double) * (size_t)S->nfree * (size_t)(S->band_pf + 1));
-    status = svbi_band_cholesky(w.Lff, S->nfree, S->band_pf);
+    memcpy(w.br.Lff, S->Khat_ff_band, sizeof(double) * (size_t)S->nfree * (size_t)(S->band_pf + 1));
+    status = svbi_band_cholesky(w.br.Lff, S->nfree, S->band_pf);
     if (status) return status;
     if (S->band_pf > FS_PMAX) return ST_BANDWIDTH;
-    svbi_band_unit_factor(w.Lff, S->nfree, S->band_pf, w.fw_d, w.bk_d, w.dinv2);
+    svbi_band_unit_factor(w.br.Lff, S->nfree, S->band_pf, w.br.fw_d, w.br.bk_d, w.br.dinv2);
   }
   return ST_OK;
 }
@@ -348,31 +348,31 @@ static void bridge_view(const setup_t* S, state_t* X, work_t* w) {
   w->kind = S->general ? &svbi_kind_substructures : &svbi_kind_spans;
   if (S->method == 0 && !S->general) {
     long s, i, nd = S->nd;
-    w->pad = (S->spans + LW - 1) / LW * LW;
-    w->nb = w->pad * nd;
-    memset(w->TU, 0, sizeof(double) * (size_t)w->nb);
-    memset(w->TV, 0, sizeof(double) * (size_t)w->nb);
-    memset(w->TA, 0, sizeof(double) * (size_t)w->nb);
+    w->br.pad = (S->spans + LW - 1) / LW * LW;
+    w->br.nb = w->br.pad * nd;
+    memset(w->br.TU, 0, sizeof(double) * (size_t)w->br.nb);
+    memset(w->br.TV, 0, sizeof(double) * (size_t)w->br.nb);
+    memset(w->br.TA, 0, sizeof(double) * (size_t)w->br.nb);
     for (s = 0; s < S->spans; ++s) {
       for (i = 0; i < nd; ++i) {
-        long k = i * w->pad + s;
-        w->TU[k] = X->uB[s * nd + i];
-        w->TV[k] = X->vB[s * nd + i];
-        w->TA[k] = X->aB[s * nd + i];
+        long k = i * w->br.pad + s;
+        w->br.TU[k] = X->uB[s * nd + i];
+        w->br.TV[k] = X->vB[s * nd + i];
+        w->br.TA[k] = X->aB[s * nd + i];
       }
     }
-    w->bu = w->TU;
-    w->bv = w->TV;
-    w->ba = w->TA;
-    w->blocked = 1;
-    w->hist = 0;
+    w->br.bu = w->br.TU;
+    w->br.bv = w->br.TV;
+    w->br.ba = w->br.TA;
+    w->br.blocked = 1;
+    w->br.hist = 0;
   } else {
-    w->bu = X->uB;
-    w->bv = X->vB;
-    w->ba = X->aB;
-    w->blocked = 0;
-    w->hist = 0;
-    w->nb = n_subs(S) * S->nd;
+    w->br.bu = X->uB;
+    w->br.bv = X->vB;
+    w->br.ba = X->aB;
+    w->br.blocked = 0;
+    w->br.hist = 0;
+    w->br.nb = n_subs(S) * S->nd;
   }
 }
 
@@ -381,10 +381,10 @@ static void bridge_store(const setup_t* S, state_t* X, const work_t* w) {
     long s, i, nd = S->nd;
     for (s = 0; s < S->spans; ++s) {
       for (i = 0; i < nd; ++i) {
-        long k = i * w->pad + s;
-        X->uB[s * nd + i] = w->TU[k];
-        X->vB[s * nd + i] = w->TV[k];
-        X->aB[s * nd + i] = w->TA[k];
+        long k = i * w->br.pad + s;
+        X->uB[s * nd + i] = w->br.TU[k];
+        X->vB[s * nd + i] = w->br.TV[k];
+        X->aB[s * nd + i] = w->br.TA[k];
       }
     }
   }

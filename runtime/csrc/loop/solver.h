@@ -1,7 +1,7 @@
 /*
  * svbi's C time loop: the whole Newmark loop of localized-dynamic, coupled-dynamic and
  * coupled-classic (docs/c-backend.md). The structs and status codes are in svbi_solver_types.h
- * (generated from the one field list of svbi.runtime.backends.c.build, which also gives Python's ctypes
+ * (generated from the one field list of svbi.codegen.loop_abi, which also gives Python's ctypes
  * mirrors); the sizes of the vehicle topology in svbi_topology.h. No function allocates memory: the
  * caller provides one double and one int workspace of the sizes svbi_solver_workspace returns. The
  * functions keep no global state: separate workspaces run in separate threads.

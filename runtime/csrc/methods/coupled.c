@@ -20,42 +20,42 @@ static void multiplier_order(const setup_t* S, work_t* w, int per_contact) {
     /* supports at x = (s + 1) L: the left ones of span s + 1 were placed; now the right of span s */
     double xs = (s + 1) * S->span_length;
     if (per_contact) {
-      while (k < nc && w->cx[S->order[k]] >= xs) {
+      while (k < nc && w->ct.cx[S->order[k]] >= xs) {
         int i = S->order[k++];
         if (per_contact == 2) {
-          w->mpos[i] = pos++;
-          w->mpos[nc + i] = pos++;
+          w->cp.mpos[i] = pos++;
+          w->cp.mpos[nc + i] = pos++;
         } else {
-          w->mpos[i] = pos++;
+          w->cp.mpos[i] = pos++;
         }
       }
     }
     if (s < 0) break;
     for (j = 0; j < ns; ++j)
-      if (S->sup_x[j] != 0.0) w->mpos[base + s * ns + j] = pos++;
+      if (S->sup_x[j] != 0.0) w->cp.mpos[base + s * ns + j] = pos++;
     xs = s * S->span_length;
     if (per_contact) {
-      while (k < nc && w->cx[S->order[k]] >= xs) {
+      while (k < nc && w->ct.cx[S->order[k]] >= xs) {
         int i = S->order[k++];
         if (per_contact == 2) {
-          w->mpos[i] = pos++;
-          w->mpos[nc + i] = pos++;
+          w->cp.mpos[i] = pos++;
+          w->cp.mpos[nc + i] = pos++;
         } else {
-          w->mpos[i] = pos++;
+          w->cp.mpos[i] = pos++;
         }
       }
     }
     for (j = 0; j < ns; ++j)
-      if (S->sup_x[j] == 0.0) w->mpos[base + s * ns + j] = pos++;
+      if (S->sup_x[j] == 0.0) w->cp.mpos[base + s * ns + j] = pos++;
   }
   if (per_contact) {
     while (k < nc) {
       int i = S->order[k++];
       if (per_contact == 2) {
-        w->mpos[i] = pos++;
-        w->mpos[nc + i] = pos++;
+        w->cp.mpos[i] = pos++;
+        w->cp.mpos[nc + i] = pos++;
       } else {
-        w->mpos[i] = pos++;
+        w->cp.mpos[i] = pos++;
       }
     }
   }
@@ -70,18 +70,18 @@ static void extent(int* lo, int* hi, int p) {
 static int multiplier_bandwidth(const setup_t* S, const work_t* w, int per_contact) {
   int bw = 0, s, j, m, k, i, nc = S->nc, ns = S->ns, base = per_contact * nc;
   for (s = 0; s < S->spans; ++s) {
-    int lo = w->mpos[base + s * ns], hi = lo;
-    for (j = 0; j < ns; ++j) extent(&lo, &hi, w->mpos[base + s * ns + j]);
-    for (m = w->sstart[s]; per_contact && m < w->sstart[s + 1]; ++m) {
-      int c = w->slist[m];
-      extent(&lo, &hi, w->mpos[(per_contact == 2 ? nc : 0) + c]);
+    int lo = w->cp.mpos[base + s * ns], hi = lo;
+    for (j = 0; j < ns; ++j) extent(&lo, &hi, w->cp.mpos[base + s * ns + j]);
+    for (m = w->ct.sstart[s]; per_contact && m < w->ct.sstart[s + 1]; ++m) {
+      int c = w->ct.slist[m];
+      extent(&lo, &hi, w->cp.mpos[(per_contact == 2 ? nc : 0) + c]);
     }
     if (hi - lo > bw) bw = hi - lo;
   }
   if (per_contact && !S->moving_load) {
     for (k = 0; k < S->cars; ++k) {
-      int lo = w->mpos[k * S->nw], hi = lo;
-      for (i = 0; i < S->nw; ++i) extent(&lo, &hi, w->mpos[k * S->nw + i]);
+      int lo = w->cp.mpos[k * S->nw], hi = lo;
+      for (i = 0; i < S->nw; ++i) extent(&lo, &hi, w->cp.mpos[k * S->nw + i]);
       if (hi - lo > bw) bw = hi - lo;
     }
     if (per_contact == 2 && bw < 1) bw = 1;
@@ -94,13 +94,13 @@ static int multiplier_bandwidth(const setup_t* S, const work_t* w, int per_conta
  * of its factor (for the solves of all spans at once) and the car's inverse effective matrix. */
 int svbi_coupled_init(const setup_t* S, work_t* w) {
   int i, j, nd = S->nd, p = S->band_p;
-  for (i = 0; i < nd; ++i) w->Kdinv[i] = 1.0 / w->Kb[(long)i * (p + 1)];
-  if (p <= FS_PMAX) svbi_band_unit_factor(w->Kb, nd, p, w->Kfw, w->Kbk, w->Kd2);
+  for (i = 0; i < nd; ++i) w->cp.Kdinv[i] = 1.0 / w->cp.Kb[(long)i * (p + 1)];
+  if (p <= FS_PMAX) svbi_band_unit_factor(w->cp.Kb, nd, p, w->cp.Kfw, w->cp.Kbk, w->cp.Kd2);
   for (j = 0; j < nd; ++j) {
-    double* col = w->XB; /* scratch */
+    double* col = w->cp.XB; /* scratch */
     for (i = 0; i < nd; ++i) col[i] = i == j ? 1.0 : 0.0;
-    svbi_band_solve(w->Kb, nd, p, col);
-    for (i = 0; i < nd; ++i) w->Kinv[(long)i * nd + j] = col[i];
+    svbi_band_solve(w->cp.Kb, nd, p, col);
+    for (i = 0; i < nd; ++i) w->cp.Kinv[(long)i * nd + j] = col[i];
   }
 #if !SVBI_MOVING_LOAD
   if (!S->moving_load) {
@@ -108,8 +108,8 @@ int svbi_coupled_init(const setup_t* S, work_t* w) {
     int d;
     for (j = 0; j < NV; ++j) {
       for (d = 0; d < NV; ++d) e[d] = d == j ? 1.0 : 0.0;
-      svbi_dense_solve(w->Kv, NV, e);
-      for (d = 0; d < NV; ++d) w->Kvinv[d * NV + j] = e[d];
+      svbi_dense_solve(w->cp.Kv, NV, e);
+      for (d = 0; d < NV; ++d) w->cp.Kvinv[d * NV + j] = e[d];
     }
   }
 #endif
@@ -122,14 +122,14 @@ static void span_solve(const setup_t* S, work_t* w, const double* f) {
   int s, i, nd = S->nd, spans = S->spans;
   long pad = (spans + SW - 1) / SW * SW;
   for (i = 0; i < nd; ++i) {
-    double* x = w->XB + (long)i * pad;
+    double* x = w->cp.XB + (long)i * pad;
     for (s = 0; s < spans; ++s) x[s] = f[(long)s * nd + i];
     for (; s < pad; ++s) x[s] = 0.0;
   }
   if (S->band_p <= FS_PMAX) /* the last rows in registers, as localized-dynamic's span solves */
-    svbi_band_solve_lanes(w->Kfw, w->Kbk, w->Kd2, nd, S->band_p, w->XB, 0, pad);
+    svbi_band_solve_lanes(w->cp.Kfw, w->cp.Kbk, w->cp.Kd2, nd, S->band_p, w->cp.XB, 0, pad);
   else
-    svbi_band_solve_blocked(w->Kb, w->Kdinv, nd, S->band_p, w->XB, pad / SW);
+    svbi_band_solve_blocked(w->cp.Kb, w->cp.Kdinv, nd, S->band_p, w->cp.XB, pad / SW);
 }
 
 /* Eliminate the span blocks: y_s = K^-1 f_s (all spans at once, in XB); for the attachments a, b
@@ -141,48 +141,48 @@ static void span_blocks(const setup_t* S, work_t* w, int per_contact, int bw, co
                         int lamB_base) {
   int s, j, k, m, n, q, r, nd = S->nd, ns = S->ns;
   long pad = (S->spans + SW - 1) / SW * SW;
-  const double* Ki = w->Kinv;
-  span_solve(S, w, w->xB);
+  const double* Ki = w->cp.Kinv;
+  span_solve(S, w, w->cp.xB);
   for (s = 0; s < S->spans; ++s) {
-    int m0 = w->sstart[s], m1 = per_contact ? w->sstart[s + 1] : m0;
-    const double* y = w->XB + s;
+    int m0 = w->ct.sstart[s], m1 = per_contact ? w->ct.sstart[s + 1] : m0;
+    const double* y = w->cp.XB + s;
     for (m = m0; m < m1; ++m) {
       /* the contacts' B and C entries (structural non-zeros only), by position in the span list */
-      int c = w->slist[m];
-      const double* row = w->crow + (long)c * ROW_COLS;
-      for (q = 0; q < NNZ_N0; ++q) w->ab[m * NE + q] = row[COL_N0 + nz_N0[q]] * DB_or_sC[c];
-      for (q = 0; q < NNZ_W_HAT; ++q) w->ac[m * NE + q] = -row[COL_W_HAT + nz_W_hat[q]] * DB_or_sC[c];
+      int c = w->ct.slist[m];
+      const double* row = w->ct.crow + (long)c * ROW_COLS;
+      for (q = 0; q < NNZ_N0; ++q) w->cp.ab[m * NE + q] = row[COL_N0 + nz_N0[q]] * DB_or_sC[c];
+      for (q = 0; q < NNZ_W_HAT; ++q) w->cp.ac[m * NE + q] = -row[COL_W_HAT + nz_W_hat[q]] * DB_or_sC[c];
     }
     for (j = 0; j < ns; ++j) {
-      int idj = per_contact * S->nc + s * ns + j, rj = w->mpos[idj], sj = S->sup[j];
-      double dj = w->DG[j];
-      w->rl[idj] -= dj * y[(long)sj * pad];
+      int idj = per_contact * S->nc + s * ns + j, rj = w->cp.mpos[idj], sj = S->sup[j];
+      double dj = w->cp.DG[j];
+      w->cp.rl[idj] -= dj * y[(long)sj * pad];
       for (k = 0; k < ns; ++k)
-        svbi_gb_add(w->band, bw, rj, w->mpos[per_contact * S->nc + s * ns + k],
-                    dj * Ki[(long)sj * nd + S->sup[k]] * w->DG[k]);
+        svbi_gb_add(w->it.band, bw, rj, w->cp.mpos[per_contact * S->nc + s * ns + k],
+                    dj * Ki[(long)sj * nd + S->sup[k]] * w->cp.DG[k]);
       for (n = m0; n < m1; ++n) {
-        int cb = w->slist[n];
-        const double* kr = Ki + (long)sj * nd + w->cfirst[cb];
+        int cb = w->ct.slist[n];
+        const double* kr = Ki + (long)sj * nd + w->ct.cfirst[cb];
         double t = 0.0;
-        for (r = 0; r < NNZ_N0; ++r) t += kr[nz_N0[r]] * w->ab[n * NE + r];
-        svbi_gb_add(w->band, bw, rj, w->mpos[lamB_base + cb], -dj * t);
+        for (r = 0; r < NNZ_N0; ++r) t += kr[nz_N0[r]] * w->cp.ab[n * NE + r];
+        svbi_gb_add(w->it.band, bw, rj, w->cp.mpos[lamB_base + cb], -dj * t);
       }
     }
     for (m = m0; m < m1; ++m) {
-      int ca = w->slist[m], ida = lamB_base + ca, ra = w->mpos[ida], fa = w->cfirst[ca];
-      const double* cq = w->ac + m * NE;
+      int ca = w->ct.slist[m], ida = lamB_base + ca, ra = w->cp.mpos[ida], fa = w->ct.cfirst[ca];
+      const double* cq = w->cp.ac + m * NE;
       double cy = 0.0;
       for (q = 0; q < NNZ_W_HAT; ++q) cy += cq[q] * y[(long)(fa + nz_W_hat[q]) * pad];
-      w->rl[ida] -= cy;
+      w->cp.rl[ida] -= cy;
       for (k = 0; k < ns; ++k) {
         const double* kc = Ki + (long)S->sup[k] * nd + fa; /* K^-1 is symmetric: row for column */
         double t = 0.0;
         for (q = 0; q < NNZ_W_HAT; ++q) t += cq[q] * kc[nz_W_hat[q]];
-        svbi_gb_add(w->band, bw, ra, w->mpos[per_contact * S->nc + s * ns + k], t * w->DG[k]);
+        svbi_gb_add(w->it.band, bw, ra, w->cp.mpos[per_contact * S->nc + s * ns + k], t * w->cp.DG[k]);
       }
       for (n = m0; n < m1; ++n) {
-        int cb = w->slist[n], fb = w->cfirst[cb];
-        const double* bq = w->ab + n * NE;
+        int cb = w->ct.slist[n], fb = w->ct.cfirst[cb];
+        const double* bq = w->cp.ab + n * NE;
         double t = 0.0;
         for (q = 0; q < NNZ_W_HAT; ++q) {
           const double* kr = Ki + (long)(fa + nz_W_hat[q]) * nd + fb;
@@ -190,7 +190,7 @@ static void span_blocks(const setup_t* S, work_t* w, int per_contact, int bw, co
           for (r = 0; r < NNZ_N0; ++r) u += kr[nz_N0[r]] * bq[r];
           t += cq[q] * u;
         }
-        svbi_gb_add(w->band, bw, ra, w->mpos[lamB_base + cb], -t);
+        svbi_gb_add(w->it.band, bw, ra, w->cp.mpos[lamB_base + cb], -t);
       }
     }
   }
@@ -202,18 +202,18 @@ static void span_back(const setup_t* S, work_t* w, int per_contact, int lamB_bas
   int s, i, j, m, q, nd = S->nd, ns = S->ns;
   long pad = (S->spans + SW - 1) / SW * SW;
   for (s = 0; s < S->spans; ++s) {
-    double* f = w->xB + (long)s * nd;
-    for (j = 0; j < ns; ++j) f[S->sup[j]] += w->DG[j] * w->bsol[w->mpos[per_contact * S->nc + s * ns + j]];
-    for (m = w->sstart[s]; per_contact && m < w->sstart[s + 1]; ++m) {
-      int c = w->slist[m];
-      const double* N0 = w->crow + (long)c * ROW_COLS + COL_N0;
-      double lam = w->bsol[w->mpos[lamB_base + c]] * DB_or_sC[c];
-      for (q = 0; q < NNZ_N0; ++q) f[w->cfirst[c] + nz_N0[q]] -= N0[nz_N0[q]] * lam;
+    double* f = w->cp.xB + (long)s * nd;
+    for (j = 0; j < ns; ++j) f[S->sup[j]] += w->cp.DG[j] * w->it.bsol[w->cp.mpos[per_contact * S->nc + s * ns + j]];
+    for (m = w->ct.sstart[s]; per_contact && m < w->ct.sstart[s + 1]; ++m) {
+      int c = w->ct.slist[m];
+      const double* N0 = w->ct.crow + (long)c * ROW_COLS + COL_N0;
+      double lam = w->it.bsol[w->cp.mpos[lamB_base + c]] * DB_or_sC[c];
+      for (q = 0; q < NNZ_N0; ++q) f[w->ct.cfirst[c] + nz_N0[q]] -= N0[nz_N0[q]] * lam;
     }
   }
-  span_solve(S, w, w->xB);
+  span_solve(S, w, w->cp.xB);
   for (i = 0; i < nd; ++i) {
-    const double* x = w->XB + (long)i * pad;
+    const double* x = w->cp.XB + (long)i * pad;
     for (s = 0; s < S->spans; ++s) X->uB[(long)s * nd + i] = x[s];
   }
 }
@@ -235,25 +235,25 @@ int svbi_step_coupled(const setup_t* S, state_t* X, work_t* w, int classic) {
   svbi_bridge_histories(S, w);
   svbi_support_targets(S, w);
   svbi_group_by_span(S, w);
-  for (j = 0; j < ns; ++j) w->DG[j] = classic ? S->sG[j] : S->d * S->mG[j];
+  for (j = 0; j < ns; ++j) w->cp.DG[j] = classic ? S->sG[j] : S->d * S->mG[j];
   /* span right-hand sides: f = M P + C Q + C T q' (less the support multipliers' history H_G) */
   for (s = 0; s < S->spans; ++s) {
-    double* f = w->xB + (long)s * nd;
+    double* f = w->cp.xB + (long)s * nd;
     svbi_span_load(S, w, s, f);
     for (j = 0; j < ns; ++j) {
       int k = s * ns + j;
       if (!classic) {
-        w->HG[k] = lam_H(S, X->lamG, NS, k, S->mG[j]);
-        f[S->sup[j]] -= w->HG[k];
+        w->cp.HG[k] = lam_H(S, X->lamG, NS, k, S->mG[j]);
+        f[S->sup[j]] -= w->cp.HG[k];
       }
-      w->rl[per_contact * nc + k] = w->DG[j] * w->qhat[k];
+      w->cp.rl[per_contact * nc + k] = w->cp.DG[j] * w->sp.qhat[k];
     }
   }
   if (S->moving_load) {
     for (i = 0; i < nc; ++i) {
-      if (w->con[i]) {
-        const double* N0 = w->crow + (long)i * ROW_COLS + COL_N0;
-        double* f = w->xB + (long)w->cspan[i] * nd + w->cfirst[i];
+      if (w->ct.con[i]) {
+        const double* N0 = w->ct.crow + (long)i * ROW_COLS + COL_N0;
+        double* f = w->cp.xB + (long)w->ct.cspan[i] * nd + w->ct.cfirst[i];
         for (j = 0; j < NE; ++j) f[j] -= N0[j] * S->axle_loads[i];
       }
     }
@@ -263,25 +263,25 @@ int svbi_step_coupled(const setup_t* S, state_t* X, work_t* w, int classic) {
     int k, d, m;
     for (i = 0; i < nc; ++i) {
       int wi = i % NW;
-      w->Pg[i] = svbi_nm_P(S->a0, S->a2, X->ug[i], X->vg[i], X->ag[i]);
-      w->Qg[i] = svbi_nm_Q(S->a1, X->ug[i], X->vg[i]);
+      w->it.Pg[i] = svbi_nm_P(S->a0, S->a2, X->ug[i], X->vg[i], X->ag[i]);
+      w->it.Qg[i] = svbi_nm_Q(S->a1, X->ug[i], X->vg[i]);
       if (!classic) {
-        if (w->con[i]) {
-          double num = 0.0, den = 0.0, pw = 1.0, xi = w->cxi[i];
+        if (w->ct.con[i]) {
+          double num = 0.0, den = 0.0, pw = 1.0, xi = w->ct.cxi[i];
           for (m = 0; m < S->mb_num_n || m < S->mb_den_n; ++m) {
             if (m < S->mb_num_n) num += S->mb_num[m] * pw;
             if (m < S->mb_den_n) den += S->mb_den[m] * pw;
             pw *= xi;
           }
-          w->mB[i] = num / den;
+          w->cp.mB[i] = num / den;
         } else {
-          w->mB[i] = S->m_g[wi];
+          w->cp.mB[i] = S->m_g[wi];
         }
-        w->dV[i] = S->d * w->mB[i]; /* D_B */
-        w->HV[i] = lam_H(S, X->lamV, nc, i, S->mV[wi]);
-        w->HB[i] = lam_H(S, X->lamB, nc, i, w->mB[i]);
+        w->it.dV[i] = S->d * w->cp.mB[i]; /* D_B */
+        w->cp.HV[i] = lam_H(S, X->lamV, nc, i, S->mV[wi]);
+        w->cp.HB[i] = lam_H(S, X->lamB, nc, i, w->cp.mB[i]);
       } else {
-        w->dV[i] = S->sC;
+        w->it.dV[i] = S->sC;
       }
     }
     /* the vehicle unknowns are the increments over the step (Newmark.update_increment) */
@@ -289,15 +289,15 @@ int svbi_step_coupled(const setup_t* S, state_t* X, work_t* w, int classic) {
       const double* u = X->uV + (long)k * NV;
       const double* v = X->vV + (long)k * NV;
       const double* a = X->aV + (long)k * NV;
-      double* Pt = w->PVh + (long)k * NV;
-      double* Qt = w->QVh + (long)k * NV;
-      double* f = w->xV + (long)k * NV;
+      double* Pt = w->cp.PVh + (long)k * NV;
+      double* Qt = w->cp.QVh + (long)k * NV;
+      double* f = w->cp.xV + (long)k * NV;
       double PV[NV], QV[NV];
       svbi_vehicle_increment_load(S, u, v, a, Pt, Qt, PV, QV, f);
       if (!classic) {
         for (d = 0; d < NV; ++d) {
           double sh = 0.0;
-          for (i = 0; i < NW; ++i) sh += w->HV[k * NW + i] * S->V_W[d * NW + i];
+          for (i = 0; i < NW; ++i) sh += w->cp.HV[k * NW + i] * S->V_W[d * NW + i];
           f[d] -= sh;
         }
       }
@@ -307,22 +307,22 @@ int svbi_step_coupled(const setup_t* S, state_t* X, work_t* w, int classic) {
         double wp = wheel(S, PV, i), wq = wheel(S, QV, i), wn = wheel(S, u, i);
         if (classic) {
           /* the wheel itself touches the rail: its histories replace the aux point's */
-          w->rl[c] = S->sC * (svbi_row_target(S, w, c, wp, wq) - wn);
+          w->cp.rl[c] = S->sC * (svbi_row_target(S, w, c, wp, wq) - wn);
         } else {
-          double hV = S->p_P * (wp - w->Pg[c]) + S->p_Q * (wq - w->Qg[c]);
-          w->rl[c] = S->d * S->mV[i] * (hV - wn);
-          w->rl[nc + c] = w->dV[c] * svbi_row_target(S, w, c, w->Pg[c], w->Qg[c]);
-          w->xg[c] = S->m_g[i] * (w->Pg[c] - S->gravity) - w->HB[c] + w->HV[c];
+          double hV = S->p_P * (wp - w->it.Pg[c]) + S->p_Q * (wq - w->it.Qg[c]);
+          w->cp.rl[c] = S->d * S->mV[i] * (hV - wn);
+          w->cp.rl[nc + c] = w->it.dV[c] * svbi_row_target(S, w, c, w->it.Pg[c], w->it.Qg[c]);
+          w->cp.xg[c] = S->m_g[i] * (w->it.Pg[c] - S->gravity) - w->cp.HB[c] + w->cp.HV[c];
         }
       }
     }
     if (S->creep) svbi_creep_bridge_load(S, X->creep_force, w);
     if (!classic) {
       for (i = 0; i < nc; ++i) {
-        if (w->con[i]) {
-          const double* N0 = w->crow + (long)i * ROW_COLS + COL_N0;
-          double* f = w->xB + (long)w->cspan[i] * nd + w->cfirst[i];
-          for (j = 0; j < NE; ++j) f[j] += N0[j] * w->HB[i];
+        if (w->ct.con[i]) {
+          const double* N0 = w->ct.crow + (long)i * ROW_COLS + COL_N0;
+          double* f = w->cp.xB + (long)w->ct.cspan[i] * nd + w->ct.cfirst[i];
+          for (j = 0; j < NE; ++j) f[j] += N0[j] * w->cp.HB[i];
         }
       }
     }
@@ -334,57 +334,57 @@ int svbi_step_coupled(const setup_t* S, state_t* X, work_t* w, int classic) {
   bw = multiplier_bandwidth(S, w, per_contact);
   if (bw > S->bw_max) return ST_BANDWIDTH;
   if (bw > nm - 1) bw = nm - 1;
-  svbi_gb_zero(w->band, nm, bw);
-  span_blocks(S, w, per_contact, bw, w->dV, per_contact == 2 ? nc : 0);
+  svbi_gb_zero(w->it.band, nm, bw);
+  span_blocks(S, w, per_contact, bw, w->it.dV, per_contact == 2 ? nc : 0);
 #if !SVBI_MOVING_LOAD
   if (!S->moving_load) {
     int k, d, a, b;
     double sc = S->sC;
     for (k = 0; k < S->cars; ++k) {
-      double* y = w->xV + (long)k * NV;
+      double* y = w->cp.xV + (long)k * NV;
       double f[NV];
       memcpy(f, y, sizeof f);
-      vec_mat(w->Kvinv, f, y); /* y = K^-1 f (K^-1 symmetric): independent axpys, no divisions */
+      vec_mat(w->cp.Kvinv, f, y); /* y = K^-1 f (K^-1 symmetric): independent axpys, no divisions */
       for (a = 0; a < NW; ++a) {
         int ca = k * NW + a;
         double wy = 0.0, sa = classic ? sc : S->d * S->mV[a];
         for (d = 0; d < NV; ++d) wy += S->V_W[d * NW + a] * y[d];
-        w->rl[ca] -= sa * wy;
+        w->cp.rl[ca] -= sa * wy;
         for (b = 0; b < NW; ++b) {
           int cb = k * NW + b;
           double sb = classic ? sc : S->d * S->mV[b];
-          svbi_gb_add(w->band, bw, w->mpos[ca], w->mpos[cb], sa * sb * w->WG[a * NW + b]);
+          svbi_gb_add(w->it.band, bw, w->cp.mpos[ca], w->cp.mpos[cb], sa * sb * w->cp.WG[a * NW + b]);
         }
       }
     }
     if (!classic) {
       for (i = 0; i < nc; ++i) {
         double A = S->a0 * S->m_g[i % NW];
-        double DV = S->d * S->mV[i % NW], DB = w->dV[i];
-        double y = w->xg[i] / A;
-        int pv = w->mpos[i], pb = w->mpos[nc + i];
-        svbi_gb_add(w->band, bw, pv, pv, DV * DV / A);
-        svbi_gb_add(w->band, bw, pv, pb, -DV * DB / A);
-        svbi_gb_add(w->band, bw, pb, pv, -DB * DV / A);
-        svbi_gb_add(w->band, bw, pb, pb, DB * DB / A);
-        w->rl[i] += DV * y;
-        w->rl[nc + i] -= DB * y;
-        w->xg[i] = y;
+        double DV = S->d * S->mV[i % NW], DB = w->it.dV[i];
+        double y = w->cp.xg[i] / A;
+        int pv = w->cp.mpos[i], pb = w->cp.mpos[nc + i];
+        svbi_gb_add(w->it.band, bw, pv, pv, DV * DV / A);
+        svbi_gb_add(w->it.band, bw, pv, pb, -DV * DB / A);
+        svbi_gb_add(w->it.band, bw, pb, pv, -DB * DV / A);
+        svbi_gb_add(w->it.band, bw, pb, pb, DB * DB / A);
+        w->cp.rl[i] += DV * y;
+        w->cp.rl[nc + i] -= DB * y;
+        w->cp.xg[i] = y;
       }
     }
   }
 #endif
-  status = svbi_gb_factor(w->band, nm, bw, w->piv);
+  status = svbi_gb_factor(w->it.band, nm, bw, w->it.piv);
   if (status) return status;
-  for (i = 0; i < nm; ++i) w->bsol[w->mpos[i]] = w->rl[i];
-  svbi_gb_solve(w->band, nm, bw, w->piv, w->bsol);
+  for (i = 0; i < nm; ++i) w->it.bsol[w->cp.mpos[i]] = w->cp.rl[i];
+  svbi_gb_solve(w->it.band, nm, bw, w->it.piv, w->it.bsol);
 
   /* back-substitution and updates */
-  span_back(S, w, per_contact, per_contact == 2 ? nc : 0, w->dV, X);
+  span_back(S, w, per_contact, per_contact == 2 ? nc : 0, w->it.dV, X);
   svbi_bridge_update(S, w);
   for (s = 0; s < S->spans; ++s)
     for (j = 0; j < ns; ++j)
-      if (!classic) lam_update(S, X->lamG, NS, s * ns + j, w->bsol[w->mpos[per_contact * nc + s * ns + j]]);
+      if (!classic) lam_update(S, X->lamG, NS, s * ns + j, w->it.bsol[w->cp.mpos[per_contact * nc + s * ns + j]]);
   if (S->moving_load) {
     for (i = 0; i < nc; ++i) {
       X->P[i] = S->axle_loads[i];
@@ -397,14 +397,14 @@ int svbi_step_coupled(const setup_t* S, state_t* X, work_t* w, int classic) {
     int k, d;
     for (k = 0; k < S->cars; ++k) {
       double* u = X->uV + (long)k * NV;
-      const double* y = w->xV + (long)k * NV;
-      const double* G = w->G;
-      const double* Pt = w->PVh + (long)k * NV;
-      const double* Qt = w->QVh + (long)k * NV;
+      const double* y = w->cp.xV + (long)k * NV;
+      const double* G = w->cp.G;
+      const double* Pt = w->cp.PVh + (long)k * NV;
+      const double* Qt = w->cp.QVh + (long)k * NV;
       for (d = 0; d < NV; ++d) {
         double du = y[d];
         for (i = 0; i < NW; ++i) {
-          double lam = w->bsol[w->mpos[k * NW + i]];
+          double lam = w->it.bsol[w->cp.mpos[k * NW + i]];
           double sb = classic ? S->sC : S->d * S->mV[i];
           du += sb * G[d * NW + i] * lam;
         }
@@ -417,7 +417,7 @@ int svbi_step_coupled(const setup_t* S, state_t* X, work_t* w, int classic) {
       for (k = 0; k < S->cars; ++k) {
         for (i = 0; i < NW; ++i) {
           int c = k * NW + i;
-          X->P[c] = S->sC * w->bsol[w->mpos[c]];
+          X->P[c] = S->sC * w->it.bsol[w->cp.mpos[c]];
           X->PV[c] = X->P[c];
           X->ug[c] = wheel(S, X->uV + (long)k * NV, i);
           X->vg[c] = wheel(S, X->vV + (long)k * NV, i);
@@ -427,15 +427,15 @@ int svbi_step_coupled(const setup_t* S, state_t* X, work_t* w, int classic) {
     } else {
       for (i = 0; i < nc; ++i) {
         int wi = i % NW;
-        double dlamV = w->bsol[w->mpos[i]], dlamB = w->bsol[w->mpos[nc + i]];
-        double DV = S->d * S->mV[wi], DB = w->dV[i];
+        double dlamV = w->it.bsol[w->cp.mpos[i]], dlamB = w->it.bsol[w->cp.mpos[nc + i]];
+        double DV = S->d * S->mV[wi], DB = w->it.dV[i];
         double A = S->a0 * S->m_g[wi];
-        double ug = w->xg[i] - (DV / A) * dlamV + (DB / A) * dlamB;
+        double ug = w->cp.xg[i] - (DV / A) * dlamV + (DB / A) * dlamB;
         X->ug[i] = ug;
-        X->vg[i] = svbi_nm_vel(S->a1, ug, w->Qg[i]);
-        X->ag[i] = svbi_nm_acc(S->a0, ug, w->Pg[i]);
-        X->PV[i] = DV * dlamV - w->HV[i];
-        X->P[i] = DB * dlamB - w->HB[i];
+        X->vg[i] = svbi_nm_vel(S->a1, ug, w->it.Qg[i]);
+        X->ag[i] = svbi_nm_acc(S->a0, ug, w->it.Pg[i]);
+        X->PV[i] = DV * dlamV - w->cp.HV[i];
+        X->P[i] = DB * dlamB - w->cp.HB[i];
         lam_update(S, X->lamV, nc, i, dlamV);
         lam_update(S, X->lamB, nc, i, dlamB);
       }

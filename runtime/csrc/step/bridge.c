@@ -8,11 +8,11 @@
 /* Span, element, local coordinate and contact rows of every contact (svbi.runtime.model.bridge.locate). */
 void svbi_locate(const setup_t* S, work_t* w) {
   int i;
-  const double* cf = S->acceleration == 0.0 ? S->rows : w->rows_now;
+  const double* cf = S->acceleration == 0.0 ? S->rows : w->ct.rows_now;
   for (i = 0; i < S->nc; ++i) {
-    double x = w->cx[i];
+    double x = w->ct.cx[i];
     double span_f = floor(x * S->inv_span_length), span;
-    w->con[i] = span_f >= 0.0 && span_f < (double)S->spans;
+    w->ct.con[i] = span_f >= 0.0 && span_f < (double)S->spans;
     span = span_f < 0.0 ? 0.0 : (span_f > S->spans - 1 ? (double)(S->spans - 1) : span_f);
     svbi_place(S, w, i, (int)span, (x - span * S->span_length) * S->inv_element_length, cf);
   }
@@ -21,27 +21,27 @@ void svbi_locate(const setup_t* S, work_t* w) {
 /* Contacts grouped by span (in track order), for the span blocks. */
 void svbi_group_by_span(const setup_t* S, work_t* w) {
   int k, s;
-  for (s = 0; s <= S->spans; ++s) w->sstart[s] = 0;
+  for (s = 0; s <= S->spans; ++s) w->ct.sstart[s] = 0;
   for (k = 0; k < S->nc; ++k) {
     int i = S->order[k];
-    if (w->con[i]) w->sstart[w->cspan[i] + 1] += 1;
+    if (w->ct.con[i]) w->ct.sstart[w->ct.cspan[i] + 1] += 1;
   }
-  for (s = 0; s < S->spans; ++s) w->sstart[s + 1] += w->sstart[s];
-  for (s = 0; s < S->spans; ++s) w->loaded[s] = w->sstart[s];
+  for (s = 0; s < S->spans; ++s) w->ct.sstart[s + 1] += w->ct.sstart[s];
+  for (s = 0; s < S->spans; ++s) w->br.loaded[s] = w->ct.sstart[s];
   for (k = 0; k < S->nc; ++k) {
     int i = S->order[k];
-    if (w->con[i]) w->slist[w->loaded[w->cspan[i]]++] = i;
+    if (w->ct.con[i]) w->ct.slist[w->br.loaded[w->ct.cspan[i]]++] = i;
   }
-  for (s = 0; s < S->spans; ++s) w->loaded[s] = w->sstart[s + 1] > w->sstart[s];
+  for (s = 0; s < S->spans; ++s) w->br.loaded[s] = w->ct.sstart[s + 1] > w->ct.sstart[s];
 }
 
 
 /* Newmark histories of the bridge (either kind: every DOF of the state the step works on). */
 void svbi_bridge_histories(const setup_t* S, work_t* w) {
-  long i, n = w->nb;
+  long i, n = w->br.nb;
   for (i = 0; i < n; ++i) {
-    w->PB[i] = svbi_nm_P(S->a0, S->a2, w->bu[i], w->bv[i], w->ba[i]);
-    w->QB[i] = svbi_nm_Q(S->a1, w->bu[i], w->bv[i]);
+    w->br.PB[i] = svbi_nm_P(S->a0, S->a2, w->br.bu[i], w->br.bv[i], w->br.ba[i]);
+    w->br.QB[i] = svbi_nm_Q(S->a1, w->br.bu[i], w->br.bv[i]);
   }
 }
 
@@ -52,19 +52,19 @@ void svbi_support_targets(const setup_t* S, work_t* w) {
   for (s = 0; s < S->spans; ++s) {
     for (j = 0; j < ns; ++j) {
       int k = s * ns + j;
-      w->qhat[k] = S->p_P * BR(w->PB, s, S->sup[j]) + S->p_Q * BR(w->QB, s, S->sup[j]) +
-                   S->p_q2 * w->qs[2 * NS + k] + S->p_q1 * w->qs[NS + k] + S->p_q * w->qs[k];
+      w->sp.qhat[k] = S->p_P * BR(w->br.PB, s, S->sup[j]) + S->p_Q * BR(w->br.QB, s, S->sup[j]) +
+                   S->p_q2 * w->sp.qs[2 * NS + k] + S->p_q1 * w->sp.qs[NS + k] + S->p_q * w->sp.qs[k];
     }
   }
 }
 
 /* The span load f = C T q' + M P + C Q of span s (span after span layout), row by row in one pass
- * over M and C's common pattern (work_t MC_*; C = alpha M + beta K), as spans.c's rhs_lanes. */
+ * over M and C's common pattern (setup MC_*; C = alpha M + beta K), as spans.c's rhs_lanes. */
 void svbi_span_load(const setup_t* S, const work_t* w, int s, double* f) {
   int i, j, k, nd = S->nd, ns = S->ns, NS = S->spans * S->ns;
-  const double* P = w->PB + (long)s * nd;
-  const double* Q = w->QB + (long)s * nd;
-  const double* q1 = w->qs + NS + (long)s * ns;
+  const double* P = w->br.PB + (long)s * nd;
+  const double* Q = w->br.QB + (long)s * nd;
+  const double* q1 = w->sp.qs + NS + (long)s * ns;
   for (i = 0; i < nd; ++i) {
     double v = 0.0;
     for (j = 0; j < ns; ++j) v += S->CT[i * ns + j] * q1[j];
@@ -76,13 +76,13 @@ void svbi_span_load(const setup_t* S, const work_t* w, int s, double* f) {
 /* svbi_bridge_update followed by the histories of the next step (svbi_bridge_histories without
  * the support targets) in one pass: the same values, read once. */
 void svbi_bridge_update_histories(const setup_t* S, work_t* w) {
-  long i, n = w->nb;
+  long i, n = w->br.nb;
   double a0 = S->a0, a1 = S->a1, a2 = S->a2;
-  double* restrict u = w->bu;
-  double* restrict v = w->bv;
-  double* restrict a = w->ba;
-  double* restrict P = w->PB;
-  double* restrict Q = w->QB;
+  double* restrict u = w->br.bu;
+  double* restrict v = w->br.bv;
+  double* restrict a = w->br.ba;
+  double* restrict P = w->br.PB;
+  double* restrict Q = w->br.QB;
   for (i = 0; i < n; ++i) {
     double vi = svbi_nm_vel(a1, u[i], Q[i]), ai = svbi_nm_acc(a0, u[i], P[i]);
     v[i] = vi;
@@ -94,9 +94,9 @@ void svbi_bridge_update_histories(const setup_t* S, work_t* w) {
 
 /* The Newmark update of the bridge from its new displacements. */
 void svbi_bridge_update(const setup_t* S, work_t* w) {
-  long i, n = w->nb;
+  long i, n = w->br.nb;
   for (i = 0; i < n; ++i) {
-    w->bv[i] = svbi_nm_vel(S->a1, w->bu[i], w->QB[i]);
-    w->ba[i] = svbi_nm_acc(S->a0, w->bu[i], w->PB[i]);
+    w->br.bv[i] = svbi_nm_vel(S->a1, w->br.bu[i], w->br.QB[i]);
+    w->br.ba[i] = svbi_nm_acc(S->a0, w->br.bu[i], w->br.PB[i]);
   }
 }

@@ -57,17 +57,17 @@ static void support_target(const setup_t* S, const excitation_t* E, int which, d
  * moving at v carries the factor (1 - v / c) and -(a / c) q'; a per-line or synchronous motion none. */
 static void ground_under(const setup_t* S, const excitation_t* E, work_t* w, double t) {
   int i, nc = S->nc;
-  double f = E->apparent_velocity > 0.0 ? 1.0 - w->v / E->apparent_velocity : 1.0;
-  double fa = E->apparent_velocity > 0.0 ? w->a / E->apparent_velocity : 0.0;
+  double f = E->apparent_velocity > 0.0 ? 1.0 - w->ct.v / E->apparent_velocity : 1.0;
+  double fa = E->apparent_velocity > 0.0 ? w->ct.a / E->apparent_velocity : 0.0;
   for (i = 0; i < nc; ++i) {
     double q[3];
-    ground_at(S, E, 0, t, w->cx[i], q);
-    w->under[i] = q[0];
-    w->under[nc + i] = E->apparent_velocity > 0.0 ? f * q[1] : q[1];
-    w->under[2 * nc + i] = E->apparent_velocity > 0.0 ? f * f * q[2] : q[2];
-    if (fa != 0.0) w->under[2 * nc + i] -= fa * q[1];
-    ground_at(S, E, 1, t, w->cx[i], q);
-    w->ulon[i] = E->apparent_velocity > 0.0 ? f * q[1] : q[1];
+    ground_at(S, E, 0, t, w->ct.cx[i], q);
+    w->ct.under[i] = q[0];
+    w->ct.under[nc + i] = E->apparent_velocity > 0.0 ? f * q[1] : q[1];
+    w->ct.under[2 * nc + i] = E->apparent_velocity > 0.0 ? f * f * q[2] : q[2];
+    if (fa != 0.0) w->ct.under[2 * nc + i] -= fa * q[1];
+    ground_at(S, E, 1, t, w->ct.cx[i], q);
+    w->ct.ulon[i] = E->apparent_velocity > 0.0 ? f * q[1] : q[1];
   }
 }
 
@@ -92,24 +92,24 @@ static void general_supports(const setup_t* S, const excitation_t* E, work_t* w,
       else
         support_target(S, E, which, t, S->g_slot_x[k], q);
     }
-    w->qs[k] = q[0];
-    w->qs[NSL + k] = q[1];
-    w->qs[2 * NSL + k] = q[2];
+    w->sp.qs[k] = q[0];
+    w->sp.qs[NSL + k] = q[1];
+    w->sp.qs[2 * NSL + k] = q[2];
   }
   if (E->ground_per_support) {
     for (k = 0; k < nrec; ++k) {
       double x = S->g_slot_x[S->g_act_slot[k]], qv[3], qh[3];
       ground_at(S, E, 0, t, x, qv);
       ground_at(S, E, 1, t, x, qh);
-      w->grec[k] = qv[0];
-      w->grec[nrec + k] = qh[0];
+      w->rc.grec[k] = qv[0];
+      w->rc.grec[nrec + k] = qh[0];
     }
   } else {
     double qv[3], qh[3];
     ground_at(S, E, 0, t, 0.0, qv);
     ground_at(S, E, 1, t, 0.0, qh);
-    w->grec[0] = qv[0];
-    w->grec[1] = qh[0];
+    w->rc.grec[0] = qv[0];
+    w->rc.grec[1] = qh[0];
   }
 }
 
@@ -119,66 +119,66 @@ void svbi_excite(const setup_t* S, const excitation_t* E, work_t* w, long n, dou
   int nc = S->nc, ns = S->ns, NS = (int)n_slots(S);
   long e = n - E->s_n0;
   if (S->acceleration == 0.0) {
-    for (i = 0; i < nc; ++i) w->cx[i] = S->start + S->speed * t - S->offsets[i];
-    w->v = S->speed;
-    w->a = 0.0;
+    for (i = 0; i < nc; ++i) w->ct.cx[i] = S->start + S->speed * t - S->offsets[i];
+    w->ct.v = S->speed;
+    w->ct.a = 0.0;
   } else { /* svbi.runtime.model.train.Kinematics: a braking train stands from stop_time on */
     double tm = t < S->stop_time ? t : S->stop_time, travel;
     long k, nrow = (long)(ROW_DEG + 1) * ROW_COLS;
     const double* T0 = S->rows_va;
     travel = S->speed * tm + 0.5 * S->acceleration * tm * tm;
-    for (i = 0; i < nc; ++i) w->cx[i] = S->start + travel - S->offsets[i];
-    w->v = S->speed + S->acceleration * tm;
-    w->a = t < S->stop_time ? S->acceleration : 0.0;
+    for (i = 0; i < nc; ++i) w->ct.cx[i] = S->start + travel - S->offsets[i];
+    w->ct.v = S->speed + S->acceleration * tm;
+    w->ct.a = t < S->stop_time ? S->acceleration : 0.0;
     long nt = S->general ? S->nrclass : 1, tb; /* every row table: nt blocks of T0, T1, T2, Ta */
     for (tb = 0; tb < nt; ++tb) {
       const double *U0 = T0 + 4 * tb * nrow, *U1 = U0 + nrow, *U2 = U1 + nrow, *Ua = U2 + nrow;
-      double* out = w->rows_now + tb * nrow;
-      for (k = 0; k < nrow; ++k) out[k] = U0[k] + w->v * U1[k] + (w->v * w->v) * U2[k] + w->a * Ua[k];
+      double* out = w->ct.rows_now + tb * nrow;
+      for (k = 0; k < nrow; ++k) out[k] = U0[k] + w->ct.v * U1[k] + (w->ct.v * w->ct.v) * U2[k] + w->ct.a * Ua[k];
     }
   }
 
   /* rail irregularity under every contact */
   if (E->irr_mode == 1) {
     /* the profile at every contact at once (svbi_ppoly_eval_many), then the onset and the start */
-    svbi_ppoly_eval_many(&E->irr_base, w->cx, nc, w->rail, nc);
+    svbi_ppoly_eval_many(&E->irr_base, w->ct.cx, nc, w->ct.rail, nc);
     for (i = 0; i < nc; ++i) {
-      double x = w->cx[i], b[3], h[3];
+      double x = w->ct.cx[i], b[3], h[3];
       if (!(x > E->irr_start)) {
-        w->rail[i] = 0.0;
-        w->rail[nc + i] = 0.0;
-        w->rail[2 * nc + i] = 0.0;
+        w->ct.rail[i] = 0.0;
+        w->ct.rail[nc + i] = 0.0;
+        w->ct.rail[2 * nc + i] = 0.0;
         continue;
       }
       if (E->irr_ramp) {
-        b[0] = w->rail[i];
-        b[1] = w->rail[nc + i];
-        b[2] = w->rail[2 * nc + i];
+        b[0] = w->ct.rail[i];
+        b[1] = w->ct.rail[nc + i];
+        b[2] = w->ct.rail[2 * nc + i];
         svbi_ppoly_eval(&E->irr_onset, x, h);
-        w->rail[i] = h[0] * b[0];
-        w->rail[nc + i] = h[1] * b[0] + h[0] * b[1];
-        w->rail[2 * nc + i] = h[2] * b[0] + 2.0 * h[1] * b[1] + h[0] * b[2];
+        w->ct.rail[i] = h[0] * b[0];
+        w->ct.rail[nc + i] = h[1] * b[0] + h[0] * b[1];
+        w->ct.rail[2 * nc + i] = h[2] * b[0] + 2.0 * h[1] * b[1] + h[0] * b[2];
       }
     }
   } else if (E->irr_mode == 2) {
-    memcpy(w->rail, E->s_rail + e * 3 * nc, sizeof(double) * 3 * (size_t)nc);
+    memcpy(w->ct.rail, E->s_rail + e * 3 * nc, sizeof(double) * 3 * (size_t)nc);
   } else {
-    memset(w->rail, 0, sizeof(double) * 3 * (size_t)nc);
+    memset(w->ct.rail, 0, sizeof(double) * 3 * (size_t)nc);
   }
 
   /* ground: under every contact, at every support, and the recorded values */
   if (E->gv_mode == 3 || E->gh_mode == 3) {
-    memcpy(w->under, E->s_under + e * 4 * nc, sizeof(double) * 3 * (size_t)nc);
-    memcpy(w->ulon, E->s_under + e * 4 * nc + 3 * nc, sizeof(double) * (size_t)nc);
-    memcpy(w->qs, E->s_sup + e * 3 * NS, sizeof(double) * 3 * (size_t)NS);
-    memcpy(w->grec, E->s_rec + e * 2 * n_recorded(S), sizeof(double) * 2 * (size_t)n_recorded(S));
+    memcpy(w->ct.under, E->s_under + e * 4 * nc, sizeof(double) * 3 * (size_t)nc);
+    memcpy(w->ct.ulon, E->s_under + e * 4 * nc + 3 * nc, sizeof(double) * (size_t)nc);
+    memcpy(w->sp.qs, E->s_sup + e * 3 * NS, sizeof(double) * 3 * (size_t)NS);
+    memcpy(w->rc.grec, E->s_rec + e * 2 * n_recorded(S), sizeof(double) * 2 * (size_t)n_recorded(S));
     return;
   }
   if (E->gv_mode == 0 && E->gh_mode == 0) {
-    memset(w->under, 0, sizeof(double) * 3 * (size_t)nc);
-    memset(w->ulon, 0, sizeof(double) * (size_t)nc);
-    memset(w->qs, 0, sizeof(double) * 3 * (size_t)NS);
-    memset(w->grec, 0, sizeof(double) * 2 * (size_t)n_recorded(S));
+    memset(w->ct.under, 0, sizeof(double) * 3 * (size_t)nc);
+    memset(w->ct.ulon, 0, sizeof(double) * (size_t)nc);
+    memset(w->sp.qs, 0, sizeof(double) * 3 * (size_t)NS);
+    memset(w->rc.grec, 0, sizeof(double) * 2 * (size_t)n_recorded(S));
     return;
   }
   if (S->general) {
@@ -194,22 +194,22 @@ void svbi_excite(const setup_t* S, const excitation_t* E, work_t* w, long n, dou
     support_target(S, E, 0, t, 0.0, tv);
     support_target(S, E, 1, t, 0.0, th);
     for (i = 0; i < nc; ++i) {
-      w->under[i] = qv[0];
-      w->under[nc + i] = qv[1];
-      w->under[2 * nc + i] = qv[2];
-      w->ulon[i] = qh[1];
+      w->ct.under[i] = qv[0];
+      w->ct.under[nc + i] = qv[1];
+      w->ct.under[2 * nc + i] = qv[2];
+      w->ct.ulon[i] = qh[1];
     }
     for (s = 0; s < S->spans; ++s) {
       for (j = 0; j < ns; ++j) {
         const double* q = S->sup_vertical[j] ? tv : th;
         int k = s * ns + j;
-        w->qs[k] = q[0];
-        w->qs[NS + k] = q[1];
-        w->qs[2 * NS + k] = q[2];
+        w->sp.qs[k] = q[0];
+        w->sp.qs[NS + k] = q[1];
+        w->sp.qs[2 * NS + k] = q[2];
       }
     }
-    w->grec[0] = qv[0];
-    w->grec[1] = qh[0];
+    w->rc.grec[0] = qv[0];
+    w->rc.grec[1] = qh[0];
     return;
   }
   {
@@ -226,12 +226,12 @@ void svbi_excite(const setup_t* S, const excitation_t* E, work_t* w, long n, dou
         ground_at(S, E, 1, t, x, qh);
         support_target(S, E, S->sup_vertical[j] ? 0 : 1, t, x, q);
         {
-          w->qs[k] = q[0];
-          w->qs[NS + k] = q[1];
-          w->qs[2 * NS + k] = q[2];
+          w->sp.qs[k] = q[0];
+          w->sp.qs[NS + k] = q[1];
+          w->sp.qs[2 * NS + k] = q[2];
         }
-        w->grec[k] = qv[0];
-        w->grec[nrec + k] = qh[0];
+        w->rc.grec[k] = qv[0];
+        w->rc.grec[nrec + k] = qh[0];
       }
     }
   }

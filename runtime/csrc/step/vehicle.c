@@ -24,14 +24,14 @@ void svbi_vehicle_increment_load(const setup_t* S, const double* u, const double
   for (d = 0; d < NV; ++d) f[d] = S->V_F[d] - sk[d] + sm[d] + sc[d];
 }
 
-/* y = x^T A over column d's non-zeros of A (work_t vnz_*, matrix a), for the cars as lanes (x, y
+/* y = x^T A over column d's non-zeros of A (work_t ve.vnz_*, matrix a), for the cars as lanes (x, y
  * [NV][cp]): every lane's sum is vec_mat's without its exact zeros, in the same order over the rows
  * (the same result), for lanes c .. c + K VW in K registers (K a constant where it is inlined). */
 static SVBI_ALWAYS_INLINE void vec_mat_chunk(const work_t* w, int a, const double* x, double* y, long cp, long c,
                                              const int K) {
-  const int* ptr = w->vnz_ptr + a * (NV + 1);
-  const int* idx = w->vnz_idx + a * NV * NV;
-  const double* val = w->vnz_val + a * NV * NV;
+  const int* ptr = w->ve.vnz_ptr + a * (NV + 1);
+  const int* idx = w->ve.vnz_idx + a * NV * NV;
+  const double* val = w->ve.vnz_val + a * NV * NV;
   int d, k, l;
   for (d = 0; d < NV; ++d) {
     vec_t s[CAR_KMAX];
@@ -77,14 +77,14 @@ static SVBI_ALWAYS_INLINE void wheel_chunk(const setup_t* S, const double* U, co
   }
 }
 
-/* The localized step's vehicle predictors, every car at once as a lane (work_t VL): the increment
+/* The localized step's vehicle predictors, every car at once as a lane (work_t ve.VL): the increment
  * load f = F - K^T u + M^T P~ + C^T Q~ (+ the creep forces of t_n on the wheel spins), the
  * predictor increment du~ = K^-T f, and for every wheel W^T (u + du~), W^T P and W^T Q. The sums of
  * svbi_vehicle_increment_load and svbi_creep_vehicle_load in their order, less the exact zeros
  * (the same result); P~, Q~ and du~ stay in VL for svbi_vehicle_update. */
 void svbi_vehicle_predictors(const setup_t* S, const state_t* X, work_t* w) {
-  long cp = w->vcp, o = NV * cp, c;
-  double *U = w->VL, *Pt = U + o, *Qt = Pt + o, *F = Qt + o, *DU = F + o;
+  long cp = w->ve.vcp, o = NV * cp, c;
+  double *U = w->ve.VL, *Pt = U + o, *Qt = Pt + o, *F = Qt + o, *DU = F + o;
   double *WT = DU + o, *WP = WT + NW * cp, *WQ = WP + NW * cp;
   int k, d, i, j;
   for (d = 0; d < NV; ++d) {
@@ -126,8 +126,8 @@ void svbi_vehicle_predictors(const setup_t* S, const state_t* X, work_t* w) {
 /* The vehicles' back-substitution, every car at once: du = du~ + V_A P_V (P_V in X->PV), then
  * v = a1 du - Q~, a = a0 du - P~, u += du (Newmark.update_increment), into the state. */
 void svbi_vehicle_update(const setup_t* S, state_t* X, work_t* w) {
-  long cp = w->vcp, o = NV * cp, c;
-  double *U = w->VL, *Pt = U + o, *Qt = Pt + o, *DU = Qt + 2 * o;
+  long cp = w->ve.vcp, o = NV * cp, c;
+  double *U = w->ve.VL, *Pt = U + o, *Qt = Pt + o, *DU = Qt + 2 * o;
   double* LP = DU + o + 3L * NW * cp;
   int k, d, i;
   for (i = 0; i < NW; ++i) {
@@ -167,7 +167,7 @@ void svbi_creep_vehicle_load(const setup_t* S, const double* force, int k, doubl
  * creep law (Kalker, Shen-Hedrick-Elkins) under the normal load P. It loads the next step. */
 void svbi_creep_update(const setup_t* S, state_t* X, const work_t* w) {
   int k, i, q;
-  double v = w->v;
+  double v = w->ct.v;
   if (v < S->creep_min_speed) { /* crawling or standing: no creep force (wheel_creep.min_speed) */
     for (i = 0; i < S->nc; ++i) X->creepage[i] = X->creep_force[i] = 0.0;
     return;
@@ -179,15 +179,15 @@ void svbi_creep_update(const setup_t* S, state_t* X, const work_t* w) {
       if (S->creep_rolling[i]) {
         double wheel = 0.0, rail;
         for (q = S->VT_ptr[i]; q < S->VT_ptr[i + 1]; ++q) wheel += X->vV[k * NV + S->VT_idx[q]] * S->VT_val[q];
-        if (w->con[c]) {
-          const double* row = w->crow + (long)c * ROW_COLS;
-          int s = w->cspan[c], f = w->cfirst[c];
+        if (w->ct.con[c]) {
+          const double* row = w->ct.crow + (long)c * ROW_COLS;
+          int s = w->ct.cspan[c], f = w->ct.cfirst[c];
           double r0 = 0.0, r1 = 0.0;
-          for (q = 0; q < NNZ_T0; ++q) r0 += row[COL_T0 + nz_T0[q]] * BR(w->bv, s, f + nz_T0[q]);
-          for (q = 0; q < NNZ_T1; ++q) r1 += row[COL_T1 + nz_T1[q]] * BR(w->bu, s, f + nz_T1[q]);
+          for (q = 0; q < NNZ_T0; ++q) r0 += row[COL_T0 + nz_T0[q]] * BR(w->br.bv, s, f + nz_T0[q]);
+          for (q = 0; q < NNZ_T1; ++q) r1 += row[COL_T1 + nz_T1[q]] * BR(w->br.bu, s, f + nz_T1[q]);
           rail = r0 + v * r1;
         } else {
-          rail = S->creep_ground ? w->ulon[c] : 0.0;
+          rail = S->creep_ground ? w->ct.ulon[c] : 0.0;
         }
         xi = (wheel - rail) / v;
         if (X->P[c] > 0.0) {
@@ -197,7 +197,7 @@ void svbi_creep_update(const setup_t* S, state_t* X, const work_t* w) {
           casadi_real* res[SVBI_CREEP_SPLIT_MAX_SZ_RES];
           arg[0] = &in_xi;
           arg[1] = &in_n;
-          arg[2] = w->creepc + CREEP_NC * i;
+          arg[2] = w->ve.creepc + CREEP_NC * i;
           arg[3] = &in_n3;
           res[0] = &out_f;
           CREEP_KERNEL(FORCE)(arg, res, 0, 0, 0); /* it needs no work arrays (sz_iw = sz_w = 0) */
@@ -214,9 +214,9 @@ void svbi_creep_update(const setup_t* S, state_t* X, const work_t* w) {
 void svbi_creep_bridge_load(const setup_t* S, const double* force, work_t* w) {
   int c, q;
   for (c = 0; c < S->nc; ++c) {
-    if (w->con[c] && force[c] != 0.0) {
-      const double* T0 = w->crow + (long)c * ROW_COLS + COL_T0;
-      double* f = w->xB + (long)w->cspan[c] * S->nd + w->cfirst[c];
+    if (w->ct.con[c] && force[c] != 0.0) {
+      const double* T0 = w->ct.crow + (long)c * ROW_COLS + COL_T0;
+      double* f = w->cp.xB + (long)w->ct.cspan[c] * S->nd + w->ct.cfirst[c];
       for (q = 0; q < NE; ++q) f[q] -= T0[q] * force[c];
     }
   }

@@ -6,16 +6,19 @@ pipeline or on a vehicle topology is rendered here, by ``svbi generate`` (Jinja2
 ``generated/`` for the built-in models:
 
 * ``generated/solver/svbi_solver_types.h``: the structs and status codes, from the field lists of
-  :mod:`svbi.runtime.backends.c.build` (which also build the ctypes mirrors: one definition);
+  :mod:`svbi.codegen.loop_abi` (from which the runtime also builds its ctypes mirrors: one
+  definition);
 * ``generated/frame2d/svbi_contact_rows.h``: the contact-row table of the bridge element (degree,
-  columns, structural non-zeros, the unrolled evaluation) from ``c_solver_build.row_structure``;
+  columns, structural non-zeros, the unrolled evaluation) from the bridge element's kernels
+  (:func:`svbi.codegen.python_emit.frame2d_data`, the plain data of the generated bridge module);
   ``generated/frame2d/creep_split*``: the creep law split into per-run coefficients and a per-step
   force (``svbi.codegen.creep.split_creep_force``), C from the CasADi emitter;
 * ``generated/<model>/svbi_topology.h``: the sizes of one vehicle topology (``moving-load`` too).
 
 At run time a built-in model reads these files (no Jinja2, no CasADi); a topology file has its
-``svbi_topology.h`` rendered here when its loop is first built. This module imports Jinja2, SymPy
-and CasADi: only generation and exports use it.
+``svbi_topology.h`` rendered here when its loop is first built (``svbi.runtime.backends.c.build``).
+This module imports Jinja2 and SymPy (and, for the creep law, CasADi): only generation, exports and
+that first build of a topology file's loop use it. It never imports the runtime.
 """
 
 from __future__ import annotations
@@ -26,8 +29,8 @@ from typing import Any
 import jinja2
 import sympy as sp
 
-from . import build as c_solver_build
-from .build import (
+from svbi.codegen import loop_abi as abi
+from svbi.codegen.loop_abi import (
     BRIDGE_FOLDER,
     CREEP_FILES,
     GLUE_NAMES,
@@ -38,7 +41,7 @@ from .build import (
     TYPES_HEADER,
 )
 
-GENERATOR = "svbi.runtime.backends.c.glue"
+GENERATOR = "svbi.codegen.loop_glue"
 __all__ = [
     "BRIDGE_FOLDER",
     "CREEP_FILES",
@@ -62,8 +65,9 @@ __all__ = [
 def row_expressions() -> tuple[sp.Expr, ...]:
     """The contact-row columns of the C table, in ``ROW_BLOCKS`` then ``ROW_SCALARS`` order.
 
-    The symbolic rows behind the generated tables of :func:`row_coefficients` (SymPy; for tests and
-    derivations, not for a run): ``W_N^B`` and the discrete aux-bridge row of
+    The symbolic rows behind the generated tables of
+    ``svbi.runtime.backends.c.build.row_coefficients`` (SymPy; for tests and derivations, not for a
+    run): ``W_N^B`` and the discrete aux-bridge row of
     ``svbi.codegen.constraints`` split into ``W_hat`` and the coefficients of ``h_B`` in the
     histories and the irregularity (``svbi.codegen.kernels.discrete_bridge_row_parts``).
     """
@@ -118,30 +122,39 @@ def _render(template: str, context: dict[str, Any]) -> bytes:
 
 
 def solver_types() -> dict[str, bytes]:
-    """``svbi_solver_types.h``: the structs (``c_solver_build.STRUCTS``) and status codes."""
+    """``svbi_solver_types.h``: the structs (``loop_abi.STRUCTS``) and status codes."""
     structs = {
-        k: [{"name": f.name, "ctype": c_solver_build.C_TYPES[f.kind], "doc": f.doc} for f in v]
-        for k, v in c_solver_build.STRUCTS.items()
+        k: [{"name": f.name, "ctype": abi.C_TYPES[f.kind], "doc": f.doc} for f in v]
+        for k, v in abi.STRUCTS.items()
     }
-    return {TYPES_HEADER: _render("types.h.j2", {"structs": structs, "status": c_solver_build.STATUS_CODES})}
+    return {TYPES_HEADER: _render("types.h.j2", {"structs": structs, "status": abi.STATUS_CODES})}
+
+
+def row_structure() -> tuple[int, tuple[bool, ...]]:
+    """Polynomial degree in xi and the structurally non-zero columns of the row table, from the
+    bridge element's kernels (the plain data that ``svbi generate`` writes into the generated bridge
+    module, which the runtime reads: ``svbi.runtime.backends.c.build.row_structure``)."""
+    from svbi.codegen.python_emit import frame2d_data
+
+    data = frame2d_data()
+    nonzero = tuple(flag for name in abi.ROW_TABLES for flag in data["nonzero_columns"][name])
+    return int(data["xi_degree"]), nonzero
 
 
 def contact_rows() -> dict[str, bytes]:
     """``svbi_contact_rows.h``: the contact-row table of the bridge element."""
-    degree, nonzero = c_solver_build.row_structure()
+    degree, nonzero = row_structure()
     powers = row_powers()
-    blocks = c_solver_build.ROW_BLOCKS
+    blocks = abi.ROW_BLOCKS
     context = {
         "row_powers": [list(p) for p in powers],
         "row_degree": degree,
-        "row_cols": c_solver_build.ROW_COLUMNS,
+        "row_cols": abi.ROW_COLUMNS,
         "row_blocks": [
             {"name": n, "first": 6 * i, "nonzero": [j for j in range(6) if nonzero[6 * i + j]]}
             for i, n in enumerate(blocks)
         ],
-        "row_scalars": [
-            {"name": n, "col": 6 * len(blocks) + i} for i, n in enumerate(c_solver_build.ROW_SCALARS)
-        ],
+        "row_scalars": [{"name": n, "col": 6 * len(blocks) + i} for i, n in enumerate(abi.ROW_SCALARS)],
     }
     return {ROWS_HEADER: _render("contact_rows.h.j2", context)}
 
@@ -178,7 +191,7 @@ def creep_split_sources(embedded: bool = False) -> dict[str, bytes]:
         ),
     ]
     model = ModelSpec(
-        c_solver_build.CREEP_MODEL,
+        abi.CREEP_MODEL,
         "The creep law split into per-run coefficients and a per-step force.",
         kernels,
     )
