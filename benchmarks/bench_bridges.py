@@ -1,4 +1,4 @@
-"""Bridges of substructures in the C loop (runtime/csrc/general.c): the viaduct example, and scaling.
+"""Bridges of substructures in the C loop (runtime/csrc/substructures.c): the viaduct example, and scaling.
 
     .venv/bin/python benchmarks/bench_bridges.py [--quick]
 

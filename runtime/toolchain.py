@@ -43,6 +43,8 @@ from typing import Any
 
 import numpy as np
 
+from svbi.codegen.plain_types import PYTHON_KERNELS_FILE
+
 DEFAULT_FLAGS: tuple[str, ...] = ("-O3", "-fPIC", "-shared")
 MARKER = "svbi-build.json"
 MANIFEST = "manifest.json"
@@ -524,6 +526,7 @@ def model_folder(model: Any, *, cache_dir: str | os.PathLike[str] | None = None)
     ``model`` is a built-in model name, a folder written by ``svbi generate``, a topology file, or a
     ``ModelSpec``. Topology files and specs are generated into the cache (``<cache>/models/<hash>``).
     """
+    # deferred: brings SymPy and Jinja2 (about 0.5 s), for derivation and emission only
     from svbi.codegen.kernels import ModelSpec
 
     if isinstance(model, ModelSpec):
@@ -534,12 +537,14 @@ def model_folder(model: Any, *, cache_dir: str | os.PathLike[str] | None = None)
     builtin = generated_root() / str(model)
     if (builtin / MANIFEST).is_file():
         return builtin
+    # deferred: brings SymPy and Jinja2 (about 0.5 s), for derivation and emission only
     from svbi.codegen.kernels import model_spec
 
     return _generate_into_cache(model_spec(model), cache_dir)
 
 
 def _generate_into_cache(spec: Any, cache_dir: str | os.PathLike[str] | None) -> Path:
+    # deferred: brings SymPy and Jinja2 (about 0.5 s), for derivation and emission only
     from svbi.codegen import c_emit
 
     files = c_emit.render_model(spec)
@@ -649,13 +654,13 @@ def python_module(
     generator (:func:`_codegen_digest`), not by its path: later runs only load it. It is written to a
     temporary file and renamed into place, so a concurrent run never reads half a module.
     """
-    from svbi.codegen.plain_types import PYTHON_KERNELS_FILE
 
     text = Path(topology).read_bytes()
     key = hashlib.sha256(b"svbi python kernels\n" + _codegen_digest().encode() + b"\n" + text).hexdigest()
     final = cache_root(cache_dir) / "python" / key / PYTHON_KERNELS_FILE
     if final.is_file():
         return final
+    # deferred: brings SymPy and Jinja2 (about 0.5 s), for derivation and emission only
     from svbi.codegen.python_emit import render_target
 
     _, source = render_target(str(topology))

@@ -62,6 +62,7 @@ def demo(
     quiet: Annotated[bool, typer.Option("--quiet", "-q", help="No progress bars.")] = False,
 ) -> None:
     """Run the paper example with the three methods; write results, figures and a summary."""
+    # deferred: plots bring matplotlib (about 0.3 s), which only figures need
     from ..plots.results import plot_results, summary_text
 
     path = scenario or example_path()
@@ -112,6 +113,7 @@ def demo(
 
 def _strong_shaking(path: Path, overrides: list[str], backend: str | None, out: Path, quiet: bool) -> str:
     """The strong-shaking run (module docstring); returns its summary text."""
+    # deferred: plots bring matplotlib (about 0.3 s), which only figures need
     from ..plots.results import plot_results, summary_text
 
     extra = list(STRONG)

@@ -8,6 +8,8 @@ from pathlib import Path
 
 import typer
 
+from svbi.codegen.loop_abi import GLUE_NAMES
+
 from ..run.export import PROGRAM, write_solver
 from ..scenario.schema import ScenarioError, load_scenario
 from ..toolchain import generated_root
@@ -29,6 +31,7 @@ def _render(target: str, embedded: bool = False) -> tuple[str, dict[str, bytes]]
     glue of the model (``svbi.codegen.loop_glue``: the topology header of a vehicle, the contact rows
     and creep law of frame2d). A moving-load vehicle has only its NumPy module (its data) and its
     topology header."""
+    # deferred: brings SymPy and Jinja2 (about 0.5 s), for derivation and emission only
     from svbi.codegen import c_emit, python_emit
     from svbi.codegen import loop_glue as c_glue
     from svbi.codegen.frame3d import FRAME3D
@@ -46,6 +49,7 @@ def _render(target: str, embedded: bool = False) -> tuple[str, dict[str, bytes]]
         spec = frame2d_model_spec()
         _, source = python_emit.render_target(target)
     else:
+        # deferred: brings SymPy and Jinja2 (about 0.5 s), for derivation and emission only
         from svbi.codegen.vehicle import derive_vehicle
 
         vehicle = derive_vehicle(target)
@@ -58,6 +62,7 @@ def _render(target: str, embedded: bool = False) -> tuple[str, dict[str, bytes]]
 def _targets() -> list[str]:
     """Every built-in model with generated files: the vehicles (moving loads: the NumPy module
     only), ``frame2d`` and ``frame3d`` (the NumPy module only)."""
+    # deferred: brings SymPy and Jinja2 (about 0.5 s), for derivation and emission only
     from svbi.codegen.frame3d import FRAME3D
     from svbi.codegen.kernels import FRAME2D
     from svbi.codegen.topology import builtin_topologies
@@ -68,6 +73,7 @@ def _targets() -> list[str]:
 def _builtin_tree() -> dict[str, dict[str, bytes]]:
     """``{folder: files}`` of the whole committed tree: every built-in model and the loop's
     ``solver/`` folder, which belongs to no model."""
+    # deferred: brings SymPy and Jinja2 (about 0.5 s), for derivation and emission only
     from svbi.codegen import loop_glue as c_glue
 
     tree = dict(_render(model) for model in _targets())
@@ -106,6 +112,7 @@ def check_tree(committed: Path) -> list[str]:
 
     Returns the unified diff lines (empty when the trees match).
     """
+    # deferred: brings SymPy and Jinja2 (about 0.5 s), for derivation and emission only
     from svbi.codegen import c_emit
 
     with tempfile.TemporaryDirectory(prefix="svbi-check-") as tmp:
@@ -138,6 +145,7 @@ def generate(
 ) -> None:
     """Generate CasADi Functions (.casadi), C kernels, headers, build files and the NumPy module
     (numpy_kernels.py) for models."""
+    # deferred: brings SymPy and Jinja2 (about 0.5 s), for derivation and emission only
     from svbi.codegen import c_emit
     from svbi.codegen.kernels import skip_reason
 
@@ -216,6 +224,7 @@ def export(
     example program runs a scenario with it. The folder builds with `make` (or CMake, kernels only)
     and needs no Python, CasADi or SymPy.
     """
+    # deferred: brings SymPy and Jinja2 (about 0.5 s), for derivation and emission only
     from svbi.codegen import c_emit
     from svbi.codegen.kernels import skip_reason
 
@@ -226,8 +235,6 @@ def export(
     exported: dict[str, bytes] = {}
     name = model
     if not reason:
-        from svbi.codegen.loop_abi import GLUE_NAMES
-
         name, files = _render(model, embedded=embedded)
         exported = {n: d for n, d in files.items() if n.endswith(EXPORTED_SUFFIXES) and n not in GLUE_NAMES}
     if not solver:

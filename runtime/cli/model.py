@@ -47,6 +47,7 @@ def derivation(model: VehicleModel) -> dict[str, Any]:
     """Everything `svbi derive` prints, as SymPy objects keyed as in the JSON output."""
     import sympy as sp
 
+    # deferred: brings SymPy and Jinja2 (about 0.5 s), for derivation and emission only
     from svbi.codegen import constraints
 
     out: dict[str, Any] = {
@@ -100,6 +101,7 @@ def _to_json(value: Any) -> Any:
 
 
 def _notes() -> str:
+    # deferred: brings SymPy and Jinja2 (about 0.5 s), for derivation and emission only
     from svbi.codegen import beam
     from svbi.codegen.vehicle import a_split
 
@@ -337,6 +339,7 @@ def _fail_file(message: str) -> NoReturn:
 
 
 def _load(model: str) -> VehicleModel:
+    # deferred: brings SymPy and Jinja2 (about 0.5 s), for derivation and emission only
     from svbi.codegen.topology import load_topology
     from svbi.codegen.vehicle import derive_vehicle
 

@@ -28,6 +28,7 @@ def _read(paths: list[Path]) -> list[xr.Dataset]:
 
 
 def _draw(paths: list[Path], out_dir: Path) -> None:
+    # deferred: plots bring matplotlib (about 0.3 s), which only figures need
     from ..plots.results import default_labels, plot_results, summary_text
 
     datasets = _read(paths)
@@ -77,6 +78,7 @@ def _draw_store(
     limit: float | None,
     intensity: str | None,
 ) -> None:
+    # deferred: plots bring matplotlib (about 0.3 s), which only figures need
     from ..plots.study import plot_store
 
     try:

@@ -15,6 +15,7 @@ import typer
 
 from ..run.output import RunInterrupted, signals_interrupt
 from ..run.results import write_netcdf
+from ..scenario.schema import ScenarioError, ScenarioWarning, load_scenario
 from ..study.en1990 import CheckOptions, check_set, checks_table, en1990_checks, nan_samples
 from ..study.metrics import MetricsError, compute_metrics, metrics_text, scenario_table
 from ..study.store_checks import StoreCheckError, check_store, store_text
@@ -28,6 +29,7 @@ from ..study.sweep import (
     read_store,
     run_sweep,
 )
+from .messages import echo_caught
 
 if TYPE_CHECKING:
     import xarray as xr
@@ -43,6 +45,7 @@ def _fail(message: str) -> typer.Exit:
 
 
 def _metrics_of(path: Path) -> tuple[xr.Dataset, xr.Dataset]:
+    # deferred: plots bring matplotlib (about 0.3 s), which only figures need
     from ..plots.results import ResultsFileError, read_results
 
     try:
@@ -281,9 +284,6 @@ def _base_warnings(path: Path) -> None:
     """The study's base scenario's warnings (a coarse time step, a value outside the usual bands),
     printed once before the runs (whose own loads are silent)."""
     import warnings
-
-    from ..scenario.schema import ScenarioError, ScenarioWarning, load_scenario
-    from .messages import echo_caught
 
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always")

@@ -174,6 +174,7 @@ class CreepParameters:
     def values(self) -> dict[Any, float]:
         """Numeric values keyed by the symbols of ``svbi.codegen.creep`` (imports SymPy: for tests
         and derivations, not for a run)."""
+        # deferred: brings SymPy and Jinja2 (about 0.5 s), for derivation and emission only
         from svbi.codegen import creep as law
 
         named = self.named_values()

@@ -24,6 +24,8 @@ from pathlib import Path
 
 import numpy as np
 
+from svbi.codegen.c_flags import STRICT_FLAGS
+
 from .. import toolchain as kernel_cache
 from ..backends.c.build import simd_flags
 from ..toolchain import cache_root
@@ -71,7 +73,6 @@ def design(order: int, cutoff_hz: float, fs: float) -> tuple[np.ndarray, np.ndar
 
 @cache
 def _library() -> ctypes.CDLL | None:
-    from svbi.codegen.c_flags import STRICT_FLAGS
 
     source = resources.files("svbi.runtime").joinpath("csrc_filter", SOURCE).read_bytes()
     try:

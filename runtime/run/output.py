@@ -24,6 +24,8 @@ from collections.abc import Iterable, Iterator
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
+from svbi.codegen.plain_types import builtin_topologies
+
 if TYPE_CHECKING:
     import xarray as xr
 
@@ -72,7 +74,6 @@ def incomplete_path(path: str | os.PathLike[str]) -> Path:
 
 def run_inputs(scenario: Scenario) -> dict[str, Path]:
     """The files a run reads, by the key that names them (``scenario`` for the scenario file)."""
-    from svbi.codegen.plain_types import builtin_topologies
 
     inputs: dict[str, Path] = {}
     if scenario.source:

@@ -22,6 +22,7 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
+from ... import __version__
 from ..backends.base import BackendFallback
 from ..backends.registry import register_backend, stepper_class
 from ..methods.guard import FORCE_LIMIT_FACTOR, Diverged, DivergenceGuard
@@ -154,7 +155,6 @@ def simulate(
         t_end_loop = time.perf_counter()
         if bar is not None:
             bar.close()
-    from svbi import __version__
 
     attrs: dict[str, Any] = {
         "svbi_version": __version__,

@@ -13,7 +13,7 @@ import math
 from collections.abc import Iterable, Mapping
 from typing import TYPE_CHECKING, Any
 
-from svbi.codegen.plain_types import builtin_topologies
+from svbi.codegen.plain_types import TopologyError, builtin_topologies
 
 from ..excitation.irregularity import read_profile_cached
 from ..model.hslm import hslm_parameters
@@ -77,7 +77,6 @@ MAX_PGA = 50.0 * 9.81
 def _geometry(s: Scenario, values: Mapping[str, Any]) -> tuple[list[float], float, list[float]] | None:
     """Wheel offsets behind the car's leading axle, the car length and the wheel radii (m), as
     ``Train`` places them; ``None`` when the vehicle cannot be evaluated (its own check says why)."""
-    from svbi.codegen.plain_types import TopologyError
 
     vals = dict(values)
     if s.train.hslm is not None:
@@ -276,7 +275,6 @@ def girder_problems(b: Any) -> Iterable[tuple[str, str]]:
 def creep_warnings(s: Scenario) -> list[str]:
     """With ``contact.creep`` on, name the wheels that have no spin DOF: no creep force acts there
     (``wheel_creep.CreepForces``: a wheel creeps only through a non-zero column of ``W_T^V``)."""
-    from svbi.codegen.plain_types import TopologyError
 
     if not s.contact.creep:
         return []

@@ -25,6 +25,8 @@ from typing import Annotated, Any, Literal
 import tomli_w
 from pydantic import BaseModel, ConfigDict, Field, PrivateAttr, ValidationError, model_validator
 
+from svbi.codegen.plain_types import TopologyError
+
 from ..excitation.irregularity import read_profile_cached
 from ..excitation.textfile import TextFileError, decode_text
 from ..model.bridge import Girder, Pier, Section
@@ -589,7 +591,6 @@ def parse_literal(raw: str) -> Any:
 
 
 def _semantic_problems(s: Scenario) -> Iterable[tuple[str, str]]:
-    from svbi.codegen.plain_types import TopologyError
 
     t, sol, trk = s.train, s.solver, s.track
     bridge_problems = s.bridge.long_form_problems() + list(girder_problems(s.bridge))
@@ -724,7 +725,6 @@ def _parameter_key(topo: Any, key: str, overrides: Mapping[str, Any]) -> str:
 
 
 def _vehicle_problems(s: Scenario, values: dict[str, Any]) -> Iterable[tuple[str, str]]:
-    from svbi.codegen.plain_types import TopologyError
 
     model = vehicle_model(vehicle_ref(s))
     try:

@@ -35,9 +35,12 @@ from typing import Any
 import numpy as np
 import scipy.linalg as sla
 
+from svbi.codegen.plain_types import builtin_topologies
+
+from ..model.hslm import hslm_parameters
 from ..model.kernels import frame2d
 from ..model.modes import span_matrices, span_support_dofs
-from ..model.train import Kinematics
+from ..model.train import Kinematics, vehicle_model
 
 EN1990_MIN_CUTOFF_HZ = 30.0
 """EN 1990 A2.4.4.2.1(4)P: the deck acceleration counts frequencies up to max(30 Hz, 1.5 f1, f3)."""
@@ -213,10 +216,6 @@ class DeckEnvelope:
 def wheel_positions(table: Mapping[str, Any], t: np.ndarray, contacts: int) -> np.ndarray:
     """x of every wheel (time x contact, contacts car by car) from the scenario's ``[train]``, as the
     run places them (``Train.positions``)."""
-    from svbi.codegen.plain_types import builtin_topologies
-
-    from ..model.hslm import hslm_parameters
-    from ..model.train import vehicle_model
 
     train = table.get("train", {})
     name = str(train.get("vehicle", "pioneer-2d"))

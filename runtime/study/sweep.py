@@ -52,6 +52,7 @@ from pydantic import (
     ValidationError,
 )
 
+from ... import __version__
 from ..excitation.textfile import TextFileError, decode_text
 from ..run.atomic import write_atomic
 from ..run.output import folder_problem, same_file
@@ -133,6 +134,7 @@ RESERVED_NAMES = (
     *METRIC_DIMS,
     *(f"{m}_time" for m in METRIC_DIMS),
 )
+
 """Names of the store's own variables and dimensions: a swept key's name avoids them."""
 
 
@@ -908,8 +910,6 @@ def assemble(study: Study, out: Path, command: str = "") -> xr.Dataset:
     """The store: every run's part in a grid with one dimension per axis; written atomically to
     ``out`` (``store.write_store``). A run without a part (lost) is marked ``missing``."""
     import xarray as xr
-
-    from svbi import __version__
 
     parts: list[xr.Dataset] = []
     status, message, cutoff = [], [], []

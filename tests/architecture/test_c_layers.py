@@ -202,7 +202,7 @@ def test_graph_of_the_loop_is_read():
     files, _ = layered_sources()
     edges = file_graph(files)
     assert "svbi_step_localized" in edges["solver.c"]["localized.c"]
-    assert "svbi_place" in edges["general.c"]["contacts.c"]
+    assert "svbi_place" in edges["substructures.c"]["contacts.c"]
     assert "svbi_gb_factor_solve_r" in edges["interface.c"]["band.c"]
     assert "svbi_nm_vel" in edges["bridge.c"]["newmark.h"]
     assert sum(len(t) for t in edges.values()) > 30

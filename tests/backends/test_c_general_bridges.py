@@ -1,4 +1,4 @@
-"""The C loop on bridges of substructures (runtime/csrc/general.c): continuous girders, unequal spans,
+"""The C loop on bridges of substructures (runtime/csrc/substructures.c): continuous girders, unequal spans,
 piers and bearing springs run localized-dynamic in C, and every recorded series equals the NumPy
 backend's (the reference implementation of docs/method.md section 13) to round-off."""
 

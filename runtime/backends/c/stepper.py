@@ -603,7 +603,7 @@ class CStepper:
         S.I_lk_A = self._arr(full)
 
     def _general(self, S: Any, kappa: float, zeta: float) -> None:
-        """The setup of a bridge of substructures (general.c; localized-dynamic only)."""
+        """The setup of a bridge of substructures (substructures.c; localized-dynamic only)."""
         m, ref = self.model, self.reference
         b, tr, s = m.bridge, m.train, m.settings
         comp = ref.bridge
@@ -722,7 +722,7 @@ class CStepper:
         b, tr = self.model.bridge, self.model.train
         nc = tr.contacts
         extent = float(np.ptp(tr.vehicle.wheel_offsets)) if not tr.moving_load and nc else 0.0
-        if not b.uniform:  # contacts and links (general.c: order_and_bandwidth)
+        if not b.uniform:  # contacts and links (substructures.c: order_and_bandwidth)
             nl = int(self.setup_links)
             line = np.searchsorted(b.line_x, self.link_x)  # link_x: exactly on its line
             per_line = int(np.bincount(line, minlength=b.spans + 1).max(initial=0))

@@ -68,7 +68,7 @@ typedef struct svbi_bridge_kind svbi_bridge_kind;
 
 /* Where the contacts are and what lies under them: written by the excitation and the bridge kind's
  * locate, read by every step.
- * used by: excite.c contacts.c bridge.c spans.c general.c vehicle.c localized.c coupled.c impact.c
+ * used by: excite.c contacts.c bridge.c spans.c substructures.c vehicle.c localized.c coupled.c impact.c
  *          record.c internal.h */
 typedef struct {
   double* cx;    /* nc: x */
@@ -87,7 +87,7 @@ typedef struct {
 } contact_work_t;
 
 /* The support motion of the step: the targets q, q', q'' (the excitation) and q^ (the bridge kind).
- * used by: excite.c bridge.c spans.c general.c coupled.c record.c */
+ * used by: excite.c bridge.c spans.c substructures.c coupled.c record.c */
 typedef struct {
   double* qs;    /* 3 x spans * ns: support targets q, q', q'' */
   double* qhat;  /* spans * ns */
@@ -95,7 +95,7 @@ typedef struct {
 
 /* The bridge state the step works on, its Newmark histories and the chain of spans' factors: the
  * bridge kinds own it; the methods, the recording and the guard read the state.
- * used by: bridge.c spans.c general.c contacts.c vehicle.c localized.c impact.c record.c guard.c
+ * used by: bridge.c spans.c substructures.c contacts.c vehicle.c localized.c impact.c record.c guard.c
  *          internal.h */
 typedef struct {
   double* PB;    /* spans x nd */
@@ -139,7 +139,7 @@ typedef struct {
 } bridge_work_t;
 
 /* The interface system of a step: contact forces or multipliers, right-hand sides, band and order.
- * used by: spans.c general.c interface.c localized.c coupled.c */
+ * used by: spans.c substructures.c interface.c localized.c coupled.c */
 typedef struct {
   int* cpos;     /* nc: position in track order */
   double* Pg;    /* nc */
@@ -204,7 +204,7 @@ typedef struct {
 } coupled_work_t;
 
 /* A bridge of substructures joined by links; the impact reads the link forces.
- * used by: general.c impact.c */
+ * used by: substructures.c impact.c */
 typedef struct {
   int* lpos;     /* nlinks: interface position of every link */
   double* lam;   /* nlinks: link forces of the contact forces, Lambda' */
@@ -312,7 +312,7 @@ void svbi_place(const setup_t* S, work_t* w, int i, int span, double local, cons
 double svbi_rail_height(const setup_t* S, const work_t* w, int c);
 
 /* The bridge kinds: a chain of identical spans (spans.c, bridge.c) or substructures joined by links
- * (general.c). The step reaches its bridge through this table, filled once (the loop picks it at
+ * (substructures.c). The step reaches its bridge through this table, filled once (the loop picks it at
  * set-up, work_t kind) as acados reaches its integrators: one indirect call per phase of the step
  * costs nothing against the phase (benchmarks/bench_solver.py). The localized step uses every
  * entry; the coupled methods (a chain of spans only) locate through it. */
@@ -338,7 +338,7 @@ struct svbi_bridge_kind {
   double (*add_FB)(const setup_t* S, const work_t* w, const double* P, int c, double r);
 };
 extern const svbi_bridge_kind svbi_kind_spans;         /* spans.c */
-extern const svbi_bridge_kind svbi_kind_substructures; /* general.c */
+extern const svbi_bridge_kind svbi_kind_substructures; /* substructures.c */
 
 /* bridge.c: contacts on a chain of spans, Newmark histories and update, support targets, span loads. */
 void svbi_locate(const setup_t* S, work_t* w);
@@ -349,7 +349,7 @@ void svbi_bridge_update_histories(const setup_t* S, work_t* w);
 void svbi_span_load(const setup_t* S, const work_t* w, int s, double* f);
 void svbi_bridge_update(const setup_t* S, work_t* w);
 
-/* general.c: a bridge of substructures joined by links (localized-dynamic; its table above). */
+/* substructures.c: a bridge of substructures joined by links (localized-dynamic; its table above). */
 int svbi_general_init(const setup_t* S, work_t* w);
 void svbi_general_reactions(const setup_t* S, const state_t* X, const work_t* w, double* out);
 double svbi_general_row_link(const setup_t* S, const double* X, const int* nzX, int nX, int s, int first, int l,

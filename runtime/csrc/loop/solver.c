@@ -7,7 +7,7 @@
  *  - localized-dynamic (localized.c): each car's effective matrix and wheel flexibility, and the
  *    factors of the bridge with its supports held, are constant (on a chain of spans one factor
  *    serves every span). Each step solves one banded interface system for the contact forces, in
- *    track order. The bridge kind (spans.c or general.c) reaches the step through its table,
+ *    track order. The bridge kind (spans.c or substructures.c) reaches the step through its table,
  *    picked here once per call (bridge_view).
  *  - coupled-dynamic and coupled-classic (coupled.c): the monolithic system (paper Eq. 36) is
  *    refactored every step by a block ("arrow") sparse LU: span blocks (banded Cholesky), car blocks
@@ -171,7 +171,7 @@ static void carve(const setup_t* S, carver_t* c, work_t* w) {
     w->cp.Kvinv = take_d(c, on * nv * nv);
   }
   {
-    /* a bridge of substructures (general.c) */
+    /* a bridge of substructures (substructures.c) */
     long nl = S->general ? S->nlinks : 0;
     w->ge.lpos = take_i(c, nl);
     w->ge.lam = take_d(c, nl);

@@ -3,7 +3,7 @@
  * and the bridge's factors with its supports held, are constant. Each step solves one banded
  * interface system for the contact forces, in track order (docs/c-backend.md, "Structure
  * exploited"). The bridge kind (a chain of spans, spans.c; substructures joined by links,
- * general.c) reaches the step through its table (work_t kind, set by the loop).
+ * substructures.c) reaches the step through its table (work_t kind, set by the loop).
  */
 #include "internal.h"
 
