@@ -1,0 +1,222 @@
+"""The 3D coupled-dynamic step (runtime/methods/coupled3d.py) against independent truth.
+
+* In the vertical plane (a symmetric car, no lateral input) the 3D step is svbi's 2D
+  coupled-dynamic run of the same case (``svbi.simulate``, sprung-mass, same dt, elements, kappa,
+  zeta): midspan deflection, contact force and gap agree to round-off.
+* Gaps: both normal gaps equal the 2D aux-bridge gap times ``cos(atan lam)`` to round-off: the
+  stabilised rows hold them at Newmark's truncation of the moving contact (2e-9 m here, the same
+  in 2D) without drift; at a standstill they stay at round-off.
+* A static lateral load on the car body: the deck's lateral midspan deflection is the closed form
+  ``F L^3 / (48 E I_z)``, and its twist is ``T L / (4 G J)`` with ``T`` the torque about the shear
+  centre of the contact forces at the rails, written here from the solved normal forces and the
+  cone's normals (rail top ``h_t`` above the shear centre, track ``e_t`` beside it).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+import svbi
+from svbi.codegen.topology3d import parse_topology3d
+from svbi.runtime.methods.coupled3d import CoupledDynamic3D, static_state
+from svbi.runtime.model.span3d import Section3D, simply_supported_span
+from svbi.runtime.model.system3d import System3D, Track3D, vehicle3d
+from svbi.runtime.scenario.schema import validate_scenario
+
+TOPOLOGY = """
+name = "sprung-wheelset-3d"
+kind = "rigid-body"
+dimensions = 3
+description = "A sprung mass on a coned wheelset: the 3D counterpart of sprung-mass (test vehicle)."
+source = "tests: the sprung-mass benchmark values, a symmetric lateral layout"
+[parameters.m_s]
+value = 5750.0
+unit = "kg"
+description = "sprung mass"
+[parameters.m_w]
+value = 500.0
+unit = "kg"
+description = "wheelset mass"
+[parameters.k]
+value = 1.595e6
+unit = "N/m"
+description = "vertical stiffness, whole"
+[parameters.kl]
+value = 2.0e6
+unit = "N/m"
+description = "lateral and longitudinal stiffness per side"
+[parameters.car_length]
+value = 25.0
+unit = "m"
+description = "spacing"
+[parameters.r0]
+value = 0.46
+unit = "m"
+description = "wheel radius"
+[[bodies]]
+name = "body"
+dofs = ["y", "z", "phi"]
+mass = "m_s"
+roll_inertia = "3000"
+position = "0"
+height = "1.5"
+[[bodies]]
+name = "ws"
+dofs = ["y", "z", "phi", "psi"]
+mass = "m_w"
+roll_inertia = "100"
+yaw_inertia = "100"
+position = "0"
+height = "r0"
+[[suspensions]]
+name = "spring"
+body_a = "body"
+body_b = "ws"
+lateral = "1.0"
+height = "0.8"
+sides = 2
+stiffness = ["kl", "kl", "k / 2"]
+[[wheels]]
+name = "left"
+body = "ws"
+lateral = "0.75"
+radius = "r0"
+[[wheels]]
+name = "right"
+body = "ws"
+lateral = "-0.75"
+radius = "r0"
+"""
+
+L, E, Iy, MU = 25.0, 2.87e9, 2.9, 2303.0
+V = 100.0 / 3.6
+DT, STEPS, ELEMENTS = 2e-3, 200, 8
+LAM = 0.1
+COS = 1.0 / np.sqrt(1.0 + LAM**2)
+
+
+@pytest.fixture(scope="module")
+def vehicle():
+    return vehicle3d(parse_topology3d(TOPOLOGY))
+
+
+@pytest.fixture(scope="module")
+def run3d(vehicle):
+    section = Section3D(E=E, A=1.0, I_y=Iy, I_z=10.0, J=5.0, mass_per_length=MU)
+    span = simply_supported_span(section, L, ELEMENTS)
+    system = System3D(vehicle, span, Track3D(conicity=LAM), speed=V, start=0.0)
+    stepper = CoupledDynamic3D(system, static_state(system), DT)
+    mid = ELEMENTS // 2
+    rows = []
+    for n in range(STEPS):
+        st = stepper.step(n)
+        rows.append(
+            [
+                st.u[span.dof(mid, "w")],
+                st.u[span.dof(mid, "v")],
+                st.u[span.dof(mid, "phi")],
+                *st.P,
+                *stepper.gaps(),
+                st.q[vehicle.index("y_ws")],
+                st.q[vehicle.index("phi_ws")],
+            ]
+        )
+    return np.array(rows)
+
+
+@pytest.fixture(scope="module")
+def run2d():
+    scenario = validate_scenario(
+        {
+            "bridge": dict(
+                spans=1,
+                span_length=L,
+                mass_per_length=MU,
+                youngs_modulus=E,
+                area=1.0,
+                second_moment=Iy,
+                damping_ratio=0.0,
+                elements_per_span=ELEMENTS,
+            ),
+            "train": dict(
+                vehicle="sprung-mass",
+                speed=V,
+                parameters=dict(sprung_mass=5750.0, stiffness=1.595e6, wheel_mass=500.0, damping=0.0),
+            ),
+            "contact": dict(creep=False),
+            "solver": dict(
+                method="coupled-dynamic", backend="numpy", time_step=DT, duration=STEPS * DT, output_every=1
+            ),
+        }
+    )
+    return svbi.simulate(scenario)
+
+
+def test_vertical_plane_is_the_2d_run(run3d, run2d):
+    w2 = run2d.midspan_uz.values[1:, 0]
+    peak = np.abs(w2).max()
+    assert peak > 1e-3  # the wheel has loaded the span
+    assert np.abs(run3d[:, 0] - w2).max() < 1e-11 * peak  # measured 4e-13
+    # the two normal forces are equal and their vertical components carry the 2D contact force
+    P2 = run2d.contact_force.values.reshape(STEPS + 1, -1)[1:, 0]
+    assert np.abs(run3d[:, 3] - run3d[:, 4]).max() < 1e-11 * P2.max()
+    assert np.abs(COS * (run3d[:, 3] + run3d[:, 4]) - P2).max() < 1e-11 * P2.max()
+    # nothing lateral: sway and twist of the deck, lateral motion and roll of the wheelset
+    assert np.abs(run3d[:, [1, 2, 7, 8]]).max() < 1e-14
+
+
+def test_gaps_are_the_2d_gap_and_do_not_drift(run3d, run2d):
+    g2 = (run2d.gap_bridge.values + run2d.gap_vehicle.values).reshape(STEPS + 1, -1)[1:, 0]
+    scale = np.abs(run3d[:, 0]).max()
+    for side in (5, 6):
+        assert np.abs(run3d[:, side] - COS * g2).max() < 1e-12 * scale
+    # Newmark's truncation of the moving contact (5e-6 of the deflection at this dt, as in 2D),
+    # held by the stabilised rows: no drift, the second half of the run stays below the first
+    g = np.abs(run3d[:, 5:7])
+    assert g[STEPS // 2 :].max() <= g[: STEPS // 2].max()
+
+
+def test_gaps_at_a_standstill_stay_at_round_off(vehicle):
+    section = Section3D(E=3.0e10, A=5.0, I_y=3.0, I_z=20.0, J=4.0, mass_per_length=12000.0)
+    span = simply_supported_span(section, 10.0, 4)
+    system = System3D(vehicle, span, Track3D(conicity=LAM, rail_height=1.2), speed=0.0, start=3.7)
+    stepper = CoupledDynamic3D(system, static_state(system), 1e-3)
+    # a vertical load on the car body set on at t = 0: the car bounces on the span
+    system.load = np.zeros(len(vehicle.dof_names))
+    system.load[vehicle.index("z_body")] = -2.0e4
+    gaps = []
+    for n in range(100):
+        stepper.step(n)
+        gaps.append(stepper.gaps())
+    assert np.abs(stepper.state.q[vehicle.index("z_body")]) > 1e-3
+    assert np.abs(gaps).max() < 1e-15
+
+
+@pytest.mark.parametrize("force", [100.0, 5000.0])
+def test_static_lateral_load_sways_and_twists_the_span(vehicle, force):
+    E3, Iz, J, Lb, h, e = 3.0e10, 20.0, 4.0, 10.0, 1.2, 0.3
+    section = Section3D(E=E3, A=5.0, I_y=3.0, I_z=Iz, J=J, mass_per_length=12000.0)
+    span = simply_supported_span(section, Lb, 4)
+    load = np.zeros(len(vehicle.dof_names))
+    load[vehicle.index("y_body")] = force
+    track = Track3D(conicity=LAM, eccentricity=e, rail_height=h)
+    system = System3D(vehicle, span, track, speed=0.0, start=Lb / 2, load=load)
+    st = static_state(system)
+    mid = 2
+    v, phi = st.u[span.dof(mid, "v")], st.u[span.dof(mid, "phi")]
+    assert v == pytest.approx(force * Lb**3 / (48 * E3 * Iz), rel=1e-12)
+    # the torque of the contact forces at the rails: normal of side s, (0, -s lam, 1) / sqrt(1 + lam^2)
+    # turned by the wheelset's roll; the deck takes -P n at (e + s b, h) from its shear centre
+    roll = st.q[vehicle.index("phi_ws")]
+    b = 0.75
+    torque, lateral = 0.0, 0.0
+    for P, s in zip(st.P, (1, -1), strict=True):
+        ny = COS * (-s * LAM * np.cos(roll) - np.sin(roll))
+        nz = COS * (-s * LAM * np.sin(roll) + np.cos(roll))
+        fy, fz = -P * ny, -P * nz
+        torque += -h * fy + (e + s * b) * fz
+        lateral += fy
+        assert P > 0
+    assert lateral == pytest.approx(force, rel=1e-10)
+    assert phi == pytest.approx(torque * Lb / (4 * section.shear * J), rel=1e-9)
