@@ -32,6 +32,19 @@ NEWTON_TOLERANCE = 1e-13
 NEWTON_ITERATIONS = 20
 
 
+class Convergence:
+    """Stop an iteration when its update is below :data:`NEWTON_TOLERANCE` of the displacements, or
+    once it has stopped shrinking (round-off reached: it no longer halves)."""
+
+    def __init__(self) -> None:
+        self.last = np.inf
+
+    def __call__(self, change: float, size: float) -> bool:
+        done = change <= NEWTON_TOLERANCE * max(size, 1e-300) or change > 0.5 * self.last
+        self.last = change
+        return done
+
+
 @dataclass
 class State3D:
     """Vehicle and span displacements, rates and accelerations, and the contact forces, at ``t``."""
@@ -198,6 +211,7 @@ class CoupledDynamic3D:
         u = st.u.copy()
         P = st.P.copy()
         self.iterations = 0
+        converged = Convergence()
         for _ in range(NEWTON_ITERATIONS):
             self.iterations += 1
             q = st.q + dq
@@ -225,8 +239,7 @@ class CoupledDynamic3D:
             dq += dx[: asm.nV]
             u[f] += dx[asm.oB : asm.oP]
             P += dx[asm.oP :]
-            size = max(np.abs(dq).max(), np.abs(u).max(), 1e-300)
-            if np.abs(dx[: asm.oP]).max() <= NEWTON_TOLERANCE * size:
+            if converged(np.abs(dx[: asm.oP]).max(), max(np.abs(q).max(), np.abs(u).max())):
                 break
         st.qd, st.qdd = nm.update_increment(dq, PtV, QtV)
         st.q = st.q + dq
