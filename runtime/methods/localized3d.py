@@ -6,8 +6,9 @@ effective matrix factored once, and only the normal contact forces ``P`` (two pe
 solved together, from a small interface system. The vehicle and span respond linearly to given
 forces: ``du = du~ + A_V G_V^T P``, ``u = u~ + S G_B^T P`` (predictors ``du~``, ``u~`` with no
 contact force, compliances ``A_V = K^_V^-1``, ``S = K^_B^-1`` inverted once, the forces along the
-gap gradients ``G``). The 3D gap is nonlinear in the roll, so the interface is iterated: with ``G`` and the constraint rows
-``J`` (of ``g'' + 2 zeta omega g' + omega^2 g`` with Newmark's rates) at the current iterate ``z^k``,
+gap gradients ``G``). The 3D gap is nonlinear in the roll, so the interface is iterated: with
+``G`` and the constraint rows ``J`` (of ``g'' + 2 zeta omega g' + omega^2 g`` with Newmark's rates)
+at the current iterate ``z^k``,
 
     (J_V A_V G_V^T + J_B S G_B^T) P = -E(z^k) + J_V (du^k - du~) + J_B (u^k - u~),
 
