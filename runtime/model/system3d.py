@@ -90,7 +90,8 @@ def vehicle3d(
     topology: Topology3D | str | Path, parameters: Mapping[str, float] | None = None
 ) -> Vehicle3DNumeric:
     """Derive and evaluate a 3D vehicle; find its wheelsets (a body with ``y, z, phi, psi`` and two
-    wheels at ``+-b``, its reference at the axle centre: height = wheel radius)."""
+    wheels at ``+-b``, its reference at the axle centre: height = wheel radius). A wheelset's pitch
+    (its spin) is left out."""
     topo = topology if isinstance(topology, Topology3D) else load_topology3d(str(topology))
     model = derive_vehicle3d(topo)
     num = model.numeric(dict(parameters or {}))
@@ -119,7 +120,21 @@ def vehicle3d(
             )
         idx = np.array([num.index(f"{k}_{body.name}") for k in ("y", "z", "phi", "psi")])
         wheelsets.append(Wheelset(body.name, idx, val(body.position), radius, lateral[1]))
-    return Vehicle3DNumeric(num.dof_names, num.M, num.C, num.K, num.F_gravity, wheelsets)
+    # a wheelset's pitch is its spin: the contact model rolls the wheels at v / r0 and leaves the spin
+    # perturbation out (docs/three-d.md), so the DOF goes (it has no stiffness: a static solve could
+    # not hold it)
+    names = list(num.dof_names)
+    spin = {names.index(f"theta_{w.name}") for w in wheelsets if f"theta_{w.name}" in names}
+    keep = np.array([i for i in range(len(names)) if i not in spin], dtype=int)
+    renumber = {old: new for new, old in enumerate(keep)}
+    wheelsets = [
+        Wheelset(w.name, np.array([renumber[i] for i in w.dofs]), w.offset, w.radius, w.half_gauge)
+        for w in wheelsets
+    ]
+    sub = np.ix_(keep, keep)
+    return Vehicle3DNumeric(
+        tuple(names[i] for i in keep), num.M[sub], num.C[sub], num.K[sub], num.F_gravity[keep], wheelsets
+    )
 
 
 C1, C0 = sp.symbols("c1 c0", real=True)

@@ -282,3 +282,28 @@ def test_localized_is_coupled(vehicle):
     assert (diff[:-2] <= 1e-10 * peak[:-2]).all(), diff / peak  # measured 2e-12 at most
     # the gaps are Newmark's truncation (2e-8 m): compared with the deflection they follow
     assert (diff[-2:] <= 1e-10 * peak[1]).all()
+
+
+def test_manchester_car_on_a_span():
+    """One car of manchester-3d (four wheelsets, 31 DOFs without the wheelsets' spin) on a 40 m
+    span: the static normal forces carry the car's weight (vertical components), and the two
+    steppers agree over a few steps at 50 m/s."""
+    vehicle = vehicle3d("manchester-3d")
+    assert len(vehicle.wheelsets) == 4
+    section = Section3D(E=3.5e10, A=8.63, I_y=6.58, I_z=85.86, J=15.21, mass_per_length=2.3e4)
+    span = simply_supported_span(section, 40.0, 8)
+    lam = 0.15
+    system = System3D(vehicle, span, Track3D(conicity=lam, rail_height=1.0), speed=50.0, start=30.0)
+    state = static_state(system)
+    weight = -vehicle.F.sum()
+    assert np.sum(state.P) / np.sqrt(1 + lam**2) == pytest.approx(weight, rel=1e-12)
+    series = []
+    for cls in (CoupledDynamic3D, LocalizedDynamic3D):
+        stepper = cls(system, static_state(system), 1e-3)
+        rows = []
+        for n in range(30):
+            st = stepper.step(n)
+            rows.append([st.u[span.dof(4, "w")], *st.P])
+        series.append(np.array(rows))
+    peak = np.abs(series[0]).max(axis=0)
+    assert (np.abs(series[1] - series[0]).max(axis=0) <= 1e-10 * peak).all()
