@@ -307,3 +307,16 @@ def test_manchester_car_on_a_span():
         series.append(np.array(rows))
     peak = np.abs(series[0]).max(axis=0)
     assert (np.abs(series[1] - series[0]).max(axis=0) <= 1e-10 * peak).all()
+
+
+def test_set_up_errors(vehicle):
+    """A wheelset off the span, and a body carrying wheels that is not a wheelset, are refused."""
+    span = simply_supported_span(SECTION, LB, 4)
+    system = System3D(vehicle, span, Track3D(conicity=LAM), speed=10.0, start=LB - 0.5)
+    with pytest.raises(ValueError, match="wheelset 'ws' is off the span at t = 0.1 s"):
+        system.contact_location(0.1)
+    no_roll = TOPOLOGY.replace('dofs = ["y", "z", "phi", "psi"]', 'dofs = ["y", "z", "psi"]').replace(
+        'roll_inertia = "100"\n', ""
+    )
+    with pytest.raises(ValueError, match="body 'ws' carries wheels but is not a wheelset"):
+        vehicle3d(parse_topology3d(no_roll))
