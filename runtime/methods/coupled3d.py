@@ -30,19 +30,23 @@ from .newmark import Newmark
 NEWTON_TOLERANCE = 1e-13
 """Newton stops when the update of the displacements is below this share of their size."""
 NEWTON_ITERATIONS = 20
+STAGNATION = 1e-9
+"""Below this share of the displacements, an update that no longer halves is round-off."""
 
 
 class Convergence:
     """Stop an iteration when its update is below :data:`NEWTON_TOLERANCE` of the displacements, or
-    once it has stopped shrinking (round-off reached: it no longer halves)."""
+    when, already below :data:`STAGNATION` of them, it has stopped shrinking (round-off reached: it
+    no longer halves)."""
 
     def __init__(self) -> None:
         self.last = np.inf
 
     def __call__(self, change: float, size: float) -> bool:
-        done = change <= NEWTON_TOLERANCE * max(size, 1e-300) or change > 0.5 * self.last
+        size = max(size, 1e-300)
+        stalled = change <= STAGNATION * size and change > 0.5 * self.last
         self.last = change
-        return done
+        return change <= NEWTON_TOLERANCE * size or stalled
 
 
 @dataclass
@@ -139,6 +143,7 @@ def _static_newton(
     veh, span = system.vehicle, system.span
     loc = system.contact_location(t)
     KB = span.K[np.ix_(asm.free, asm.free)]
+    converged = Convergence()
     for _ in range(NEWTON_ITERATIONS):
         A = np.zeros((asm.n, asm.n))
         R = np.zeros(asm.n)
@@ -162,8 +167,7 @@ def _static_newton(
         q += dx[: asm.nV]
         u[asm.free] += dx[asm.oB : asm.oP]
         P += dx[asm.oP :]
-        size = max(np.abs(q).max(), np.abs(u).max(), 1e-300)
-        if np.abs(dx[: asm.oP]).max() <= NEWTON_TOLERANCE * size:
+        if converged(np.abs(dx[: asm.oP]).max(), max(np.abs(q).max(), np.abs(u).max())):
             return
     raise RuntimeError(f"the static state did not converge in {NEWTON_ITERATIONS} Newton iterations")
 
