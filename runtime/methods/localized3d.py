@@ -1,0 +1,130 @@
+"""localized-dynamic in 3D (a prototype; docs/three-d.md, "The 3D time step (prototype)").
+
+The partitioned step of :mod:`svbi.runtime.methods.localized` for the system of
+:mod:`svbi.runtime.methods.coupled3d`: the vehicle and the span are solved apart, each with its own
+effective matrix factored once, and only the normal contact forces ``P`` (two per wheelset) are
+solved together, from a small interface system. The vehicle and span respond linearly to given
+forces: ``du = du~ + A_V G_V^T P``, ``u = u~ + S G_B^T P`` (predictors ``du~``, ``u~`` with no
+contact force, compliances ``A_V = K^_V^-1``, ``S = K^_B^-1`` inverted once, the forces along the
+gap gradients ``G``). The 3D gap is nonlinear in the roll, so the interface is iterated: with
+``G`` and the constraint rows ``J`` (of ``g'' + 2 zeta omega g' + omega^2 g`` with Newmark's rates)
+at the current iterate ``z^k``,
+
+    (J_V A_V G_V^T + J_B S G_B^T) P = -E(z^k) + J_V (du^k - du~) + J_B (u^k - u~),
+
+until the update is round-off. The converged step satisfies the coupled step's equations (the same
+equilibrium and the same constraint rows, ``E = 0``), so both give the same solution to round-off;
+the geometric stiffness ``P d2g/dz2``, which the coupled Newton includes, only sets how fast the
+interface iteration converges. In the vertical plane the gradients do not change with the state and
+one solve is exact. The span's response to the contact forces is ``S`` times the forces at every
+iteration (a prototype: the 2D method keeps the flexibility between contact points).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from ..model.system3d import ContactKernel3D, System3D
+from .coupled3d import NEWTON_ITERATIONS, Convergence, State3D, _Assembly
+from .newmark import Newmark
+
+
+class LocalizedDynamic3D:
+    """The partitioned 3D step; see the module docstring."""
+
+    name = "localized-dynamic-3d"
+
+    def __init__(
+        self, system: System3D, state: State3D, time_step: float, kappa: float = 1.0, zeta: float = 1.0
+    ) -> None:
+        self.system = system
+        self.state = state
+        self.dt = time_step
+        self.nm = nm = Newmark(time_step)
+        omega = kappa / time_step
+        self.asm = asm = _Assembly(system)
+        span, veh = system.span, system.vehicle
+        le = span.length / span.n_elements
+        self.kernels = [
+            ContactKernel3D(w, system.track, le, system.speed, 2 * zeta * omega, omega * omega)
+            for w in veh.wheelsets
+        ]
+        f = asm.free
+        self.CB = np.zeros_like(span.M) if system.bridge_damping is None else system.bridge_damping
+        # the compliances, inverted once (small dense matrices, as the 2D stepper's vehicles)
+        self.A_V = np.linalg.inv(nm.effective(veh.K, veh.C, veh.M))
+        self.S_B = np.linalg.inv(nm.effective(span.K, self.CB, span.M)[np.ix_(f, f)])
+        self.iterations = 0
+
+    def step(self, n: int) -> State3D:
+        """Advance from t_n to t_{n+1} = (n + 1) dt."""
+        sys_, st, nm, asm = self.system, self.state, self.nm, self.asm
+        veh, span = sys_.vehicle, sys_.span
+        t = (n + 1) * self.dt
+        f = asm.free
+        PtV, QtV = nm.increment_history(st.qd, st.qdd)
+        fV = sys_.vehicle_load() - veh.K @ st.q + veh.M @ PtV + veh.C @ QtV
+        PB, QB = nm.history(st.u, st.ud, st.udd)
+        fB = (span.M @ PB + self.CB @ QB)[f]
+        # predictors: each subsystem alone, no contact force
+        dq0 = self.A_V @ fV
+        uf0 = self.S_B @ fB
+        loc = sys_.contact_location(t)
+        nP = 2 * asm.nW
+        dq = dq0.copy()
+        u = np.zeros_like(st.u)
+        u[f] = uf0
+        P = st.P.copy()
+        self.iterations = 0
+        converged = Convergence()
+        for _ in range(NEWTON_ITERATIONS):
+            self.iterations += 1
+            q = st.q + dq
+            qd, qdd = nm.update_increment(dq, PtV, QtV)
+            ud, udd = nm.update(u, PB, QB)
+            GV = np.zeros((nP, asm.nV))  # force directions
+            GB = np.zeros((nP, asm.nF))
+            JV = np.zeros((nP, asm.nV))  # constraint rows
+            JB = np.zeros((nP, asm.nF))
+            E = np.zeros(nP)
+            for w, (e, xi) in enumerate(loc):
+                k = self.kernels[w]
+                cols = asm.columns(w, e)
+                z, zd, zdd = (asm.z(w, e, a, b) for a, b in ((q, u), (qd, ud), (qdd, udd)))
+                grad = k.gradient(z, xi)
+                jac = k.residual_jacobian(z, zd, zdd, xi, nm.a1, nm.a0)
+                E[2 * w : 2 * w + 2] = k.residual(z, zd, zdd, xi)
+                veh_cols, deck = cols[:4], cols[4:]
+                on = deck >= 0
+                r = slice(2 * w, 2 * w + 2)
+                GV[r, veh_cols] = grad[:, :4]
+                JV[r, veh_cols] = jac[:, :4]
+                GB[r, deck[on] - asm.oB] = grad[:, 4:][:, on]
+                JB[r, deck[on] - asm.oB] = jac[:, 4:][:, on]
+            AV = self.A_V @ GV.T  # vehicle response to unit contact forces
+            SB = self.S_B @ GB.T  # span response
+            interface = JV @ AV + JB @ SB
+            rhs = -E + JV @ (dq - dq0) + JB @ (u[f] - uf0)
+            P_new = np.linalg.solve(interface, rhs)
+            dq_new = dq0 + AV @ P_new
+            uf_new = uf0 + SB @ P_new
+            change = max(np.abs(dq_new - dq).max(), np.abs(uf_new - u[f]).max())
+            dq, P = dq_new, P_new
+            u[f] = uf_new
+            if converged(change, max(np.abs(st.q + dq).max(), np.abs(u).max())):
+                break
+        st.qd, st.qdd = nm.update_increment(dq, PtV, QtV)
+        st.q = st.q + dq
+        st.ud, st.udd = nm.update(u, PB, QB)
+        st.u = u
+        st.P = P
+        st.t = t
+        return st
+
+    def gaps(self) -> np.ndarray:
+        """Normal gaps of every contact at the state's time (m), wheelset by wheelset."""
+        st, asm = self.state, self.asm
+        out = []
+        for w, (e, xi) in enumerate(self.system.contact_location(st.t)):
+            out.extend(self.kernels[w].gap(asm.z(w, e, st.q, st.u), xi))
+        return np.array(out)
