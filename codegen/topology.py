@@ -388,6 +388,11 @@ def _parse_parameters(source: str, raw: Any) -> dict[str, Parameter]:
     return params
 
 
+_NUMBER = re.compile(r"(?<![A-Za-z0-9_.])(?:\d+\.?\d*|\.\d+)(?:[eE][+-]?\d+)?")
+"""A number literal, in plain or scientific notation, that is not part of a name (``k1e5``)."""
+_NAME = re.compile(r"[A-Za-z_][A-Za-z0-9_]*")
+
+
 def _parse_expr(
     source: str, key: str, raw: Any, symbols: dict[str, sp.Symbol], params: dict[str, Parameter]
 ) -> sp.Expr:
@@ -395,7 +400,7 @@ def _parse_expr(
         raise TopologyError(source, key, f"must be an expression string or a number, got {raw!r}")
     if isinstance(raw, int | float):
         return sp.nsimplify(raw)
-    names = set(re.findall(r"[A-Za-z_][A-Za-z0-9_]*", raw))
+    names = set(_NAME.findall(_NUMBER.sub(" ", raw)))  # 1.0e6 is a number, not 1.0 and a name e6
     unknown = sorted(n for n in names if n not in symbols)
     if unknown:
         raise TopologyError(source, key, f"unknown parameter(s) {', '.join(unknown)} in {raw!r}")
