@@ -157,7 +157,7 @@ def _discard(path: Path) -> None:
     shutil.rmtree(aside, ignore_errors=True)
 
 
-def _host_tag() -> str:
+def host_tag() -> str:
     """Short tag of this machine: a cache folder may be shared, and a pid means something only on the
     machine that made the folder."""
     import socket
@@ -168,10 +168,10 @@ def _host_tag() -> str:
 def new_build_folder(root: Path, key: str) -> Path:
     """A fresh build folder ``.build-<key>-<host>-<pid>-<random>`` in ``root``: its owner can be told
     dead or alive by :func:`remove_stale_builds`."""
-    return Path(tempfile.mkdtemp(prefix=f"{BUILD_PREFIX}{key[:12]}-{_host_tag()}-{os.getpid()}-", dir=root))
+    return Path(tempfile.mkdtemp(prefix=f"{BUILD_PREFIX}{key[:12]}-{host_tag()}-{os.getpid()}-", dir=root))
 
 
-def _pid_alive(pid: int) -> bool:
+def pid_alive(pid: int) -> bool:
     try:
         os.kill(pid, 0)
     except ProcessLookupError:
@@ -189,7 +189,7 @@ def remove_stale_builds(root: Path) -> None:
         folders = [p for p in root.iterdir() if p.name.startswith((BUILD_PREFIX, ".stale-", ".gen-"))]
     except OSError:
         return
-    host, now = _host_tag(), time.time()
+    host, now = host_tag(), time.time()
     for folder in folders:
         parts = folder.name[len(BUILD_PREFIX) :].split("-")
         dead = (
@@ -197,7 +197,7 @@ def remove_stale_builds(root: Path) -> None:
             and len(parts) >= 4
             and parts[1] == host
             and parts[2].isdigit()
-            and not _pid_alive(int(parts[2]))
+            and not pid_alive(int(parts[2]))
         )
         try:
             old = now - folder.stat().st_mtime > STALE_BUILD_S

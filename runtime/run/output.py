@@ -8,10 +8,10 @@
 * :func:`incomplete_path`: incomplete results (a diverged or interrupted run) go to
   ``<stem>.incomplete.nc`` beside the requested file, never onto it: a file at ``-o`` is always a
   complete run.
-* :func:`signals_interrupt`: while it is active, SIGINT and SIGTERM raise :class:`RunInterrupted`
-  in the main thread, so that ``finally`` clauses run (temporary files removed, compile folders
-  deleted) and the time loop can hand back what it computed. Python's default for SIGTERM is to die
-  on the spot, with no clean-up at all.
+* :func:`signals_interrupt`: while it is active, SIGINT, SIGTERM and SIGHUP (the terminal closed)
+  raise :class:`RunInterrupted` in the main thread, so that ``finally`` clauses run (temporary files
+  removed, compile folders deleted) and the time loop can hand back what it computed. Python's
+  default for SIGTERM and SIGHUP is to die on the spot, with no clean-up at all.
 """
 
 from __future__ import annotations
@@ -38,7 +38,7 @@ class OutputPathError(ValueError):
 
 
 class RunInterrupted(KeyboardInterrupt):
-    """SIGINT or SIGTERM arrived. ``results`` holds what the time loop had computed (or None when
+    """SIGINT, SIGTERM or SIGHUP arrived. ``results`` holds what the time loop had computed (or None when
     the signal came before or after the loop); ``exit_code`` is ``128 + signal number``."""
 
     def __init__(self, signum: int, results: xr.Dataset | None = None) -> None:
@@ -179,13 +179,19 @@ def check_output(raw: str | os.PathLike[str], inputs: dict[str, Path] | Iterable
 # signals
 
 
+INTERRUPTING = tuple(
+    getattr(signal, name) for name in ("SIGINT", "SIGTERM", "SIGHUP") if hasattr(signal, name)
+)
+"""The signals that stop a run cleanly (exit status 128 + the signal's number: 130, 143, 129)."""
+
+
 def _raise(signum: int, frame: Any) -> None:
     raise RunInterrupted(signum)
 
 
 @contextlib.contextmanager
 def signals_interrupt() -> Iterator[None]:
-    """SIGINT and SIGTERM raise :class:`RunInterrupted` inside the block (main thread only).
+    """SIGINT, SIGTERM and SIGHUP raise :class:`RunInterrupted` inside the block (main thread only).
 
     A signal that the process inherited as ignored (``nohup``, a shell's background job) stays
     ignored; the previous handlers come back on exit.
@@ -196,7 +202,7 @@ def signals_interrupt() -> Iterator[None]:
         yield
         return
     previous: dict[int, Any] = {}
-    for signum in (signal.SIGINT, signal.SIGTERM):
+    for signum in INTERRUPTING:
         current = signal.getsignal(signum)
         if current is signal.SIG_IGN:
             continue
