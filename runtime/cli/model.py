@@ -11,6 +11,7 @@ from typing import TYPE_CHECKING, Any, NoReturn
 
 import typer
 
+from svbi.codegen.input_files import MAX_TOML_BYTES, InputFileError, TOMLNestingError, loads_toml, read_text
 from svbi.codegen.plain_types import TopologyError, spin_dofs
 
 from ...examples import paper_section_keys
@@ -366,8 +367,8 @@ def _scenario_modes(path: str, sets: list[str]) -> tuple[str, dict[str, Any], di
     if p.suffix != ".toml" or not p.is_file():
         return None
     try:
-        data = tomllib.loads(p.read_text(encoding="utf-8"))
-    except (OSError, UnicodeDecodeError, tomllib.TOMLDecodeError):
+        data = loads_toml(read_text(p, MAX_TOML_BYTES))
+    except (InputFileError, TOMLNestingError, tomllib.TOMLDecodeError):
         return None  # not a scenario: the topology loader says what is wrong with it
     if not ("bridge" in data and "train" in data):
         return None
@@ -396,8 +397,8 @@ def _parse_sets(items: list[str]) -> tuple[dict[str, Any], dict[str, float]]:
             _fail(f"expected name=value, got {item!r}")
         name, raw = (s.strip() for s in item.split("=", 1))
         try:
-            value = tomllib.loads(f"x = {raw}")["x"]
-        except tomllib.TOMLDecodeError:
+            value = loads_toml(f"x = {raw}")["x"]
+        except (tomllib.TOMLDecodeError, TOMLNestingError):
             _fail(f"{name}: cannot parse value {raw!r}")
         if name in BRIDGE_KEYS:
             if isinstance(value, bool) or not isinstance(value, int | float) or not 0 < value < math.inf:

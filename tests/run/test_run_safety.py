@@ -401,7 +401,9 @@ def test_a_signal_during_the_loop_saves_what_was_computed_as_incomplete(
 
 
 def test_sigterm_during_an_atomic_write_leaves_no_temporary_file(tmp_path: Path) -> None:
-    """The write is slow (it sleeps inside); SIGTERM arrives while the temporary file exists."""
+    """The write is slow (it sleeps inside); SIGTERM arrives while the temporary file exists. It is
+    acted on once the write is done, before the rename (``run.atomic``): the temporary file is
+    removed and the previous file kept."""
     target = tmp_path / "r.nc"
     target.write_bytes(PREVIOUS)
     code = textwrap.dedent(
@@ -414,7 +416,7 @@ def test_sigterm_during_an_atomic_write_leaves_no_temporary_file(tmp_path: Path)
         def slow(tmp: Path) -> None:
             tmp.write_bytes(b"partial")
             print("writing", flush=True)
-            time.sleep(60)
+            time.sleep(3)
 
         with signals_interrupt():
             write_atomic({str(target)!r}, slow)
@@ -431,6 +433,7 @@ def test_sigterm_during_an_atomic_write_leaves_no_temporary_file(tmp_path: Path)
     finally:
         if proc.poll() is None:
             proc.kill()
+    assert proc.returncode != 0  # the RunInterrupted of SIGTERM, raised before the rename
     assert _debris(tmp_path) == []
     assert target.read_bytes() == PREVIOUS
 
