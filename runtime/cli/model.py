@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import json
 import math
+import os
 import tomllib
 from enum import StrEnum
 from pathlib import Path
@@ -364,7 +365,7 @@ def _scenario_modes(path: str, sets: list[str]) -> tuple[str, dict[str, Any], di
     """A scenario file (a TOML file with ``[bridge]`` and ``[train]`` tables, not a topology) as
     (vehicle reference, its parameter values, its span's keys); None for anything else."""
     p = Path(path)
-    if p.suffix != ".toml" or not p.is_file():
+    if p.suffix != ".toml" or not os.path.isfile(p):
         return None
     try:
         data = loads_toml(read_text(p, MAX_TOML_BYTES))

@@ -173,9 +173,9 @@ def read_results(path: str | os.PathLike[str]) -> xr.Dataset:
     Raises ResultsFileError naming the file, and the variable where one is missing or malformed.
     """
     path = Path(path)
-    if not path.exists():
+    if not os.path.lexists(path):  # os.path: a name too long is "not found", not a traceback
         raise ResultsFileError(f"{path}: file not found")
-    if not path.is_file():
+    if not os.path.isfile(path):
         raise ResultsFileError(f"{path}: not a file")
     try:
         # Time is seconds from the start of the run (docs/design.md section 7); a units attribute such as

@@ -155,3 +155,21 @@ def test_plot_into_an_uncreatable_folder(results: Path, files: dict[str, Path]) 
 
 def test_plot_into_an_over_long_name(results: Path, tmp_path: Path) -> None:
     _one_line_error(runner.invoke(app, ["plot", str(results), "-o", str(tmp_path / LONG)]), "too long")
+
+
+@pytest.mark.parametrize(
+    "args",
+    [
+        ["modes", f"{LONG}.toml"],
+        ["derive", f"{LONG}.toml"],
+        ["plot", f"{LONG}.nc"],
+        ["metrics", f"{LONG}.nc"],
+        ["run", f"{LONG}.toml", "-o", "r.nc"],
+        ["sweep", f"{LONG}.toml", "-o", "s.nc"],
+        ["export", f"{LONG}.toml", "out"],
+    ],
+    ids=lambda args: args[0],
+)
+def test_an_over_long_input_name(tmp_path: Path, monkeypatch: pytest.MonkeyPatch, args: list[str]) -> None:
+    monkeypatch.chdir(tmp_path)
+    _one_line_error(runner.invoke(app, args), LONG[:50])
