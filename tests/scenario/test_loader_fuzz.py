@@ -1,4 +1,4 @@
-"""Fuzzing the loaders of user files: scenario, study, topology, rail profile and record.
+"""Fuzzing the loaders of user files: scenario, study, topology (2D and 3D), rail profile and record.
 
 Random bytes, random text, TOML-shaped documents with svbi's own keys, and special files (a FIFO,
 ``/dev/zero``, a folder, a symbolic-link loop) must end in the loader's own error (``ScenarioError``,
@@ -23,6 +23,7 @@ from hypothesis import strategies as st
 
 from svbi.codegen.plain_types import TopologyError
 from svbi.codegen.topology import load_topology
+from svbi.codegen.topology3d import load_topology3d
 from svbi.runtime.excitation.irregularity import read_profile
 from svbi.runtime.excitation.records import RecordError, read_record
 from svbi.runtime.scenario.schema import ScenarioError, load_scenario
@@ -71,6 +72,7 @@ LOADERS: dict[str, tuple[Callable[[Path], object], type[Exception], bool]] = {
     "scenario": (_scenario, ScenarioError, False),  # one line per problem, below a heading
     "study": (load_study, StudyError, False),
     "topology": (load_topology, TopologyError, True),
+    "topology3d": (load_topology3d, TopologyError, True),
     "profile": (_profile, ValueError, True),
     "record": (_record, RecordError, True),
 }
@@ -134,7 +136,7 @@ def test_random_text(tmp_path: Path, name: str, text: str) -> None:
     _load(name, path)
 
 
-@pytest.mark.parametrize("name", ["scenario", "study", "topology"])
+@pytest.mark.parametrize("name", ["scenario", "study", "topology", "topology3d"])
 @SETTINGS
 @given(doc=TOML_LIKE)
 def test_toml_shaped_documents(tmp_path: Path, name: str, doc: dict) -> None:
