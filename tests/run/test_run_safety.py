@@ -89,13 +89,17 @@ def _debris(folder: Path) -> list[str]:
 
 @pytest.fixture
 def no_simulation(monkeypatch: pytest.MonkeyPatch) -> None:
-    """Fail the test if the run reaches the simulation (the check must come first)."""
+    """Fail the test if the run reaches the simulation (the check must come first). The command's
+    module is imported first and patched where it looks the function up: imported for the first time
+    under the patch, it would keep the refusing function for the tests that come after."""
+    import svbi.runtime.cli.run as cli_run
     import svbi.runtime.run.simulate as sim
 
     def refuse(*args, **kwargs):
         raise AssertionError("simulate() was called: the output path was not checked first")
 
     monkeypatch.setattr(sim, "simulate", refuse)
+    monkeypatch.setattr(cli_run, "simulate", refuse)
 
 
 # --------------------------------------------------------------------------------------------------
