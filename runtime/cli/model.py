@@ -353,9 +353,9 @@ def _load(model: str) -> VehicleModel:
 
 def _other_kind(path: str) -> str:
     """``path: this is a study file...`` when ``path`` is a TOML file of another kind than a topology."""
-    try:
-        data = tomllib.loads(Path(path).read_text(encoding="utf-8-sig"))
-    except (OSError, ValueError):  # not a readable TOML file: the topology loader's message stands
+    try:  # bounded: the topology loader has refused /dev/zero or a FIFO already, in its message
+        data = loads_toml(read_text(path, MAX_TOML_BYTES))
+    except ValueError:  # not a readable TOML file: the topology loader's message stands
         return ""
     kind = wrong_kind(data, "topology", path)
     return f"{path}: {kind}" if kind else ""

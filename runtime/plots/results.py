@@ -28,6 +28,8 @@ from matplotlib.axes import Axes
 from matplotlib.figure import Figure
 from matplotlib.lines import Line2D
 
+from svbi.codegen.input_files import MAX_TOML_BYTES, loads_toml, read_text
+
 from ..run.atomic import write_atomic
 from ..scenario.kinds import wrong_kind
 
@@ -199,11 +201,9 @@ def read_results(path: str | os.PathLike[str]) -> xr.Dataset:
 
 def _toml_kind(path: Path) -> str:
     """What a TOML file given as results is (a scenario, a study...), "" when it is not one."""
-    import tomllib
-
-    try:
-        data = tomllib.loads(path.read_text(encoding="utf-8-sig"))
-    except (OSError, ValueError):
+    try:  # bounded, and no RecursionError on a deeply nested file
+        data = loads_toml(read_text(path, MAX_TOML_BYTES))
+    except ValueError:
         return ""
     return wrong_kind(data, "results", str(path))
 
