@@ -260,7 +260,8 @@ SETUP_FIELDS = [
     F("I_lk_col_a", "double*", "general: nlinks x nd, the column of S_M at end a (0 for a spring)"),
     F("I_lk_col_b", "double*", "general: nlinks x nd, the column of S_M at end b (0 for a spring)"),
     F("I_lk_A", "double*", "general: nlinks x (band_links + 1), lower band of L S_M L^T (1 for a spring)"),
-    # a bridge of substructures (localized-dynamic; substructures.c, docs/c-backend.md "Bridges of substructures")
+    # a bridge of substructures (localized-dynamic; substructures.c,
+    # docs/c-backend.md "Bridges of substructures")
     F(
         "general",
         "int",

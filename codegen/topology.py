@@ -52,6 +52,7 @@ the front end rises, points ahead of the reference (smaller ``p``) go up.
 
 from __future__ import annotations
 
+import os
 import re
 import tomllib
 from collections.abc import Mapping
@@ -62,6 +63,7 @@ from typing import Any
 
 import sympy as sp
 
+from svbi.codegen.input_files import MAX_TOML_BYTES, InputFileError, TOMLNestingError, loads_toml, read_text
 from svbi.codegen.plain_types import TopologyError, builtin_topologies, check_value
 
 DOF_KINDS = ("z", "theta")
@@ -165,18 +167,21 @@ def load_topology(name_or_path: str | Path) -> Topology:
         text, source = ref.read_text(encoding="utf-8"), f"<built-in {candidate}>"
     else:
         path = Path(candidate)
-        if not path.is_file():
+        if not os.path.lexists(path):
             known = ", ".join(builtin_topologies())
             raise TopologyError(candidate, "vehicle", f"not a built-in vehicle ({known}) and no such file")
-        text, source = path.read_text(encoding="utf-8"), str(path)
+        try:  # a regular file of bounded size: never /dev/zero, a FIFO or a folder
+            text, source = read_text(path, MAX_TOML_BYTES), str(path)
+        except InputFileError as exc:
+            raise TopologyError(str(path), "file", exc.problem) from None
     return parse_topology(text, source)
 
 
 def parse_topology(text: str, source: str = "<string>") -> Topology:
     """Parse and validate the TOML text of a topology."""
     try:
-        data = tomllib.loads(text)
-    except tomllib.TOMLDecodeError as exc:
+        data = loads_toml(text)
+    except (tomllib.TOMLDecodeError, TOMLNestingError) as exc:
         raise TopologyError(source, "toml", f"malformed TOML: {exc}") from None
     if isinstance(data, dict) and data.get("dimensions", 2) != 2:
         raise TopologyError(
@@ -388,6 +393,11 @@ def _parse_parameters(source: str, raw: Any) -> dict[str, Parameter]:
     return params
 
 
+_NUMBER = re.compile(r"(?<![A-Za-z0-9_.])(?:\d+\.?\d*|\.\d+)(?:[eE][+-]?\d+)?")
+"""A number literal, in plain or scientific notation, that is not part of a name (``k1e5``)."""
+_NAME = re.compile(r"[A-Za-z_][A-Za-z0-9_]*")
+
+
 def _parse_expr(
     source: str, key: str, raw: Any, symbols: dict[str, sp.Symbol], params: dict[str, Parameter]
 ) -> sp.Expr:
@@ -395,7 +405,7 @@ def _parse_expr(
         raise TopologyError(source, key, f"must be an expression string or a number, got {raw!r}")
     if isinstance(raw, int | float):
         return sp.nsimplify(raw)
-    names = set(re.findall(r"[A-Za-z_][A-Za-z0-9_]*", raw))
+    names = set(_NAME.findall(_NUMBER.sub(" ", raw)))  # 1.0e6 is a number, not 1.0 and a name e6
     unknown = sorted(n for n in names if n not in symbols)
     if unknown:
         raise TopologyError(source, key, f"unknown parameter(s) {', '.join(unknown)} in {raw!r}")

@@ -59,6 +59,7 @@ positive lifts the left side), pitch ``theta`` lifts the front end (as in 2D: a 
 
 from __future__ import annotations
 
+import os
 import tomllib
 from collections.abc import Mapping
 from dataclasses import dataclass, field
@@ -68,6 +69,7 @@ from typing import Any
 
 import sympy as sp
 
+from svbi.codegen.input_files import MAX_TOML_BYTES, InputFileError, TOMLNestingError, loads_toml, read_text
 from svbi.codegen.plain_types import TopologyError
 from svbi.codegen.topology import (
     Parameter,
@@ -187,10 +189,14 @@ def load_topology3d(name_or_path: str | Path) -> Topology3D:
         ref = resources.files(PACKAGE).joinpath(f"{candidate}.toml")
         return parse_topology3d(ref.read_text(encoding="utf-8"), f"<built-in {candidate}>")
     path = Path(candidate)
-    if not path.is_file():
+    if not os.path.lexists(path):
         known = ", ".join(builtin_topologies_3d())
         raise TopologyError(candidate, "vehicle", f"not a built-in 3D vehicle ({known}) and no such file")
-    return parse_topology3d(path.read_text(encoding="utf-8"), str(path))
+    try:  # a regular file of bounded size: never /dev/zero, a FIFO or a folder
+        text = read_text(path, MAX_TOML_BYTES)
+    except InputFileError as exc:
+        raise TopologyError(str(path), "file", exc.problem) from None
+    return parse_topology3d(text, str(path))
 
 
 _TOP_KEYS = {
@@ -211,8 +217,8 @@ _TOP_KEYS = {
 def parse_topology3d(text: str, source: str = "<string>") -> Topology3D:
     """Parse and validate the TOML text of a 3D topology."""
     try:
-        data = tomllib.loads(text)
-    except tomllib.TOMLDecodeError as exc:
+        data = loads_toml(text)
+    except (tomllib.TOMLDecodeError, TOMLNestingError) as exc:
         raise TopologyError(source, "toml", f"malformed TOML: {exc}") from None
     only_keys(source, "", data, _TOP_KEYS)
     if data.get("dimensions") != 3:

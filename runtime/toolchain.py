@@ -9,20 +9,23 @@ one per output, whatever the backend:
     >>> kc = load_kernels("pioneer-2d", backend="casadi")  # same call, CasADi virtual machine
 
 The C backend compiles the model's sources with the system compiler (``$CC``, default ``cc``;
-flags ``-O3 -fPIC -shared``) into ``$SVBI_CACHE_DIR`` or ``~/.cache/svbi/<sha256>/``, where the
+flags ``-O3 -fPIC -shared``) into ``$SVBI_CACHE_DIR``, ``$XDG_CACHE_HOME/svbi`` or
+``~/.cache/svbi`` (``<sha256>/`` in it), where the
 hash covers the sources, the compiler command, its version text and the flags. An entry is built in
 a temporary folder and renamed into place, so a crash or a concurrent build never leaves a
 half-written entry; a build folder left by a killed compile is removed by the next build
 (:func:`remove_stale_builds`). A marker file records the sha256 of the library; an entry whose marker or
 library does not match, or that ``dlopen`` rejects, is rebuilt. With no working compiler the loader
 falls back to the CasADi backend and warns once; with an unwritable cache folder it builds in a
-temporary folder and says so.
+private temporary folder (``<temp>/svbi-cache-<uid>``, used only if it belongs to the user and is
+closed to others, else a fresh one) and says so.
 
 Kernel objects hold their own argument and work buffers: they are not thread-safe.
 """
 
 from __future__ import annotations
 
+import atexit
 import ctypes
 import functools
 import hashlib
@@ -30,6 +33,7 @@ import json
 import os
 import shlex
 import shutil
+import stat
 import subprocess
 import tempfile
 import time
@@ -91,26 +95,88 @@ def _writable(folder: Path) -> OSError | None:
     return None
 
 
+def default_cache_root() -> Path:
+    """``$SVBI_CACHE_DIR``, else ``$XDG_CACHE_HOME/svbi`` (an absolute ``XDG_CACHE_HOME`` only, as
+    the XDG specification says), else ``~/.cache/svbi``."""
+    if os.environ.get("SVBI_CACHE_DIR"):
+        return Path(os.environ["SVBI_CACHE_DIR"])
+    xdg = os.environ.get("XDG_CACHE_HOME", "")
+    if xdg and os.path.isabs(xdg):
+        return Path(xdg) / "svbi"
+    return Path.home() / ".cache" / "svbi"
+
+
 def cache_root(cache_dir: str | os.PathLike[str] | None = None) -> Path:
-    """The cache folder: ``cache_dir``, ``$SVBI_CACHE_DIR`` or ``~/.cache/svbi``, else a temp folder."""
-    if cache_dir is not None:
-        root = Path(cache_dir)
-    elif os.environ.get("SVBI_CACHE_DIR"):
-        root = Path(os.environ["SVBI_CACHE_DIR"])
-    else:
-        root = Path.home() / ".cache" / "svbi"
+    """The cache folder: ``cache_dir``, else :func:`default_cache_root`; if that cannot be written,
+    a private folder in the temporary folder (:func:`_fallback_root`)."""
+    root = Path(cache_dir) if cache_dir is not None else default_cache_root()
     problem = _writable(root)
     if problem is None:
         return root
-    fallback = Path(tempfile.gettempdir()) / f"svbi-cache-{os.getuid() if hasattr(os, 'getuid') else 'user'}"
+    fallback = _fallback_root()
     _warn_once(
         f"cache:{root}",
         f"svbi: the kernel cache folder {root} is not writable ({problem}); using {fallback} instead. "
         "Set SVBI_CACHE_DIR to a writable folder to keep compiled kernels between sessions.",
         CacheWarning,
     )
-    fallback.mkdir(parents=True, exist_ok=True)
     return fallback
+
+
+_fallbacks: dict[str, Path] = {}
+
+
+def private_folder_problem(folder: Path) -> str | None:
+    """Why ``folder`` is not safe to load compiled code from (None if it is): it must be a folder,
+    not a symbolic link, belong to this user and be closed to everybody else (mode 0700 or
+    stricter), so that no other user can plant a library in it."""
+    try:
+        st = os.lstat(folder)
+    except OSError as exc:
+        return f"cannot be used ({exc.strerror or exc})"
+    if stat.S_ISLNK(st.st_mode):
+        return "is a symbolic link"
+    if not stat.S_ISDIR(st.st_mode):
+        return "is not a folder"
+    if hasattr(os, "getuid") and st.st_uid != os.getuid():
+        return f"belongs to another user (uid {st.st_uid})"
+    if stat.S_IMODE(st.st_mode) & 0o077:
+        return f"is open to other users (mode {stat.S_IMODE(st.st_mode):o}, not 700)"
+    return None
+
+
+def _fallback_root() -> Path:
+    """``<temp>/svbi-cache-<uid>``, created private (mode 0700), if it is this user's and private
+    (:func:`private_folder_problem`); otherwise a fresh private folder for this process (removed at
+    exit), with a warning that says why. Looked up once per process."""
+    uid = os.getuid() if hasattr(os, "getuid") else "user"
+    temp = tempfile.gettempdir()
+    if temp in _fallbacks:
+        return _fallbacks[temp]
+    shared = Path(temp) / f"svbi-cache-{uid}"
+    try:
+        shared.mkdir(mode=0o700)
+    except FileExistsError:
+        pass
+    except OSError:
+        pass  # reported by the checks below
+    problem = private_folder_problem(shared)
+    if problem is None and (error := _writable(shared)) is not None:
+        problem = f"is not writable ({error.strerror or error})"
+    if problem is None:
+        _fallbacks[temp] = shared
+        return shared
+    fresh = Path(tempfile.mkdtemp(prefix=f"svbi-cache-{uid}-"))  # private by construction
+    atexit.register(shutil.rmtree, fresh, ignore_errors=True)
+    _warn_once(
+        f"fallback:{shared}",
+        f"svbi: {shared} {problem}: compiled code is never loaded from it; using {fresh} for this "
+        "process only (compiled again by every run). Remove that folder, or set SVBI_CACHE_DIR to a "
+        "folder of your own.",
+        CacheWarning,
+    )
+    _fallbacks[temp] = fresh
+    return fresh
 
 
 def compiler_command() -> list[str]:
@@ -159,7 +225,7 @@ def _discard(path: Path) -> None:
     shutil.rmtree(aside, ignore_errors=True)
 
 
-def _host_tag() -> str:
+def host_tag() -> str:
     """Short tag of this machine: a cache folder may be shared, and a pid means something only on the
     machine that made the folder."""
     import socket
@@ -170,10 +236,10 @@ def _host_tag() -> str:
 def new_build_folder(root: Path, key: str) -> Path:
     """A fresh build folder ``.build-<key>-<host>-<pid>-<random>`` in ``root``: its owner can be told
     dead or alive by :func:`remove_stale_builds`."""
-    return Path(tempfile.mkdtemp(prefix=f"{BUILD_PREFIX}{key[:12]}-{_host_tag()}-{os.getpid()}-", dir=root))
+    return Path(tempfile.mkdtemp(prefix=f"{BUILD_PREFIX}{key[:12]}-{host_tag()}-{os.getpid()}-", dir=root))
 
 
-def _pid_alive(pid: int) -> bool:
+def pid_alive(pid: int) -> bool:
     try:
         os.kill(pid, 0)
     except ProcessLookupError:
@@ -191,7 +257,7 @@ def remove_stale_builds(root: Path) -> None:
         folders = [p for p in root.iterdir() if p.name.startswith((BUILD_PREFIX, ".stale-", ".gen-"))]
     except OSError:
         return
-    host, now = _host_tag(), time.time()
+    host, now = host_tag(), time.time()
     for folder in folders:
         parts = folder.name[len(BUILD_PREFIX) :].split("-")
         dead = (
@@ -199,7 +265,7 @@ def remove_stale_builds(root: Path) -> None:
             and len(parts) >= 4
             and parts[1] == host
             and parts[2].isdigit()
-            and not _pid_alive(int(parts[2]))
+            and not pid_alive(int(parts[2]))
         )
         try:
             old = now - folder.stat().st_mtime > STALE_BUILD_S

@@ -23,6 +23,7 @@ from typing import Annotated
 import typer
 
 from ..run.atomic import write_atomic
+from ..run.output import OutputPathError, prepare_folder
 from ..run.results import write_netcdf
 from ..run.simulate import SimulationIncomplete, simulate
 from ..scenario.schema import ScenarioError, load_scenario
@@ -71,7 +72,11 @@ def demo(
         overrides.append('title="Paper 2020, quick: 2 Pioneer cars, 2 x 32 m spans, 300 km/h, dt = 5e-4 s"')
     if backend:
         overrides.append(f"solver.backend={backend}")
-    out.mkdir(parents=True, exist_ok=True)
+    try:  # before anything runs: an existing file or an uncreatable folder is one line
+        prepare_folder(out, "-o")
+    except OutputPathError as exc:
+        typer.echo(f"error: {exc}", err=True)
+        raise typer.Exit(2) from None
     results = {}
     for method in METHODS:
         started = time.perf_counter()  # set-up counts from the scenario load

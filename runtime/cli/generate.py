@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import difflib
+import os
 import tempfile
 from pathlib import Path
 
@@ -10,7 +11,8 @@ import typer
 
 from svbi.codegen.loop_abi import GLUE_NAMES
 
-from ..run.export import PROGRAM, write_solver
+from ..run.export import PROGRAM, example_scenario, scenario_files
+from ..run.output import OutputPathError, prepare_folder
 from ..scenario.schema import ScenarioError, load_scenario
 from ..toolchain import generated_root
 
@@ -217,8 +219,14 @@ def export(
     embedded: bool = typer.Option(
         False, "--embedded", help="32-bit casadi_int and no stack temporaries (small embedded targets)."
     ),
+    force: bool = typer.Option(
+        False, "--force", help="Overwrite files of the same name in FOLDER (refused otherwise)."
+    ),
 ) -> None:
     """Write a model's C kernels, header, Makefile, CMakeLists.txt and example main.c to FOLDER.
+
+    Files of the same name already in FOLDER with other content (your own main.c or Makefile) are
+    not overwritten: the export is refused unless --force.
 
     With --solver, the folder also holds the whole Newmark time loop (docs/c-backend.md) and the
     example program runs a scenario with it. The folder builds with `make` (or CMake, kernels only)
@@ -228,31 +236,69 @@ def export(
     from svbi.codegen import c_emit
     from svbi.codegen.kernels import skip_reason
 
-    reason = skip_reason(model)
-    if reason and not solver:
-        typer.echo(f"nothing to export: {reason}", err=True)
-        raise typer.Exit(1)
-    exported: dict[str, bytes] = {}
-    name = model
-    if not reason:
-        name, files = _render(model, embedded=embedded)
-        exported = {n: d for n, d in files.items() if n.endswith(EXPORTED_SUFFIXES) and n not in GLUE_NAMES}
-    if not solver:
-        c_emit.write_files(exported, folder, prune=False)
-        typer.echo(f"exported {name} to {folder} ({len(exported)} files): build with `make -C {folder}`")
-        return
-    # the solver's example replaces the kernels' example program and build files
-    kernels = {n: d for n, d in exported.items() if n not in ("main.c", "Makefile", "CMakeLists.txt")}
     try:
+        folder = _export_folder(folder)
+        reason = skip_reason(model)
+        if reason and not solver:
+            typer.echo(f"nothing to export: {reason}", err=True)
+            raise typer.Exit(1)
+        exported: dict[str, bytes] = {}
+        name = model
+        if not reason:
+            name, files = _render(model, embedded=embedded)
+            exported = {
+                n: d for n, d in files.items() if n.endswith(EXPORTED_SUFFIXES) and n not in GLUE_NAMES
+            }
+        if not solver:
+            _refuse_overwrite(folder, exported, force)
+            c_emit.write_files(exported, folder, prune=False)
+            typer.echo(f"exported {name} to {folder} ({len(exported)} files): build with `make -C {folder}`")
+            return
+        # the solver's example replaces the kernels' example program and build files
+        kernels = {n: d for n, d in exported.items() if n not in ("main.c", "Makefile", "CMakeLists.txt")}
         sc = load_scenario(scenario) if scenario is not None else None
-        _, files = write_solver(model, folder, sc, extra=kernels, embedded=embedded)
-    except (ScenarioError, ValueError) as exc:
+        files, _ = scenario_files(model, sc or example_scenario(model), kernels, embedded)
+        _refuse_overwrite(folder, files, force)
+        c_emit.write_files(files, folder, prune=False)
+    except (ScenarioError, ValueError) as exc:  # TopologyError, InputFileError, OutputPathError
         typer.echo(f"error: {exc}", err=True)
+        raise typer.Exit(2) from None
+    except OSError as exc:  # the folder could be created, but not a file in it (full disk...)
+        typer.echo(f"error: cannot write to {folder}: {exc.strerror or exc}", err=True)
         raise typer.Exit(2) from None
     typer.echo(
         f"exported {name} with the C time loop to {folder} ({len(files)} files): build with "
         f"`make -C {folder}`, run `{folder}/{PROGRAM} results.csv`"
     )
+
+
+def _export_folder(folder: Path) -> Path:
+    """The export folder, checked before anything is rendered (created when the files are
+    written); :class:`OutputPathError` in one line if it cannot take them."""
+    return prepare_folder(folder, "FOLDER", create=False)
+
+
+def _refuse_overwrite(folder: Path, files: dict[str, bytes], force: bool) -> None:
+    """Refuse (:class:`OutputPathError`) files of ``folder`` that the export would replace by other
+    content, unless ``force``; the same content is no loss."""
+    if force:
+        return
+    clashes = []
+    for name, data in files.items():
+        path = folder / name
+        if os.path.lexists(path):
+            try:
+                same = path.is_file() and path.read_bytes() == data
+            except OSError:
+                same = False
+            if not same:
+                clashes.append(name)
+    if clashes:
+        listed = ", ".join(sorted(clashes))
+        raise OutputPathError(
+            f"{folder} already holds {listed}, which the export would overwrite; export into another "
+            "folder, or pass --force to overwrite them"
+        )
 
 
 def register(app: typer.Typer) -> None:

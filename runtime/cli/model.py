@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import json
 import math
+import os
 import tomllib
 from enum import StrEnum
 from pathlib import Path
@@ -11,6 +12,7 @@ from typing import TYPE_CHECKING, Any, NoReturn
 
 import typer
 
+from svbi.codegen.input_files import MAX_TOML_BYTES, InputFileError, TOMLNestingError, loads_toml, read_text
 from svbi.codegen.plain_types import TopologyError, spin_dofs
 
 from ...examples import paper_section_keys
@@ -354,9 +356,9 @@ def _load(model: str) -> VehicleModel:
 
 def _other_kind(path: str) -> str:
     """``path: this is a study file...`` when ``path`` is a TOML file of another kind than a topology."""
-    try:
-        data = tomllib.loads(Path(path).read_text(encoding="utf-8-sig"))
-    except (OSError, ValueError):  # not a readable TOML file: the topology loader's message stands
+    try:  # bounded: the topology loader has refused /dev/zero or a FIFO already, in its message
+        data = loads_toml(read_text(path, MAX_TOML_BYTES))
+    except ValueError:  # not a readable TOML file: the topology loader's message stands
         return ""
     kind = wrong_kind(data, "topology", path)
     return f"{path}: {kind}" if kind else ""
@@ -366,11 +368,11 @@ def _scenario_modes(path: str, sets: list[str]) -> tuple[str, dict[str, Any], di
     """A scenario file (a TOML file with ``[bridge]`` and ``[train]`` tables, not a topology) as
     (vehicle reference, its parameter values, its span's keys); None for anything else."""
     p = Path(path)
-    if p.suffix != ".toml" or not p.is_file():
+    if p.suffix != ".toml" or not os.path.isfile(p):
         return None
     try:
-        data = tomllib.loads(p.read_text(encoding="utf-8"))
-    except (OSError, UnicodeDecodeError, tomllib.TOMLDecodeError):
+        data = loads_toml(read_text(p, MAX_TOML_BYTES))
+    except (InputFileError, TOMLNestingError, tomllib.TOMLDecodeError):
         return None  # not a scenario: the topology loader says what is wrong with it
     if not ("bridge" in data and "train" in data):
         return None
@@ -399,8 +401,8 @@ def _parse_sets(items: list[str]) -> tuple[dict[str, Any], dict[str, float]]:
             _fail(f"expected name=value, got {item!r}")
         name, raw = (s.strip() for s in item.split("=", 1))
         try:
-            value = tomllib.loads(f"x = {raw}")["x"]
-        except tomllib.TOMLDecodeError:
+            value = loads_toml(f"x = {raw}")["x"]
+        except (tomllib.TOMLDecodeError, TOMLNestingError):
             _fail(f"{name}: cannot parse value {raw!r}")
         if name in BRIDGE_KEYS:
             if isinstance(value, bool) or not isinstance(value, int | float) or not 0 < value < math.inf:

@@ -8,6 +8,7 @@ from typing import TYPE_CHECKING
 import typer
 
 from ..run.atomic import write_atomic
+from ..run.output import OutputPathError, prepare_folder
 from ..study.store import is_store, read_store
 
 if TYPE_CHECKING:
@@ -27,14 +28,21 @@ def _read(paths: list[Path]) -> list[xr.Dataset]:
         raise typer.Exit(2) from None
 
 
+def _prepare(out_dir: Path) -> None:
+    """Create the figures' folder, or refuse it in one line (exit 2)."""
+    try:
+        prepare_folder(out_dir, "-o")
+    except OutputPathError as exc:
+        typer.echo(f"error: {exc}", err=True)
+        raise typer.Exit(2) from None
+
+
 def _draw(paths: list[Path], out_dir: Path) -> None:
     # deferred: plots bring matplotlib (about 0.3 s), which only figures need
     from ..plots.results import default_labels, plot_results, summary_text
 
     datasets = _read(paths)
-    if out_dir.exists() and not out_dir.is_dir():
-        typer.echo(f"error: {out_dir}: output folder exists and is not a folder", err=True)
-        raise typer.Exit(2)
+    _prepare(out_dir)
     results = dict(zip(default_labels(datasets, [p.stem for p in paths]), datasets, strict=True))
     written = plot_results(results, out_dir)
     text = summary_text(results)
@@ -81,6 +89,7 @@ def _draw_store(
     # deferred: plots bring matplotlib (about 0.3 s), which only figures need
     from ..plots.study import plot_store
 
+    _prepare(out_dir)
     try:
         written, text = plot_store(read_store(path), out_dir, metric, axis, by, limit, intensity)
     except ValueError as exc:

@@ -2,9 +2,9 @@
 
 Exit status: 0 on success; 2 for an invalid scenario, option or output path, or a run above the memory
 limit (all found before anything is computed); 3 when the run diverged; 4 when the results could not
-be written (full disk...; the previous file is kept); 130 / 143 when SIGINT (Ctrl-C) / SIGTERM stopped
-it. Incomplete results (diverged or interrupted) are written to ``<stem>.incomplete.nc``, marked
-``complete = 0``, never onto the ``-o`` file.
+be written (full disk...; the previous file is kept); 130 / 143 / 129 when SIGINT (Ctrl-C) /
+SIGTERM / SIGHUP stopped it. Incomplete results (diverged or interrupted) are written to
+``<stem>.incomplete.nc``, marked ``complete = 0``, never onto the ``-o`` file.
 """
 
 from __future__ import annotations
@@ -72,10 +72,12 @@ def run(
 
     Exit status: 0 done; 2 invalid scenario, option or output path, or a run too large for the
     memory limit (nothing computed); 3 the run diverged; 4 the results could not be written (the
-    previous file is kept); 130 / 143 interrupted by SIGINT (Ctrl-C) / SIGTERM.
+    previous file is kept); 130 / 143 / 129 interrupted by SIGINT (Ctrl-C) / SIGTERM / SIGHUP.
     """
     started = time.perf_counter()  # set-up counts from here: the scenario load is part of it
-    with signals_interrupt():  # from here on SIGTERM, like Ctrl-C, unwinds: finally clauses clean up
+    with (
+        signals_interrupt()
+    ):  # from here on SIGTERM and SIGHUP, like Ctrl-C, unwind: finally clauses clean up
         try:
             _run(scenario, output, set_ or [], max_memory, quiet, started)
         except RunInterrupted as exc:  # before or after the loop: no results to keep
@@ -176,8 +178,11 @@ def _write(ds, path: Path, cause: str = "") -> Path:  # noqa: ANN001 - xarray.Da
         typer.echo(f"{first}cannot write {what}{path}: {reason}; {kept}", err=True)
         raise typer.Exit(EXIT_WRITE) from None
     except RunInterrupted as exc:
-        kept = "the previous file is kept" if path.exists() else "nothing written"
-        typer.echo(f"{first}interrupted by {exc.signal_name} while writing {path}; {kept}", err=True)
+        if getattr(exc, "written", None) is not None:  # the signal came just after the rename
+            typer.echo(f"{first}interrupted by {exc.signal_name} after writing {path}", err=True)
+        else:  # during the write: acted on before the rename (run.atomic), nothing replaced
+            kept = "the previous file is kept" if path.exists() else "nothing written"
+            typer.echo(f"{first}interrupted by {exc.signal_name} while writing {path}; {kept}", err=True)
         raise typer.Exit(exc.exit_code) from None
 
 

@@ -26,12 +26,15 @@ from __future__ import annotations
 
 import functools
 import math
+import os
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Literal, Protocol
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
+
+from svbi.codegen.input_files import MAX_DATA_BYTES, InputFileError, read_bytes
 
 from .piecewise import Pieces, PiecewisePolynomial, horner
 from .textfile import decode_text
@@ -512,10 +515,10 @@ def measured_profile_3d(path: str | Path) -> dict[str, SampledIrregularity]:
 def _read_columns(path: str | Path, three_d: bool) -> tuple[NDArray[np.float64], list[NDArray[np.float64]]]:
     """x and the value columns of a profile file (2 columns, or 2 to 4 when ``three_d``)."""
     p = Path(path)
-    try:
-        text = decode_text(p.read_bytes(), str(p))  # UTF-8, a byte-order mark dropped
-    except OSError as exc:
-        raise ValueError(f"{p}: cannot read irregularity profile ({exc.strerror})") from exc
+    try:  # a regular file of bounded size (never /dev/zero, a FIFO or a folder), UTF-8
+        text = decode_text(read_bytes(p, MAX_DATA_BYTES), str(p))
+    except InputFileError as exc:
+        raise ValueError(f"{p}: cannot read irregularity profile: {exc.problem}") from None
     xs: list[float] = []
     rows: list[list[float]] = []
     prev_line = 0
@@ -561,7 +564,7 @@ def _read_columns(path: str | Path, three_d: bool) -> tuple[NDArray[np.float64],
 def read_profile_cached(path: str | Path) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
     """:func:`read_profile`, read once per file version (path, size, modification time): the
     scenario's checks and the model build both need it. The arrays are read-only."""
-    p = Path(path).resolve()
+    p = Path(os.path.realpath(path))  # Path.resolve raises on a symbolic-link loop
     try:
         st = p.stat()
     except OSError as exc:

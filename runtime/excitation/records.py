@@ -25,6 +25,8 @@ from pathlib import Path
 import numpy as np
 from numpy.typing import NDArray
 
+from svbi.codegen.input_files import MAX_DATA_BYTES, InputFileError, read_text
+
 G = 9.81
 """Standard gravity used to convert records in g (docs/design.md section 2)."""
 
@@ -159,10 +161,10 @@ def read_record(
     (default ``"g"``).
     """
     p = Path(path)
-    try:
-        lines = p.read_text(encoding="utf-8-sig", errors="replace").splitlines()
-    except OSError as exc:
-        raise RecordError(f"{p}: cannot read record ({exc.strerror})") from exc
+    try:  # a regular file of bounded size: never /dev/zero, a FIFO or a folder
+        lines = read_text(p, MAX_DATA_BYTES, errors="replace").splitlines()  # a byte-order mark dropped
+    except InputFileError as exc:
+        raise RecordError(f"{p}: cannot read record: {exc.problem}") from None
     label = name if name is not None else p.name
     first = next((i for i, ln in enumerate(lines) if ln.strip() and not ln.lstrip().startswith("#")), None)
     if first is None:

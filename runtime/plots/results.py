@@ -28,6 +28,8 @@ from matplotlib.axes import Axes
 from matplotlib.figure import Figure
 from matplotlib.lines import Line2D
 
+from svbi.codegen.input_files import MAX_TOML_BYTES, loads_toml, read_text
+
 from ..run.atomic import write_atomic
 from ..scenario.kinds import wrong_kind
 
@@ -173,9 +175,9 @@ def read_results(path: str | os.PathLike[str]) -> xr.Dataset:
     Raises ResultsFileError naming the file, and the variable where one is missing or malformed.
     """
     path = Path(path)
-    if not path.exists():
+    if not os.path.lexists(path):  # os.path: a name too long is "not found", not a traceback
         raise ResultsFileError(f"{path}: file not found")
-    if not path.is_file():
+    if not os.path.isfile(path):
         raise ResultsFileError(f"{path}: not a file")
     try:
         # Time is seconds from the start of the run (docs/design.md section 7); a units attribute such as
@@ -199,11 +201,9 @@ def read_results(path: str | os.PathLike[str]) -> xr.Dataset:
 
 def _toml_kind(path: Path) -> str:
     """What a TOML file given as results is (a scenario, a study...), "" when it is not one."""
-    import tomllib
-
-    try:
-        data = tomllib.loads(path.read_text(encoding="utf-8-sig"))
-    except (OSError, ValueError):
+    try:  # bounded, and no RecursionError on a deeply nested file
+        data = loads_toml(read_text(path, MAX_TOML_BYTES))
+    except ValueError:
         return ""
     return wrong_kind(data, "results", str(path))
 

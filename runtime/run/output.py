@@ -8,10 +8,10 @@
 * :func:`incomplete_path`: incomplete results (a diverged or interrupted run) go to
   ``<stem>.incomplete.nc`` beside the requested file, never onto it: a file at ``-o`` is always a
   complete run.
-* :func:`signals_interrupt`: while it is active, SIGINT and SIGTERM raise :class:`RunInterrupted`
-  in the main thread, so that ``finally`` clauses run (temporary files removed, compile folders
-  deleted) and the time loop can hand back what it computed. Python's default for SIGTERM is to die
-  on the spot, with no clean-up at all.
+* :func:`signals_interrupt`: while it is active, SIGINT, SIGTERM and SIGHUP (the terminal closed)
+  raise :class:`RunInterrupted` in the main thread, so that ``finally`` clauses run (temporary files
+  removed, compile folders deleted) and the time loop can hand back what it computed. Python's
+  default for SIGTERM and SIGHUP is to die on the spot, with no clean-up at all.
 """
 
 from __future__ import annotations
@@ -40,7 +40,7 @@ class OutputPathError(ValueError):
 
 
 class RunInterrupted(KeyboardInterrupt):
-    """SIGINT or SIGTERM arrived. ``results`` holds what the time loop had computed (or None when
+    """SIGINT, SIGTERM or SIGHUP arrived. ``results`` holds what the time loop had computed (or None when
     the signal came before or after the loop); ``exit_code`` is ``128 + signal number``."""
 
     def __init__(self, signum: int, results: xr.Dataset | None = None) -> None:
@@ -143,11 +143,83 @@ def folder_problem(folder: Path) -> str | None:
     return _folder_problem(folder)
 
 
+TEMPORARY_NAME_EXTRA = 40
+"""Bytes that an atomic write adds to a file name for its temporary file (``.<name>.<host>-<pid>-
+<random>.tmp``, ``run.atomic``), with room to spare."""
+
+
+def _name_max(folder: Path) -> int:
+    """The longest file name the file system of ``folder`` (or of its first existing parent) takes."""
+    existing = folder
+    while not existing.exists() and existing.parent != existing:
+        existing = existing.parent
+    try:
+        return int(os.pathconf(existing, "PC_NAME_MAX"))
+    except (OSError, ValueError, AttributeError):
+        return 255
+
+
+def _name_problem(path: Path, longest: str | None, option: str) -> str | None:
+    """Why ``path`` cannot be created for its length (None if it can): a part of the path longer
+    than the file system takes, or ``longest`` (the longest file name written beside it, whose
+    temporary name is longer still) too long."""
+    folder = path.parent if str(path.parent) else Path(".")
+    name_max = _name_max(folder)
+    for part in path.parts:
+        if len(os.fsencode(part)) > name_max:
+            size = len(os.fsencode(part))
+            return f"{option} {path}: a name in the path is too long ({size} bytes; at most {name_max})"
+    if longest is None:
+        return None
+    size = len(os.fsencode(longest)) + TEMPORARY_NAME_EXTRA
+    if size > name_max:
+        return (
+            f"{option} {path}: the file name is too long: with its temporary and .incomplete.nc names "
+            f"it needs {size} bytes, the file system takes at most {name_max}; give a shorter name"
+        )
+    return None
+
+
+def prepare_folder(raw: str | os.PathLike[str], option: str, create: bool = True) -> Path:
+    """Create the output folder ``raw`` (and its parents) for a command's files, or refuse it in one
+    line (:class:`OutputPathError`): an existing file, a name too long, under a regular file, in a
+    folder that cannot be written. With ``create=False``, only the checks (nothing is created)."""
+    folder = Path(raw).expanduser()
+    problem = _name_problem(folder, None, option)
+    if problem is not None:
+        raise OutputPathError(problem)
+    try:
+        if folder.exists() and not folder.is_dir():
+            raise OutputPathError(f"{option} {folder}: exists and is not a folder")
+        existing = folder
+        while not existing.exists() and existing.parent != existing:
+            existing = existing.parent
+        if existing != folder and not existing.is_dir():
+            raise OutputPathError(f"{option} {folder}: {existing} is a file, not a folder")
+        if create:
+            folder.mkdir(parents=True, exist_ok=True)
+    except OSError as exc:
+        raise OutputPathError(
+            f"{option} {folder}: cannot create the folder ({exc.strerror or exc})"
+        ) from None
+    problem = _folder_problem(folder)
+    if problem is not None:
+        raise OutputPathError(f"{option} {folder}: {problem}")
+    return folder
+
+
 def check_output(raw: str | os.PathLike[str], inputs: dict[str, Path] | Iterable[tuple[str, Path]]) -> Path:
     """The output path as given, if a run can write its results there; else :class:`OutputPathError`.
 
     Checks both the path and its ``.incomplete.nc`` sibling (where a stopped run writes).
     """
+    try:
+        return _check_output(raw, inputs)
+    except OSError as exc:  # a path the system refuses outright (a loop of symbolic links...)
+        raise OutputPathError(f"-o {os.fspath(raw)}: {exc.strerror or exc}") from None
+
+
+def _check_output(raw: str | os.PathLike[str], inputs: dict[str, Path] | Iterable[tuple[str, Path]]) -> Path:
     text = os.fspath(raw)
     if not text.strip():
         raise OutputPathError("-o: the output path is empty; give a file name ending in .nc")
@@ -157,6 +229,9 @@ def check_output(raw: str | os.PathLike[str], inputs: dict[str, Path] | Iterable
             f"-o {text}: results are written as NetCDF; give a file name ending in .nc "
             f"(got {'no suffix' if not path.suffix else repr(path.suffix)})"
         )
+    problem = _name_problem(path, incomplete_path(path).name, "-o")
+    if problem is not None:
+        raise OutputPathError(problem)
     items = list(inputs.items()) if isinstance(inputs, dict) else list(inputs)
     for target in (path, incomplete_path(path)):
         if target.is_dir():
@@ -180,13 +255,19 @@ def check_output(raw: str | os.PathLike[str], inputs: dict[str, Path] | Iterable
 # signals
 
 
+INTERRUPTING = tuple(
+    getattr(signal, name) for name in ("SIGINT", "SIGTERM", "SIGHUP") if hasattr(signal, name)
+)
+"""The signals that stop a run cleanly (exit status 128 + the signal's number: 130, 143, 129)."""
+
+
 def _raise(signum: int, frame: Any) -> None:
     raise RunInterrupted(signum)
 
 
 @contextlib.contextmanager
 def signals_interrupt() -> Iterator[None]:
-    """SIGINT and SIGTERM raise :class:`RunInterrupted` inside the block (main thread only).
+    """SIGINT, SIGTERM and SIGHUP raise :class:`RunInterrupted` inside the block (main thread only).
 
     A signal that the process inherited as ignored (``nohup``, a shell's background job) stays
     ignored; the previous handlers come back on exit.
@@ -197,7 +278,7 @@ def signals_interrupt() -> Iterator[None]:
         yield
         return
     previous: dict[int, Any] = {}
-    for signum in (signal.SIGINT, signal.SIGTERM):
+    for signum in INTERRUPTING:
         current = signal.getsignal(signum)
         if current is signal.SIG_IGN:
             continue

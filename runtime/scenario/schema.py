@@ -14,6 +14,7 @@ from __future__ import annotations
 
 import copy
 import math
+import os
 import re
 import tomllib
 import warnings
@@ -25,6 +26,15 @@ from typing import Annotated, Any, Literal
 import tomli_w
 from pydantic import BaseModel, ConfigDict, Field, PrivateAttr, ValidationError, model_validator
 
+from svbi.codegen.input_files import (
+    MAX_DATA_BYTES,
+    MAX_TOML_BYTES,
+    InputFileError,
+    TOMLNestingError,
+    file_problem,
+    loads_toml,
+    read_bytes,
+)
 from svbi.codegen.plain_types import TopologyError
 
 from ..excitation.irregularity import read_profile_cached
@@ -381,10 +391,10 @@ def load_scenario(
 ) -> Scenario:
     """Read, override, validate a scenario file. Raises :class:`ScenarioError` naming file and line."""
     path = Path(path)
-    try:
-        text = decode_text(path.read_bytes(), str(path))
-    except OSError as exc:
-        raise ScenarioError([Problem("<file>", f"cannot read: {exc}", str(path))], str(path)) from None
+    try:  # a regular file of bounded size (never /dev/zero, a FIFO or a folder), UTF-8
+        text = decode_text(read_bytes(path, MAX_TOML_BYTES), str(path))
+    except InputFileError as exc:
+        raise ScenarioError([Problem("<file>", exc.problem, str(path))], str(path)) from None
     except TextFileError as exc:
         raise ScenarioError([Problem("<file>", exc.problem, exc.where)], str(path)) from None
     return loads_scenario(
@@ -401,7 +411,9 @@ def loads_scenario(
 ) -> Scenario:
     """Validate scenario TOML text (see :func:`load_scenario`)."""
     try:
-        data = tomllib.loads(text)
+        data = loads_toml(text)
+    except TOMLNestingError as exc:
+        raise ScenarioError([Problem("<toml>", f"malformed TOML: {exc}", source)], source) from None
     except tomllib.TOMLDecodeError as exc:
         line = getattr(exc, "lineno", None) or _line_from_message(str(exc))
         where = f"{source}:{line}" if line else source
@@ -581,8 +593,8 @@ def _set_path(data: dict[str, Any], steps: Sequence[str | int], value: Any, wher
 def parse_literal(raw: str) -> Any:
     """A TOML literal (``1e-4``, ``true``, ``[1, 2]``, ``"x"``), or the raw text as a string."""
     try:
-        return tomllib.loads(f"v = {raw}")["v"]
-    except tomllib.TOMLDecodeError:
+        return loads_toml(f"v = {raw}")["v"]
+    except (tomllib.TOMLDecodeError, TOMLNestingError):
         return raw
 
 
@@ -653,11 +665,15 @@ def _profile_problems(s: Scenario) -> Iterable[tuple[str, str]]:
     """A measured profile must be an existing, well-formed file (its lines are checked on reading);
     whether it covers the wheels' path is checked with the run's extent (``limits.size_problems``)."""
     path = s.resolve_path(s.track.irregularity)
-    if not path.is_file():
+    if not os.path.lexists(path):
         yield (
             "track.irregularity",
             f"not {', '.join(repr(k) for k in IRREGULARITIES)} or an existing profile file: {path}",
         )
+        return
+    problem = file_problem(path, MAX_DATA_BYTES)  # a FIFO, a device, a folder, too large
+    if problem is not None:
+        yield "track.irregularity", f"{path}: {problem}"
         return
     try:
         read_profile_cached(path)
@@ -685,9 +701,14 @@ def _earthquake_problems(s: Scenario) -> Iterable[tuple[str, str]]:
                 "give one or the other",
             )
         for k, name in enumerate(eq.sources(comp)):
-            if name not in ("none", "synthetic") and not s.resolve_path(name).is_file():
-                key = f"earthquake.{comp}[{k}]" if per_support else f"earthquake.{comp}"
-                yield key, f"not 'none', 'synthetic' or an existing record file: {s.resolve_path(name)}"
+            if name in ("none", "synthetic"):
+                continue
+            key = f"earthquake.{comp}[{k}]" if per_support else f"earthquake.{comp}"
+            path = s.resolve_path(name)
+            if not os.path.lexists(path):
+                yield key, f"not 'none', 'synthetic' or an existing record file: {path}"
+            elif (problem := file_problem(path, MAX_DATA_BYTES)) is not None:
+                yield key, f"{path}: {problem}"  # a FIFO, a device, a folder, too large
     if eq.arrival < 0:
         yield (
             "earthquake.arrival",

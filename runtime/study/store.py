@@ -227,7 +227,7 @@ def read_store(path: str | os.PathLike[str]) -> xr.Dataset:
 def is_store(path: str | os.PathLike[str]) -> bool:
     """True when ``path`` is a store written by ``svbi sweep`` (a NetCDF file or a Zarr folder)."""
     path = Path(path)
-    if path.is_dir():
+    if os.path.isdir(path):  # os.path: a name too long is no store, not a traceback
         for meta in ("zarr.json", ".zattrs"):
             try:
                 doc = json.loads((path / meta).read_text(encoding="utf-8"))

@@ -52,6 +52,8 @@ from pydantic import (
     ValidationError,
 )
 
+from svbi.codegen.input_files import MAX_TOML_BYTES, InputFileError, TOMLNestingError, loads_toml, read_bytes
+
 from ... import __version__
 from ..excitation.textfile import TextFileError, decode_text
 from ..run.atomic import write_atomic
@@ -239,14 +241,16 @@ def load_study(path: str | Path, sets: Sequence[str] | dict[str, Any] = ()) -> S
     path = Path(path)
     source = str(path)
     sets = dict(sets) if isinstance(sets, dict) else parse_sets(sets)
-    try:
-        text = decode_text(path.read_bytes(), source)  # UTF-8, a byte-order mark dropped
-    except OSError as exc:
-        raise StudyError([Problem("<file>", f"cannot read: {exc}", source)], source) from None
+    try:  # a regular file of bounded size (never /dev/zero, a FIFO or a folder), UTF-8
+        text = decode_text(read_bytes(path, MAX_TOML_BYTES), source)
+    except InputFileError as exc:
+        raise StudyError([Problem("<file>", exc.problem, source)], source) from None
     except TextFileError as exc:
         raise StudyError([Problem("<file>", exc.problem, exc.where)], source) from None
     try:
-        data = tomllib.loads(text)
+        data = loads_toml(text)
+    except TOMLNestingError as exc:
+        raise StudyError([Problem("<toml>", f"malformed TOML: {exc}", source)], source) from None
     except tomllib.TOMLDecodeError as exc:
         line = getattr(exc, "lineno", None)
         where = f"{source}:{line}" if line else source

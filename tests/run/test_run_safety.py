@@ -89,13 +89,17 @@ def _debris(folder: Path) -> list[str]:
 
 @pytest.fixture
 def no_simulation(monkeypatch: pytest.MonkeyPatch) -> None:
-    """Fail the test if the run reaches the simulation (the check must come first)."""
+    """Fail the test if the run reaches the simulation (the check must come first). The command's
+    module is imported first and patched where it looks the function up: imported for the first time
+    under the patch, it would keep the refusing function for the tests that come after."""
+    import svbi.runtime.cli.run as cli_run
     import svbi.runtime.run.simulate as sim
 
     def refuse(*args, **kwargs):
         raise AssertionError("simulate() was called: the output path was not checked first")
 
     monkeypatch.setattr(sim, "simulate", refuse)
+    monkeypatch.setattr(cli_run, "simulate", refuse)
 
 
 # --------------------------------------------------------------------------------------------------
@@ -401,7 +405,9 @@ def test_a_signal_during_the_loop_saves_what_was_computed_as_incomplete(
 
 
 def test_sigterm_during_an_atomic_write_leaves_no_temporary_file(tmp_path: Path) -> None:
-    """The write is slow (it sleeps inside); SIGTERM arrives while the temporary file exists."""
+    """The write is slow (it sleeps inside); SIGTERM arrives while the temporary file exists. It is
+    acted on once the write is done, before the rename (``run.atomic``): the temporary file is
+    removed and the previous file kept."""
     target = tmp_path / "r.nc"
     target.write_bytes(PREVIOUS)
     code = textwrap.dedent(
@@ -414,7 +420,7 @@ def test_sigterm_during_an_atomic_write_leaves_no_temporary_file(tmp_path: Path)
         def slow(tmp: Path) -> None:
             tmp.write_bytes(b"partial")
             print("writing", flush=True)
-            time.sleep(60)
+            time.sleep(3)
 
         with signals_interrupt():
             write_atomic({str(target)!r}, slow)
@@ -431,6 +437,7 @@ def test_sigterm_during_an_atomic_write_leaves_no_temporary_file(tmp_path: Path)
     finally:
         if proc.poll() is None:
             proc.kill()
+    assert proc.returncode != 0  # the RunInterrupted of SIGTERM, raised before the rename
     assert _debris(tmp_path) == []
     assert target.read_bytes() == PREVIOUS
 
