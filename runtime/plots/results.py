@@ -192,8 +192,8 @@ def read_results(path: str | os.PathLike[str]) -> xr.Dataset:
     if data.attrs.get("svbi_sweep"):
         raise ResultsFileError(
             f"{path}: this is a sweep store (`svbi sweep`: the metrics of every run of a study), not "
-            f"the results of one run: `svbi plot {path}` draws it, and each run's results are in "
-            f"{path}.histories/ when the study keeps them"
+            f"the results of one run: `svbi plot {path}` draws it, `svbi check {path}` checks every run, "
+            f"and each run's results are in {path}.histories/ when the study keeps them"
         )
     check_results(data, str(path))
     return data

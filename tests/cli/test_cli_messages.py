@@ -217,7 +217,10 @@ def _with_nan(src: Path, dst: Path, variable: str, rows: slice) -> Path:
 
 
 def test_svbi_check_fails_a_quantity_with_nan_samples(results_file: Path, tmp_path: Path) -> None:
-    assert _invoke("check", str(results_file)).exit_code == 0
+    good = _invoke("check", str(results_file))
+    # the run's deck acceleration passes (its deflection under LM71 may not: the row read here)
+    row = next(line for line in good.output.splitlines() if line.startswith("deck acceleration"))
+    assert " pass " in f" {row} ", good.output
     bad = _with_nan(results_file, tmp_path / "nan.nc", "deck_acceleration", slice(5, 8))
     result = _invoke("check", str(bad))
     assert result.exit_code == 3, result.output
@@ -233,7 +236,7 @@ def test_svbi_check_fails_the_unloading_rows_when_the_wheel_force_has_nan(
     result = _invoke("check", str(bad))
     assert result.exit_code == 3
     rows = [line for line in result.output.splitlines() if line.startswith("wheel unloading")]
-    assert len(rows) == 2
+    assert len(rows) == 1  # the traffic set's 0.6 (the seismic set has the 0.8 of short transients)
     assert all("FAIL" in r and "NaN sample(s) in contact_force_filtered" in r for r in rows)
 
 
@@ -276,11 +279,15 @@ def test_a_sweep_store_given_to_metrics_is_told_what_it_is(tmp_path: Path) -> No
 
     store = tmp_path / "study.nc"
     xr.Dataset({"complete": ("run", np.ones(2))}, attrs={"svbi_sweep": 1}).to_netcdf(store)
-    for command in ("metrics", "check"):
-        result = _invoke(command, str(store))
-        assert result.exit_code == 2
-        (line,) = _lines(result.output)
-        assert "this is a sweep store" in line and "svbi plot" in line
+    result = _invoke("metrics", str(store))
+    assert result.exit_code == 2
+    (line,) = _lines(result.output)
+    assert "this is a sweep store" in line and "svbi plot" in line and "svbi check" in line
+    # `svbi check` takes a store: this one lacks what svbi sweep writes, and says so in one line
+    result = _invoke("check", str(store))
+    assert result.exit_code == 2
+    (line,) = _lines(result.output)
+    assert "no 'status' variable" in line
 
 
 def test_a_scenario_given_to_metrics_or_derive_is_told_what_it_is() -> None:
