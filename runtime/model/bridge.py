@@ -808,22 +808,16 @@ class Bridge:
             M, K, free = self.assembled()
             k, m = K[np.ix_(free, free)], M[np.ix_(free, free)]
             eig = sla.eigh(k, m, eigvals_only=True, subset_by_index=[0, min(count, len(free)) - 1])
+        elif self.uniform:  # independent identical spans: each mode of a span, once per span
+            k0 = self.kinds[0]
+            free = np.setdiff1d(np.arange(self.ndof), self.support_dofs)
+            span = _circular_frequencies(k0.Ms, k0.Ks, free, min(count, len(free))) ** 2
+            eig = np.repeat(span, self.spans)[:count]
         else:  # a long bridge: the lowest modes by shift-invert Lanczos on the sparse matrices
-            M, K, free = self.assembled_sparse()
+            free = self.free_global
+            K, M = self.K_global.tocsr(), self.M_global.tocsr()
             eig = lowest_eigenvalues(K[free][:, free], M[free][:, free], min(count, n - 2))
         return np.sqrt(np.clip(eig, 0.0, None)) / (2 * np.pi)
-
-    def assembled_sparse(self) -> tuple[Any, Any, np.ndarray]:
-        """Sparse (CSR) global ``M``, ``K`` (links merged) and the free DOFs (active supports held)."""
-        if not self.uniform:
-            return self.M_global.tocsr(), self.K_global.tocsr(), self.free_global
-        import scipy.sparse as sps
-
-        k0, nd = self.kinds[0], self.ndof
-        M = sps.block_diag([k0.Ms] * self.spans, format="csr")
-        K = sps.block_diag([k0.Ks] * self.spans, format="csr")
-        held = (np.arange(self.spans)[:, None] * nd + self.support_dofs[None, :]).ravel()
-        return M, K, np.setdiff1d(np.arange(self.spans * nd), held)
 
     def assembled(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """Dense global ``M``, ``K`` (links merged) and the free DOFs (active supports held)."""
