@@ -35,6 +35,10 @@ TRIM = 1e-14
 EDGE_TOL = 1e-17
 """A window of the quasi-static solve is wide enough once the field on its outer substructures is
 below this (per unit support motion): three orders below :data:`TRIM`."""
+DIRECT_LIMIT = 3000
+"""A bridge of at most this many DOFs solves its quasi-static field in one piece (one sparse
+factorization of the whole bridge, a dense block of supports at a time); a longer one window by
+window (``Bridge._quasi_static_global``)."""
 WINDOW_LINES = 8
 """Support lines whose supports share one window (one sparse factorization) of the quasi-static
 solve."""
@@ -235,7 +239,7 @@ def _below_lowest(K: Any, M: Any, rtol: float = 1e-7) -> float:
     matrices are not banded in their order."""
     import scipy.sparse.linalg as spla
 
-    pattern = (abs(K) + abs(M)).tocoo()
+    pattern = (abs(K) + abs(M)).tocoo()  # the sum drops stored zeros
     width = int(np.max(pattern.col - pattern.row, initial=0))
     if width > BAND_LIMIT:
         return 0.0
@@ -243,7 +247,7 @@ def _below_lowest(K: Any, M: Any, rtol: float = 1e-7) -> float:
 
     def band(a: Any) -> np.ndarray:
         a = a.tocoo()
-        upper = a.col >= a.row
+        upper = (a.col >= a.row) & (a.data != 0.0)
         out = np.zeros((width + 1, n))
         out[width + a.row[upper] - a.col[upper], a.col[upper]] = a.data[upper]
         return out
@@ -299,6 +303,15 @@ def _columns(rows: Any, columns: tuple[np.ndarray, ...], position: np.ndarray) -
         )
         position[cols] = -1
     return out
+
+
+def _all_entries(a: np.ndarray) -> Any:
+    """Every entry of the dense matrix ``a``, zeros included, row by row, as COO."""
+    import scipy.sparse as sps
+
+    n, m = a.shape
+    rows, cols = np.divmod(np.arange(n * m), m)
+    return sps.coo_matrix((a.ravel(), (rows, cols)), shape=(n, m))
 
 
 def _section_args(section: Section) -> tuple[float, float, float, float]:
@@ -674,9 +687,14 @@ class Bridge:
         self.global_dof = gmap.reshape(nsub, nd)
         """Global DOF of every substructure DOF (links merged), ``(nsub, ndof)``."""
         self.nglobal = len(uniq)
-        # the kinds' sparse entries, substructure by substructure (entries a link merges are summed
-        # in the order of the substructures)
-        entries = [(kd.Ms.tocoo(), kd.Ks.tocoo()) for kd in self.kinds]
+        # the kinds' entries, substructure by substructure (entries a link merges are summed in the
+        # order of the substructures); a short bridge takes every entry of its kinds' dense blocks,
+        # zeros included, so that SciPy orders its one factorization as it always has
+        direct = self.nglobal <= DIRECT_LIMIT
+        entries = [
+            (_all_entries(kd.M), _all_entries(kd.K)) if direct else (kd.Ms.tocoo(), kd.Ks.tocoo())
+            for kd in self.kinds
+        ]
         m_parts: list[tuple[np.ndarray, np.ndarray, np.ndarray]] = []
         k_parts: list[tuple[np.ndarray, np.ndarray, np.ndarray]] = []
         for s in range(nsub):
@@ -707,7 +725,7 @@ class Bridge:
         self.free_global = free
         K = self.K_global
         lu = spla.splu(K[free][:, free].tocsc())
-        Tg = self._quasi_static_global(K.tocsr())
+        Tg = self._quasi_static_direct(K, free, lu) if direct else self._quasi_static_global(K.tocsr())
         # per substructure: T_s = Tg[global_dof[s]]; C T as one sparse map (nsub*ndof x nsup)
         self.T_map = Tg[self.global_dof.ravel()].tocsr()
         c_parts = []
@@ -730,6 +748,24 @@ class Bridge:
         lines = np.arange(self.spans)
         at = np.array([p.support for p in self.piers], dtype=np.intp)
         return np.concatenate([lines, at]), np.concatenate([lines + 1, at])
+
+    def _quasi_static_direct(self, K: Any, free: np.ndarray, lu: Any, block: int = 64) -> Any:
+        """``T`` of a short bridge (at most :data:`DIRECT_LIMIT` DOFs) from the factorization of the
+        whole ``K_ff``, a block of supports at a time, trimmed below :data:`TRIM`."""
+        import scipy.sparse as sps
+
+        sup = self.support_global
+        nsup = len(sup)
+        K_fs = K[free][:, sup].tocsc()
+        parts = [sps.csc_matrix((np.ones(nsup), (sup, np.arange(nsup))), shape=(self.nglobal, nsup))]
+        for j0 in range(0, nsup, block):
+            cols = np.arange(j0, min(j0 + block, nsup))
+            x = -lu.solve(np.asarray(K_fs[:, cols].todense()))
+            x[np.abs(x) < TRIM] = 0.0
+            r, c = np.nonzero(x)
+            parts.append(sps.csc_matrix((x[r, c], (free[r], cols[c])), shape=(self.nglobal, nsup)))
+        self.influence_work = len(free) * nsup
+        return sps.csr_matrix(sum(parts[1:], parts[0]))
 
     def _quasi_static_global(self, K: Any) -> Any:
         """``T``: the static displacement of every global DOF per unit motion of each active support

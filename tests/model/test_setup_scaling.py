@@ -44,7 +44,8 @@ def mixed_bridge(elements: int = 4) -> Bridge:
     return Bridge(0, 0.0, MU, E, AREA, Iy, 0.02, elements, 0.0, girders, piers)
 
 
-def test_influence_field_matches_a_dense_solve():
+def test_influence_field_matches_a_dense_solve(monkeypatch: pytest.MonkeyPatch):
+    monkeypatch.setattr(bridge_module, "DIRECT_LIMIT", 0)  # window by window, on a short bridge
     b = mixed_bridge()
     K = b.K_global.toarray()
     free, sup = b.free_global, b.support_global
@@ -71,6 +72,7 @@ def _dense_lowest(M: np.ndarray, K: np.ndarray, dofs: np.ndarray, count: int) ->
 
 def test_lowest_modes_by_lanczos_match_dense_eigh(monkeypatch: pytest.MonkeyPatch):
     monkeypatch.setattr(bridge_module, "DENSE_LIMIT", 0)  # the sparse path, on a small bridge
+    monkeypatch.setattr(bridge_module, "DIRECT_LIMIT", 0)
     b = mixed_bridge()
     ne = b.elements
     for g in b.girders[10:]:
@@ -127,7 +129,8 @@ def on_piers(spans: int, elements: int = 16) -> Bridge:
     return Bridge(0, 0.0, MU, E, AREA, Iy, 0.02, elements, 0.0, girders, piers)
 
 
-def test_influence_work_and_storage_grow_linearly():
+def test_influence_work_and_storage_grow_linearly(monkeypatch: pytest.MonkeyPatch):
+    monkeypatch.setattr(bridge_module, "DIRECT_LIMIT", 0)  # short bridges too, window by window
     short, long = on_piers(40), on_piers(160)
     assert long.influence_work <= 1.1 * 4 * short.influence_work
     assert long.T_map.nnz <= 1.05 * 4 * short.T_map.nnz
@@ -138,7 +141,7 @@ def test_influence_work_and_storage_grow_linearly():
 
 
 def test_setup_forms_no_dense_substructure_matrix():
-    b = on_piers(3, elements=200)
+    b = on_piers(3, elements=400)  # above DIRECT_LIMIT
     for kind in b.kinds:  # dense M, K, C are formed on a stepper's first use, not at set-up
         assert not {"M", "K", "C"} & set(vars(kind))
     assert kind.M.shape == (b.ndof, b.ndof)
