@@ -728,13 +728,17 @@ class Bridge:
         Tg = self._quasi_static_direct(K, free, lu) if direct else self._quasi_static_global(K.tocsr())
         # per substructure: T_s = Tg[global_dof[s]]; C T as one sparse map (nsub*ndof x nsup)
         self.T_map = Tg[self.global_dof.ravel()].tocsr()
-        c_parts = []
-        for k, members in enumerate(self.kind_members):  # the block diagonal of every C_s
-            c = self.kinds[k].Cs.tocoo()
-            at = nd * members[:, None]
-            c_parts.append(((at + c.row).ravel(), (at + c.col).ravel(), np.tile(c.data, len(members))))
-        r, c, v = (np.concatenate(x) for x in zip(*c_parts, strict=True))
-        C_blocks = sps.csr_matrix((v, (r, c)), shape=(nsub * nd, nsub * nd))
+        if direct:  # the block diagonal of every C_s, from the dense blocks (the order of the
+            # product's entries, which the C loop sums in, is then that of earlier versions)
+            C_blocks = sps.block_diag([self.kinds[self.kind[s]].C for s in range(nsub)], format="csr")
+        else:
+            c_parts = []
+            for k, members in enumerate(self.kind_members):
+                c = self.kinds[k].Cs.tocoo()
+                at = nd * members[:, None]
+                c_parts.append(((at + c.row).ravel(), (at + c.col).ravel(), np.tile(c.data, len(members))))
+            r, c, v = (np.concatenate(x) for x in zip(*c_parts, strict=True))
+            C_blocks = sps.csr_matrix((v, (r, c)), shape=(nsub * nd, nsub * nd))
         self.CT_map = (C_blocks @ self.T_map).tocsr()
         ez = np.zeros(self.nglobal)
         for s in range(nsub):
