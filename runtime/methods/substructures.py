@@ -103,13 +103,21 @@ class SubstructureCompliance:
         ends = ((L.a_sub, L.a_dof, 1.0), (L.b_sub, L.b_dof, -1.0))
         for sl, dl, sign_l in ends:
             for sm, dm, sign_m in ends:
-                for i in range(self.nlinks):
-                    same = np.flatnonzero(sm == sl[i])
-                    if same.size:
-                        Sk = self.S[self._kind(sl[i : i + 1])[0]]
-                        rows.append(np.full(same.size, i))
-                        cols.append(same)
-                        vals.append(sign_l * sign_m * Sk[dl[i], dm[same]])
+                # every pair (i, j) of links whose end l of i and end m of j share a substructure,
+                # by i then j: found through the ends m sorted by substructure (linear in the links)
+                by_sub = np.argsort(sm, kind="stable")
+                first = np.searchsorted(sm[by_sub], sl, side="left")
+                count = np.searchsorted(sm[by_sub], sl, side="right") - first
+                i = np.repeat(np.arange(self.nlinks), count)
+                j = by_sub[np.repeat(first - np.cumsum(count) + count, count) + np.arange(count.sum())]
+                kind = self._kind(sl)[i]
+                v = np.empty(len(i))
+                for k in np.unique(kind):
+                    at = kind == k
+                    v[at] = self.S[k][dl[i[at]], dm[j[at]]]
+                rows.append(i)
+                cols.append(j)
+                vals.append(sign_l * sign_m * v)
         n = self.nlinks
         rows.append(np.arange(n))  # a bearing spring: the link's own compliance 1/k
         cols.append(np.arange(n))

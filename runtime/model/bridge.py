@@ -17,6 +17,7 @@ earthquake itself (docs/design.md pitfall 9).
 from __future__ import annotations
 
 from dataclasses import dataclass
+from functools import cached_property
 from typing import Any
 
 import numpy as np
@@ -24,7 +25,26 @@ import scipy.linalg as sla
 
 from svbi.codegen.plain_types import GRAVITY
 
-from .modes import column_matrices, span_matrices
+from .modes import member_sparse
+
+DENSE_LIMIT = 600
+"""Set-up problems (eigenvalues, static solves) on at most this many DOFs use dense LAPACK; larger
+ones sparse factorizations and shift-invert Lanczos, whose cost grows linearly with the size."""
+TRIM = 1e-14
+"""Entries of the quasi-static field below this (per unit support motion) are dropped."""
+EDGE_TOL = 1e-17
+"""A window of the quasi-static solve is wide enough once the field on its outer substructures is
+below this (per unit support motion): three orders below :data:`TRIM`."""
+DIRECT_LIMIT = 3000
+"""A bridge of at most this many DOFs solves its quasi-static field in one piece (one sparse
+factorization of the whole bridge, a dense block of supports at a time); a longer one window by
+window (``Bridge._quasi_static_global``)."""
+WINDOW_LINES = 8
+"""Support lines whose supports share one window (one sparse factorization) of the quasi-static
+solve."""
+
+VERTICAL_MODES = 10
+"""How many vertical frequencies of a span the paper's bridge keeps (``vertical_frequencies``)."""
 
 SUPPORT_COMPONENTS = ("longitudinal", "vertical", "vertical")
 """Component of each support constraint of a span of the shorthand bridge, in the order of
@@ -101,11 +121,11 @@ class SupportTable:
 @dataclass
 class SubKind:
     """Matrices shared by every substructure (span or pier) with the same geometry, section,
-    damping and support layout."""
+    damping and support layout: sparse (``Ms``, ``Ks``, ``Cs``, what the set-up uses) and dense
+    (``M``, ``K``, ``C``, formed on first use by the steppers)."""
 
-    M: np.ndarray
-    K: np.ndarray
-    C: np.ndarray
+    Ms: Any
+    Ks: Any
     length: float
     element_length: float
     section: Section
@@ -115,6 +135,23 @@ class SubKind:
     support_active: np.ndarray
     alpha: float
     beta: float
+
+    @cached_property
+    def Cs(self) -> Any:
+        """Rayleigh damping ``alpha M + beta K``, sparse."""
+        return (self.alpha * self.Ms + self.beta * self.Ks).tocsr()
+
+    @cached_property
+    def M(self) -> np.ndarray:
+        return self.Ms.toarray()
+
+    @cached_property
+    def K(self) -> np.ndarray:
+        return self.Ks.toarray()
+
+    @cached_property
+    def C(self) -> np.ndarray:
+        return self.alpha * self.M + self.beta * self.K
 
 
 @dataclass(frozen=True)
@@ -171,10 +208,115 @@ class Links:
         return np.where(self.spring, 0.0, point.target(self.gap(P), self.gap(Q), 0.0, 0.0, 0.0))
 
 
-def _circular_frequencies(M: np.ndarray, K: np.ndarray, dofs: np.ndarray) -> np.ndarray:
-    """Circular frequencies (rad/s, ascending) of ``K x = w^2 M x`` on the DOFs ``dofs``."""
-    sub = np.ix_(dofs, dofs)
-    return np.sqrt(np.clip(sla.eigh(K[sub], M[sub], eigvals_only=True), 0.0, None))
+def lowest_eigenvalues(K: Any, M: Any, count: int) -> np.ndarray:
+    """The ``count`` lowest eigenvalues (ascending) of ``K x = lambda M x``, ``K`` and ``M``
+    sparse symmetric, ``K`` positive definite: shift-invert Lanczos (one sparse factorization)
+    from a fixed start vector, so that the result is reproducible, then Rayleigh-Ritz on its
+    vectors. The shift sits just below the lowest eigenvalue (:func:`_below_lowest`): a long
+    continuous girder has hundreds of modes within a few per cent of its first, which Lanczos
+    about 0 separates only after thousands of steps."""
+    import scipy.sparse.linalg as spla
+
+    n = K.shape[0]
+    K, M = K.tocsc(), M.tocsc()
+    _, X = spla.eigsh(K, k=count, M=M, sigma=_below_lowest(K, M), which="LM", v0=np.ones(n))
+    # Rayleigh-Ritz on the converged vectors: Lanczos's tolerance is relative to the largest
+    # shift-inverted value, which leaves the modes far from the shift less accurate than their
+    # vectors; the Ritz values of the vectors are accurate to the square of the vectors' error
+    a, b = X.T @ (K @ X), X.T @ (M @ X)
+    return sla.eigh(0.5 * (a + a.T), 0.5 * (b + b.T), eigvals_only=True)
+
+
+BAND_LIMIT = 64
+"""Widest band (in DOFs) for which :func:`_below_lowest` brackets the lowest eigenvalue."""
+
+
+def _below_lowest(K: Any, M: Any, rtol: float = 1e-7) -> float:
+    """A shift a little below the lowest eigenvalue of ``K x = lambda M x``: bisection on whether
+    ``K - sigma M`` is positive definite (a banded Cholesky factorization, linear in the size),
+    from an upper bound (the Rayleigh quotient after a few inverse iterations) down to a bracket
+    of ``rtol``; the shift is the bracket's lower end less ``rtol`` of the bound. 0 where the
+    matrices are not banded in their order."""
+    import scipy.sparse.linalg as spla
+
+    pattern = (abs(K) + abs(M)).tocoo()  # the sum drops stored zeros
+    width = int(np.max(pattern.col - pattern.row, initial=0))
+    if width > BAND_LIMIT:
+        return 0.0
+    n = K.shape[0]
+
+    def band(a: Any) -> np.ndarray:
+        a = a.tocoo()
+        upper = (a.col >= a.row) & (a.data != 0.0)
+        out = np.zeros((width + 1, n))
+        out[width + a.row[upper] - a.col[upper], a.col[upper]] = a.data[upper]
+        return out
+
+    k_band, m_band = band(K), band(M)
+    lu = spla.splu(K.tocsc())
+    x = np.ones(n)
+    for _ in range(5):
+        x = lu.solve(M @ x)
+        x /= np.abs(x).max()
+    hi, lo = float(x @ (K @ x)) / float(x @ (M @ x)), 0.0
+    while hi - lo > rtol * hi:
+        mid = 0.5 * (lo + hi)
+        try:
+            sla.cholesky_banded(k_band - mid * m_band)
+            lo = mid
+        except np.linalg.LinAlgError:
+            hi = mid
+    return lo - rtol * hi
+
+
+def _circular_frequencies(M: Any, K: Any, dofs: np.ndarray, count: int | None = None) -> np.ndarray:
+    """Circular frequencies (rad/s, ascending) of ``K x = w^2 M x`` on the DOFs ``dofs``: all of
+    them (``count`` None), or the lowest ``count``. ``M``, ``K`` sparse or dense; a problem above
+    :data:`DENSE_LIMIT` DOFs asked for a few modes goes to :func:`lowest_eigenvalues`."""
+    n = len(dofs)
+    if count is not None and n > DENSE_LIMIT and count < n - 1:
+        k = K.tocsr()[dofs][:, dofs]
+        m = M.tocsr()[dofs][:, dofs]
+        lam = lowest_eigenvalues(k, m, count)
+    else:
+        dense_k = K.toarray() if hasattr(K, "toarray") else K
+        dense_m = M.toarray() if hasattr(M, "toarray") else M
+        sub = np.ix_(dofs, dofs)
+        lam = sla.eigh(dense_k[sub], dense_m[sub], eigvals_only=True)
+        lam = lam if count is None else lam[:count]
+    return np.sqrt(np.clip(lam, 0.0, None))
+
+
+def _columns(rows: Any, columns: tuple[np.ndarray, ...], position: np.ndarray) -> list[Any]:
+    """The columns ``columns[i]`` of the COO matrix ``rows``, one CSR matrix for each, in time
+    linear in their entries (``rows[:, cols]`` of SciPy costs a pass over every column of the
+    matrix). ``position``: -1 for every column of ``rows``, left so."""
+    import scipy.sparse as sps
+
+    out = []
+    for cols in columns:
+        position[cols] = np.arange(len(cols))
+        at = position[rows.col]
+        keep = at >= 0
+        out.append(
+            sps.csr_matrix((rows.data[keep], (rows.row[keep], at[keep])), shape=(rows.shape[0], len(cols)))
+        )
+        position[cols] = -1
+    return out
+
+
+def _all_entries(a: np.ndarray) -> Any:
+    """Every entry of the dense matrix ``a``, zeros included, row by row, as COO."""
+    import scipy.sparse as sps
+
+    n, m = a.shape
+    rows, cols = np.divmod(np.arange(n * m), m)
+    return sps.coo_matrix((a.ravel(), (rows, cols)), shape=(n, m))
+
+
+def _section_args(section: Section) -> tuple[float, float, float, float]:
+    """A section as the generated element kernels take it."""
+    return (section.youngs_modulus, section.area, section.second_moment, section.mass_per_length)
 
 
 def _gravity_reactions(
@@ -199,6 +341,10 @@ class Bridge:
     form without piers whose girders are single equal spans of the default section builds the
     same arrays as the shorthand. Substructure ``s < spans`` is span ``s``; then the piers in
     their given order.
+
+    ``matrices=False`` stops after the layout (sizes, supports, links, positions): what sizes a
+    run (``svbi.runtime.run.memory``) without building any matrix. Everything that set-up builds is
+    sparse or banded, its cost linear in the spans, piers and elements (``docs/performance.md``).
     """
 
     def __init__(
@@ -214,6 +360,7 @@ class Bridge:
         rail_height: float = 0.0,
         girders: list[Girder] | None = None,
         piers: list[Pier] | None = None,
+        matrices: bool = True,
     ) -> None:
         default = Section(
             float(mass_per_length),
@@ -227,6 +374,7 @@ class Bridge:
         self.girders = list(girders)
         self.piers = list(piers or [])
         self.elements = int(elements_per_span)
+        self._frequency_cache: dict[tuple, np.ndarray] = {}
         self.rail_height = float(rail_height)
         self.ndof = 3 * (self.elements + 1)
         self.span_lengths = np.array([length for g in self.girders for length in g.spans], dtype=float)
@@ -243,10 +391,10 @@ class Bridge:
         )
         """The paper's bridge: identical simply supported spans on rigid supports, fixed bearing
         on the left (what the C backend runs)."""
-        self._build()
+        self._build(matrices)
 
     # ----------------------------------------------------------------------------------------------
-    def _build(self) -> None:
+    def _build(self, matrices: bool = True) -> None:
         ne, nd = self.elements, self.ndof
         pier_at = {p.support: i for i, p in enumerate(self.piers)}
         for p in self.piers:
@@ -318,9 +466,11 @@ class Bridge:
             tuple(la[:, 4]),
             la[:, 5].astype(float),
         )
-        self._kinds()
         self.span_length = float(self.span_lengths[0])
         """The spans' length (the paper's bridge); the first span's otherwise."""
+        if not matrices:
+            return
+        self._kinds()
         if self.uniform:
             k0 = self.kinds[0]
             self.element_length = k0.element_length
@@ -329,15 +479,15 @@ class Bridge:
             self.area = k0.section.area
             self.second_moment = k0.section.second_moment
             self.damping_ratio = k0.section.damping_ratio
-            self.M, self.K, self.C = k0.M, k0.K, k0.C
             self.alpha, self.beta = k0.alpha, k0.beta
             self.support_dofs = k0.support_dofs
             self.nsupport = 3
             self.E = np.zeros((nd, 3))
             self.E[self.support_dofs, np.arange(3)] = 1.0
-            self.vertical_frequencies = self.girder_frequencies(self.girders[0])
+            self.vertical_frequencies = self.girder_frequencies(self.girders[0], VERTICAL_MODES)
+            """The lowest vertical circular frequencies (rad/s) of a span on its supports."""
             self.T = self._quasi_static_field()
-            self.CT = self.C @ self.T
+            self.CT = self.C @ self.T if nd <= DENSE_LIMIT else k0.Cs @ self.T
             self.support_x = sup_x
             """Position of every support constraint, shape ``(spans, nsupport)``."""
             self.dead_load_reactions = self._dead_load_reactions()
@@ -346,6 +496,24 @@ class Bridge:
         else:
             self._global()
 
+    # the paper's bridge: the matrices of its one span kind (dense, formed on first use)
+    @property
+    def M(self) -> np.ndarray:
+        return self._span_kind().M
+
+    @property
+    def K(self) -> np.ndarray:
+        return self._span_kind().K
+
+    @property
+    def C(self) -> np.ndarray:
+        return self._span_kind().C
+
+    def _span_kind(self) -> SubKind:
+        if not self.uniform:
+            raise AttributeError("only the paper's bridge (one span kind) has Bridge.M, K, C; use kinds")
+        return self.kinds[0]
+
     def _kinds(self) -> None:
         """Group the substructures by everything their matrices depend on."""
         ne = self.elements
@@ -353,7 +521,7 @@ class Bridge:
         self.kinds: list[SubKind] = []
         kind = np.zeros(self.nsub, dtype=np.intp)
         girder_damping = [
-            self._rayleigh(self.girder_frequencies(g), g.section.damping_ratio) for g in self.girders
+            self._rayleigh(self.girder_frequencies(g, 2), g.section.damping_ratio) for g in self.girders
         ]
         for s in range(self.nsub):
             if s < self.spans:
@@ -363,7 +531,7 @@ class Bridge:
             else:
                 p = self.piers[s - self.spans]
                 length, section, pier = p.height, p.section, True
-                alpha, beta = self._rayleigh(self._pier_frequencies(p), section.damping_ratio)
+                alpha, beta = self._rayleigh(self._pier_frequencies(p, 2), section.damping_ratio)
             key = (
                 pier,
                 length,
@@ -374,15 +542,13 @@ class Bridge:
                 beta,
             )
             if key not in keys:
-                build = column_matrices if pier else span_matrices
-                sec = (section.youngs_modulus, section.area, section.second_moment, section.mass_per_length)
-                M, K = build(length, ne, *sec)
+                names = ("column_mass", "column_stiffness") if pier else ("element_mass", "element_stiffness")
+                M, K = member_sparse(names, length, ne, _section_args(section))
                 keys[key] = len(self.kinds)
                 self.kinds.append(
                     SubKind(
                         M,
                         K,
-                        alpha * M + beta * K,
                         length,
                         length / ne,
                         section,
@@ -402,37 +568,50 @@ class Bridge:
         )
 
     # ----------------------------------------------------------------------------------------------
-    def _girder_matrices(self, g: Girder) -> tuple[np.ndarray, np.ndarray, list[int]]:
-        """A girder alone as one continuous beam (shared nodes): M, K and the DOFs its bearings
-        hold on rigid supports (w at every line, u at the fixed line)."""
+    def _girder_matrices(self, g: Girder) -> tuple[Any, Any, list[int]]:
+        """A girder alone as one continuous beam (shared nodes): sparse M, K and the DOFs its
+        bearings hold on rigid supports (w at every line, u at the fixed line)."""
+        import scipy.sparse as sps
+
         ne = self.elements
-        sec = g.section
-        nodes = ne * len(g.spans) + 1
-        M, K = np.zeros((3 * nodes, 3 * nodes)), np.zeros((3 * nodes, 3 * nodes))
+        n = 3 * (ne * len(g.spans) + 1)
+        parts: tuple[list, list] = ([], [])
         for j, length in enumerate(g.spans):
-            m, k = span_matrices(
-                length, ne, sec.youngs_modulus, sec.area, sec.second_moment, sec.mass_per_length
-            )
-            o = slice(3 * ne * j, 3 * ne * j + self.ndof)
-            M[o, o] += m
-            K[o, o] += k
+            pair = member_sparse(("element_mass", "element_stiffness"), length, ne, _section_args(g.section))
+            for part, a in zip(parts, pair, strict=True):
+                a = a.tocoo()
+                part.append((a.data, a.row + 3 * ne * j, a.col + 3 * ne * j))
+
+        def stacked(part: list) -> Any:
+            data, r, c = (np.concatenate(x) for x in zip(*part, strict=True))
+            return sps.csr_matrix((data, (r, c)), shape=(n, n))
+
+        M, K = stacked(parts[0]), stacked(parts[1])
         held = [3 * ne * j + 1 for j in range(len(g.spans) + 1)] + [3 * ne * g.fixed_support]
         return M, K, held
 
-    def girder_frequencies(self, g: Girder) -> np.ndarray:
-        """Circular frequencies (rad/s) of the vertical modes of a girder alone on rigid supports
-        (its Rayleigh damping is fitted to the first two; ``svbi metrics`` filters with them)."""
-        M, K, held = self._girder_matrices(g)
-        free = np.setdiff1d(np.arange(M.shape[0]), held)
-        return _circular_frequencies(M, K, np.array([i for i in free if i % 3 != 0]))
+    def girder_frequencies(self, g: Girder, count: int | None = None) -> np.ndarray:
+        """Circular frequencies (rad/s) of the vertical modes of a girder alone on rigid supports:
+        all of them, or the lowest ``count`` (its Rayleigh damping is fitted to the first two;
+        ``svbi metrics`` filters with the first three). Kept per girder and count."""
+        key = (g, count)
+        if key not in self._frequency_cache:
+            M, K, held = self._girder_matrices(g)
+            free = np.setdiff1d(np.arange(M.shape[0]), held)
+            self._frequency_cache[key] = _circular_frequencies(M, K, free[free % 3 != 0], count)
+        return self._frequency_cache[key]
 
-    def _pier_frequencies(self, p: Pier) -> np.ndarray:
-        """Circular frequencies (rad/s) of the sway modes of a pier alone, a fixed-base cantilever."""
-        sec = p.section
-        M, K = column_matrices(
-            p.height, self.elements, sec.youngs_modulus, sec.area, sec.second_moment, sec.mass_per_length
-        )
-        return _circular_frequencies(M, K, np.array([i for i in range(3, M.shape[0]) if i % 3 != 1]))
+    def _pier_frequencies(self, p: Pier, count: int | None = None) -> np.ndarray:
+        """Circular frequencies (rad/s) of the sway modes of a pier alone, a fixed-base cantilever
+        (all, or the lowest ``count``). Kept per height, section and count."""
+        key = (p.height, p.section, count)
+        if key not in self._frequency_cache:
+            M, K = member_sparse(
+                ("column_mass", "column_stiffness"), p.height, self.elements, _section_args(p.section)
+            )
+            dofs = np.arange(3, M.shape[0])
+            self._frequency_cache[key] = _circular_frequencies(M, K, dofs[dofs % 3 != 1], count)
+        return self._frequency_cache[key]
 
     @staticmethod
     def _rayleigh(frequencies: np.ndarray, ratio: float) -> tuple[float, float]:
@@ -450,10 +629,16 @@ class Bridge:
         ez = np.zeros(self.ndof)
         ez[1::3] = 1.0
         free = np.setdiff1d(np.arange(self.ndof), self.support_dofs)
-        k_ff = self.K[np.ix_(free, free)]
-        return _gravity_reactions(
-            self.M, self.K, ez, self.support_dofs, free, lambda f: sla.solve(k_ff, f, assume_a="sym")
-        )
+        if self.ndof <= DENSE_LIMIT:
+            k_ff = self.K[np.ix_(free, free)]
+            return _gravity_reactions(
+                self.M, self.K, ez, self.support_dofs, free, lambda f: sla.solve(k_ff, f, assume_a="sym")
+            )
+        import scipy.sparse.linalg as spla
+
+        k0 = self.kinds[0]
+        lu = spla.splu(k0.Ks.tocsr()[free][:, free].tocsc())
+        return _gravity_reactions(k0.Ms, k0.Ks, ez, self.support_dofs, free, lu.solve)
 
     def _quasi_static_field(self) -> np.ndarray:
         """``T`` (ndof x nsupport): the rigid-body field of a span for unit support motions."""
@@ -502,28 +687,35 @@ class Bridge:
         self.global_dof = gmap.reshape(nsub, nd)
         """Global DOF of every substructure DOF (links merged), ``(nsub, ndof)``."""
         self.nglobal = len(uniq)
-        rows, cols, mv, kv = [], [], [], []
+        # the kinds' entries, substructure by substructure (entries a link merges are summed in the
+        # order of the substructures); a short bridge takes every entry of its kinds' dense blocks,
+        # zeros included, so that SciPy orders its one factorization as it always has
+        direct = self.nglobal <= DIRECT_LIMIT
+        entries = [
+            (_all_entries(kd.M), _all_entries(kd.K)) if direct else (kd.Ms.tocoo(), kd.Ks.tocoo())
+            for kd in self.kinds
+        ]
+        m_parts: list[tuple[np.ndarray, np.ndarray, np.ndarray]] = []
+        k_parts: list[tuple[np.ndarray, np.ndarray, np.ndarray]] = []
         for s in range(nsub):
-            kd = self.kinds[self.kind[s]]
             g = self.global_dof[s]
-            rr, cc = np.meshgrid(g, g, indexing="ij")
-            rows.append(rr.ravel())
-            cols.append(cc.ravel())
-            mv.append(kd.M.ravel())
-            kv.append(kd.K.ravel())
+            for parts, a in zip((m_parts, k_parts), entries[self.kind[s]], strict=True):
+                parts.append((g[a.row], g[a.col], a.data))
         spring = L.spring
         if spring.any():  # bearing springs join their two DOFs elastically
             ga = self.global_dof[L.a_sub[spring], L.a_dof[spring]]
             gb = self.global_dof[L.b_sub[spring], L.b_dof[spring]]
             k = 1.0 / L.compliance[spring]
-            rows += [ga, gb, ga, gb]
-            cols += [ga, gb, gb, ga]
-            kv += [k, k, -k, -k]
-            mv += [0.0 * k] * 4
+            for r, c, v in ((ga, ga, k), (gb, gb, k), (ga, gb, -k), (gb, ga, -k)):
+                k_parts.append((r, c, v))
         shape = (self.nglobal, self.nglobal)
-        r, c = np.concatenate(rows), np.concatenate(cols)
-        self.M_global = sps.csc_matrix((np.concatenate(mv), (r, c)), shape=shape)
-        self.K_global = sps.csc_matrix((np.concatenate(kv), (r, c)), shape=shape)
+
+        def assembled(parts: list[tuple[np.ndarray, np.ndarray, np.ndarray]]) -> Any:
+            r, c, v = (np.concatenate(x) for x in zip(*parts, strict=True))
+            return sps.csc_matrix((v, (r, c)), shape=shape)
+
+        self.M_global = assembled(m_parts)
+        self.K_global = assembled(k_parts)
         act = self.support_active
         self.support_global = self.global_dof[np.nonzero(act)[0], self.support_dof[act]]
         """Global DOF of every active support constraint (row-major over ``(nsub, 3)``)."""
@@ -533,10 +725,20 @@ class Bridge:
         self.free_global = free
         K = self.K_global
         lu = spla.splu(K[free][:, free].tocsc())
-        Tg = self._quasi_static_global(K, free, lu)
+        Tg = self._quasi_static_direct(K, free, lu) if direct else self._quasi_static_global(K.tocsr())
         # per substructure: T_s = Tg[global_dof[s]]; C T as one sparse map (nsub*ndof x nsup)
         self.T_map = Tg[self.global_dof.ravel()].tocsr()
-        C_blocks = sps.block_diag([self.kinds[self.kind[s]].C for s in range(nsub)], format="csr")
+        if direct:  # the block diagonal of every C_s, from the dense blocks (the order of the
+            # product's entries, which the C loop sums in, is then that of earlier versions)
+            C_blocks = sps.block_diag([self.kinds[self.kind[s]].C for s in range(nsub)], format="csr")
+        else:
+            c_parts = []
+            for k, members in enumerate(self.kind_members):
+                c = self.kinds[k].Cs.tocoo()
+                at = nd * members[:, None]
+                c_parts.append(((at + c.row).ravel(), (at + c.col).ravel(), np.tile(c.data, len(members))))
+            r, c, v = (np.concatenate(x) for x in zip(*c_parts, strict=True))
+            C_blocks = sps.csr_matrix((v, (r, c)), shape=(nsub * nd, nsub * nd))
         self.CT_map = (C_blocks @ self.T_map).tocsr()
         ez = np.zeros(self.nglobal)
         for s in range(nsub):
@@ -544,11 +746,16 @@ class Bridge:
         self.dead_load_global = _gravity_reactions(self.M_global, K, ez, self.support_global, free, lu.solve)
         """Dead-load reaction of every active support constraint, N."""
 
-    def _quasi_static_global(self, K: Any, free: np.ndarray, lu: Any, block: int = 64) -> Any:
-        """``T``: the static displacement of every global DOF per unit motion of each active support
-        (the others held), sparse. Solved a block of supports at a time and trimmed below 1e-14, so
-        that memory stays linear in the bridge's length (a support's field decays within a few
-        spans)."""
+    def _support_lines(self) -> tuple[np.ndarray, np.ndarray]:
+        """The support lines every substructure spans: ``(first, last)``, a span from its start
+        to its end line, a pier at its own line."""
+        lines = np.arange(self.spans)
+        at = np.array([p.support for p in self.piers], dtype=np.intp)
+        return np.concatenate([lines, at]), np.concatenate([lines + 1, at])
+
+    def _quasi_static_direct(self, K: Any, free: np.ndarray, lu: Any, block: int = 64) -> Any:
+        """``T`` of a short bridge (at most :data:`DIRECT_LIMIT` DOFs) from the factorization of the
+        whole ``K_ff``, a block of supports at a time, trimmed below :data:`TRIM`."""
         import scipy.sparse as sps
 
         sup = self.support_global
@@ -558,25 +765,98 @@ class Bridge:
         for j0 in range(0, nsup, block):
             cols = np.arange(j0, min(j0 + block, nsup))
             x = -lu.solve(np.asarray(K_fs[:, cols].todense()))
-            x[np.abs(x) < 1e-14] = 0.0
+            x[np.abs(x) < TRIM] = 0.0
             r, c = np.nonzero(x)
             parts.append(sps.csc_matrix((x[r, c], (free[r], cols[c])), shape=(self.nglobal, nsup)))
+        self.influence_work = len(free) * nsup
         return sps.csr_matrix(sum(parts[1:], parts[0]))
+
+    def _quasi_static_global(self, K: Any) -> Any:
+        """``T``: the static displacement of every global DOF per unit motion of each active support
+        (the others held), sparse, entries below :data:`TRIM` dropped.
+
+        A support's field is local: it vanishes a span or two away on simply supported spans and
+        decays geometrically along a continuous girder. The supports are taken
+        :data:`WINDOW_LINES` support lines at a time, and solved on a window of the bridge around
+        them (the substructures within ``margin`` lines; the DOFs outside held) by one sparse
+        factorization. The margin doubles until the field on the window's outer substructures is
+        below :data:`EDGE_TOL`, where holding the outside changes nothing to round-off; a support
+        whose field reaches further (the longitudinal bearing of a continuous girder moves all of
+        it) is solved again on a window twice as wide, and the next group starts from the margin
+        the local fields needed. Each window has a bounded size, so time and memory are linear in
+        the bridge's length. ``self.influence_work`` counts the unknowns solved for times the
+        supports solved for (what the tests of that count)."""
+        import scipy.sparse as sps
+        import scipy.sparse.linalg as spla
+
+        sup = self.support_global
+        nsup = len(sup)
+        first, last = self._support_lines()
+        by_first = np.argsort(first, kind="stable")
+        first_sorted = first[by_first]
+        held = np.zeros(self.nglobal, dtype=bool)
+        held[sup] = True
+        position = np.full(self.nglobal, -1, dtype=np.intp)
+        sup_sub = np.nonzero(self.support_active)[0]  # substructure of every active support
+        group = first[sup_sub] // WINDOW_LINES
+        order = np.argsort(group, kind="stable")
+        bounds = np.flatnonzero(np.diff(group[order])) + 1
+        rows, cols, vals = [sup], [np.arange(nsup)], [np.ones(nsup)]
+        start, self.influence_work = 2, 0
+        for group_cols in np.split(order, bounds):
+            a, b = int(first[sup_sub[group_cols]].min()), int(last[sup_sub[group_cols]].max())
+            margin, pending, needed = start, group_cols, None
+            while len(pending):
+                left, right = a - margin, b + margin
+                i0 = np.searchsorted(first_sorted, left - 1, side="left")
+                i1 = np.searchsorted(first_sorted, right, side="right")
+                cand = by_first[i0:i1]
+                win = cand[last[cand] >= left]
+                dofs = np.unique(self.global_dof[win].ravel())
+                free = dofs[~held[dofs]]
+                k_ff, k_fs = _columns(K[free].tocoo(), (free, sup[pending]), position)
+                x = -spla.splu(k_ff.tocsc()).solve(k_fs.toarray())
+                self.influence_work += x.size
+                outer = np.zeros(len(win), dtype=bool)
+                if left > 0:
+                    outer |= first[win] <= left
+                if right < self.spans:
+                    outer |= last[win] >= right
+                edge = np.unique(self.global_dof[win[outer]].ravel())
+                at = np.searchsorted(free, edge)
+                at = at[(at < len(free)) & (free[np.minimum(at, len(free) - 1)] == edge)]
+                done = np.abs(x[at]).max(axis=0, initial=0.0) <= EDGE_TOL
+                if done.any() and outer.any():  # the margin a local field needs
+                    needed = margin
+                x = x[:, done]
+                x[np.abs(x) < TRIM] = 0.0
+                r, c = np.nonzero(x)
+                rows.append(free[r])
+                cols.append(pending[done][c])
+                vals.append(x[r, c])
+                pending, margin = pending[~done], 2 * margin
+            start = needed if needed is not None else start
+        shape = (self.nglobal, nsup)
+        return sps.csr_matrix(
+            (np.concatenate(vals), (np.concatenate(rows), np.concatenate(cols))), shape=shape
+        )
 
     def natural_frequencies(self, count: int = 10) -> np.ndarray:
         """The lowest natural frequencies (Hz) of the whole bridge, supports held."""
         n = len(self.free_global) if not self.uniform else self.spans * (self.ndof - 3)
-        if self.uniform or n <= 1500:
+        if n <= 1500:
             M, K, free = self.assembled()
             k, m = K[np.ix_(free, free)], M[np.ix_(free, free)]
             eig = sla.eigh(k, m, eigvals_only=True, subset_by_index=[0, min(count, len(free)) - 1])
-        else:  # a long viaduct: the lowest modes by shift-invert Lanczos on the sparse matrices
-            import scipy.sparse.linalg as spla
-
+        elif self.uniform:  # independent identical spans: each mode of a span, once per span
+            k0 = self.kinds[0]
+            free = np.setdiff1d(np.arange(self.ndof), self.support_dofs)
+            span = _circular_frequencies(k0.Ms, k0.Ks, free, min(count, len(free))) ** 2
+            eig = np.repeat(span, self.spans)[:count]
+        else:  # a long bridge: the lowest modes by shift-invert Lanczos on the sparse matrices
             free = self.free_global
-            k = self.K_global[free][:, free].tocsc()
-            m = self.M_global[free][:, free].tocsc()
-            eig = np.sort(spla.eigsh(k, k=min(count, n - 2), M=m, sigma=0.0, return_eigenvectors=False))
+            K, M = self.K_global.tocsr(), self.M_global.tocsr()
+            eig = lowest_eigenvalues(K[free][:, free], M[free][:, free], min(count, n - 2))
         return np.sqrt(np.clip(eig, 0.0, None)) / (2 * np.pi)
 
     def assembled(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -645,6 +925,12 @@ class Bridge:
         return total[self.support_global]
 
     # ----------------------------------------------------------------------------------------------
+    @property
+    def active_supports(self) -> int:
+        """How many support constraints tie the bridge to the ground (results dimension
+        ``support``); known from the layout alone."""
+        return int(self.support_active.sum())
+
     @property
     def length(self) -> float:
         return float(self.line_x[-1])

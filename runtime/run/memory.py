@@ -131,12 +131,13 @@ class MemoryEstimate:
 
 def estimate_memory(scenario: Scenario) -> MemoryEstimate:
     """The memory a run of ``scenario`` will need (see the module docstring)."""
-    bridge, train, duration, steps = run_extent(scenario)
+    # the bridge's layout only: the estimate comes from its sizes, before any matrix is built
+    bridge, train, duration, steps = run_extent(scenario, matrices=False)
     ss = scenario.solver
     every = ss.output_every
     nout = steps // every + 1
     nc, cars, spans = train.contacts, train.cars, bridge.spans
-    nsup = len(bridge.support_table.flat)
+    nsup = bridge.active_supports
     nsub = bridge.nsub
     uniform = _uniform_ground(scenario)
     columns = stored_columns(

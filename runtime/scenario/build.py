@@ -22,8 +22,9 @@ differs from the exact spectral sum by at most about 5e-13 (r), 6e-10 (r') and 1
 RMS (docs/excitations.md)."""
 
 
-def bridge_from_scenario(scenario: Scenario) -> Bridge:
-    """The :class:`Bridge` of ``[bridge]``: the shorthand, or the long form's girders and piers."""
+def bridge_from_scenario(scenario: Scenario, matrices: bool = True) -> Bridge:
+    """The :class:`Bridge` of ``[bridge]``: the shorthand, or the long form's girders and piers
+    (``matrices=False``: its layout only, see :class:`Bridge`)."""
     bs = scenario.bridge
     return Bridge(
         bs.spans,
@@ -36,14 +37,18 @@ def bridge_from_scenario(scenario: Scenario) -> Bridge:
         bs.elements_per_span,
         bs.rail_height,
         *(bs.layout() if bs.girders is not None else ()),
+        matrices=matrices,
     )
 
 
-def run_extent(scenario: Scenario, hold_train: bool = False) -> tuple[Bridge, Train, float, int]:
+def run_extent(
+    scenario: Scenario, hold_train: bool = False, matrices: bool = True
+) -> tuple[Bridge, Train, float, int]:
     """Bridge, train, duration (s) and number of steps of a run: the cheap part of
-    :func:`build_model`, which sizes the run (``svbi.runtime.run.memory``) before the tables exist."""
+    :func:`build_model`, which sizes the run (``svbi.runtime.run.memory``, with ``matrices=False``:
+    the bridge's layout only) before the tables exist."""
     ts, ss = scenario.train, scenario.solver
-    bridge = bridge_from_scenario(scenario)
+    bridge = bridge_from_scenario(scenario, matrices)
     ref = vehicle_ref(scenario)
     model_sym = vehicle_model(ref)
     values = model_sym.topology.values(ts.parameters, where="train.parameters")

@@ -127,8 +127,21 @@ def span_frequencies(bridge: dict[str, Any]) -> SpanFrequencies:
     if bridge.get("girders"):
         spec = BridgeSpec.model_validate(bridge, strict=False)
         girders, piers = spec.layout()
-        b = Bridge(0, 0.0, 1.0, 1.0, 1.0, 1.0, 0.0, spec.elements_per_span, spec.rail_height, girders, piers)
-        per_girder = [b.girder_frequencies(g) / (2 * np.pi) for g in girders]
+        b = Bridge(
+            0,
+            0.0,
+            1.0,
+            1.0,
+            1.0,
+            1.0,
+            0.0,
+            spec.elements_per_span,
+            spec.rail_height,
+            girders,
+            piers,
+            matrices=False,
+        )
+        per_girder = [b.girder_frequencies(g, 3) / (2 * np.pi) for g in girders]
         return SpanFrequencies(
             max(float(f[0]) for f in per_girder), max(float(f[min(2, f.size - 1)]) for f in per_girder)
         )
