@@ -47,7 +47,7 @@ from typing import Any
 
 import numpy as np
 
-from svbi.codegen.plain_types import PYTHON_KERNELS_FILE
+from ..codegen.plain_types import PYTHON_KERNELS_FILE
 
 DEFAULT_FLAGS: tuple[str, ...] = ("-O3", "-fPIC", "-shared")
 MARKER = "svbi-build.json"
@@ -593,7 +593,7 @@ def model_folder(model: Any, *, cache_dir: str | os.PathLike[str] | None = None)
     ``ModelSpec``. Topology files and specs are generated into the cache (``<cache>/models/<hash>``).
     """
     # deferred: brings SymPy and Jinja2 (about 0.5 s), for derivation and emission only
-    from svbi.codegen.kernels import ModelSpec
+    from ..codegen.kernels import ModelSpec
 
     if isinstance(model, ModelSpec):
         return _generate_into_cache(model, cache_dir)
@@ -604,14 +604,14 @@ def model_folder(model: Any, *, cache_dir: str | os.PathLike[str] | None = None)
     if (builtin / MANIFEST).is_file():
         return builtin
     # deferred: brings SymPy and Jinja2 (about 0.5 s), for derivation and emission only
-    from svbi.codegen.kernels import model_spec
+    from ..codegen.kernels import model_spec
 
     return _generate_into_cache(model_spec(model), cache_dir)
 
 
 def _generate_into_cache(spec: Any, cache_dir: str | os.PathLike[str] | None) -> Path:
     # deferred: brings SymPy and Jinja2 (about 0.5 s), for derivation and emission only
-    from svbi.codegen import c_emit
+    from ..codegen import c_emit
 
     files = c_emit.render_model(spec)
     digest = json.loads(files[MANIFEST])["inputs_sha256"]
@@ -727,7 +727,7 @@ def python_module(
     if final.is_file():
         return final
     # deferred: brings SymPy and Jinja2 (about 0.5 s), for derivation and emission only
-    from svbi.codegen.python_emit import render_target
+    from ..codegen.python_emit import render_target
 
     _, source = render_target(str(topology))
     final.parent.mkdir(parents=True, exist_ok=True)

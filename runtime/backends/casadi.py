@@ -17,8 +17,7 @@ from typing import Any
 
 import numpy as np
 
-from svbi.codegen.loop_abi import METHOD_CODES
-
+from ...codegen.loop_abi import METHOD_CODES
 from ..methods.steppers import numpy_steppers
 from ..model.contact_rows import ContactRows
 from ..model.system import Model, State

@@ -9,8 +9,7 @@ from pathlib import Path
 
 import typer
 
-from svbi.codegen.loop_abi import GLUE_NAMES
-
+from ...codegen.loop_abi import GLUE_NAMES
 from ..run.export import PROGRAM, example_scenario, scenario_files
 from ..run.output import OutputPathError, prepare_folder
 from ..scenario.schema import ScenarioError, load_scenario
@@ -34,10 +33,10 @@ def _render(target: str, embedded: bool = False) -> tuple[str, dict[str, bytes]]
     and creep law of frame2d). A moving-load vehicle has only its NumPy module (its data) and its
     topology header."""
     # deferred: brings SymPy and Jinja2 (about 0.5 s), for derivation and emission only
-    from svbi.codegen import c_emit, python_emit
-    from svbi.codegen import loop_glue as c_glue
-    from svbi.codegen.frame3d import FRAME3D
-    from svbi.codegen.kernels import FRAME2D, frame2d_model_spec, skip_reason, vehicle_model_spec
+    from ...codegen import c_emit, python_emit
+    from ...codegen import loop_glue as c_glue
+    from ...codegen.frame3d import FRAME3D
+    from ...codegen.kernels import FRAME2D, frame2d_model_spec, skip_reason, vehicle_model_spec
 
     if target == FRAME3D:
         # the 3D element is not yet in the C loop: its NumPy module only
@@ -52,7 +51,7 @@ def _render(target: str, embedded: bool = False) -> tuple[str, dict[str, bytes]]
         _, source = python_emit.render_target(target)
     else:
         # deferred: brings SymPy and Jinja2 (about 0.5 s), for derivation and emission only
-        from svbi.codegen.vehicle import derive_vehicle
+        from ...codegen.vehicle import derive_vehicle
 
         vehicle = derive_vehicle(target)
         spec = vehicle_model_spec(vehicle)
@@ -65,9 +64,9 @@ def _targets() -> list[str]:
     """Every built-in model with generated files: the vehicles (moving loads: the NumPy module
     only), ``frame2d`` and ``frame3d`` (the NumPy module only)."""
     # deferred: brings SymPy and Jinja2 (about 0.5 s), for derivation and emission only
-    from svbi.codegen.frame3d import FRAME3D
-    from svbi.codegen.kernels import FRAME2D
-    from svbi.codegen.topology import builtin_topologies
+    from ...codegen.frame3d import FRAME3D
+    from ...codegen.kernels import FRAME2D
+    from ...codegen.topology import builtin_topologies
 
     return [*builtin_topologies(), FRAME2D, FRAME3D]
 
@@ -76,7 +75,7 @@ def _builtin_tree() -> dict[str, dict[str, bytes]]:
     """``{folder: files}`` of the whole committed tree: every built-in model and the loop's
     ``solver/`` folder, which belongs to no model."""
     # deferred: brings SymPy and Jinja2 (about 0.5 s), for derivation and emission only
-    from svbi.codegen import loop_glue as c_glue
+    from ...codegen import loop_glue as c_glue
 
     tree = dict(_render(model) for model in _targets())
     tree[c_glue.SOLVER_FOLDER] = c_glue.solver_types()
@@ -115,7 +114,7 @@ def check_tree(committed: Path) -> list[str]:
     Returns the unified diff lines (empty when the trees match).
     """
     # deferred: brings SymPy and Jinja2 (about 0.5 s), for derivation and emission only
-    from svbi.codegen import c_emit
+    from ...codegen import c_emit
 
     with tempfile.TemporaryDirectory(prefix="svbi-check-") as tmp:
         for name, files in _builtin_tree().items():
@@ -148,8 +147,8 @@ def generate(
     """Generate CasADi Functions (.casadi), C kernels, headers, build files and the NumPy module
     (numpy_kernels.py) for models."""
     # deferred: brings SymPy and Jinja2 (about 0.5 s), for derivation and emission only
-    from svbi.codegen import c_emit
-    from svbi.codegen.kernels import skip_reason
+    from ...codegen import c_emit
+    from ...codegen.kernels import skip_reason
 
     if check:
         committed = out or _generated_root()
@@ -187,7 +186,7 @@ def generate(
         typer.echo(f"generated {name}: {len(files)} files in {folder}")
     if all_ and out is None:
         # Remove folders of models that are no longer built in, so --check stays clean.
-        from svbi.codegen.python_emit import FILENAME
+        from ...codegen.python_emit import FILENAME
 
         for folder in _generated_root().iterdir():
             generated = (folder / "manifest.json").is_file() or (folder / FILENAME).is_file()
@@ -233,8 +232,8 @@ def export(
     and needs no Python, CasADi or SymPy.
     """
     # deferred: brings SymPy and Jinja2 (about 0.5 s), for derivation and emission only
-    from svbi.codegen import c_emit
-    from svbi.codegen.kernels import skip_reason
+    from ...codegen import c_emit
+    from ...codegen.kernels import skip_reason
 
     try:
         folder = _export_folder(folder)

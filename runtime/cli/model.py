@@ -12,9 +12,8 @@ from typing import TYPE_CHECKING, Any, NoReturn
 
 import typer
 
-from svbi.codegen.input_files import MAX_TOML_BYTES, InputFileError, TOMLNestingError, loads_toml, read_text
-from svbi.codegen.plain_types import TopologyError, spin_dofs
-
+from ...codegen.input_files import MAX_TOML_BYTES, InputFileError, TOMLNestingError, loads_toml, read_text
+from ...codegen.plain_types import TopologyError, spin_dofs
 from ...examples import paper_section_keys
 from ..model.hslm import hslm_axles
 from ..model.modes import span_modes, vehicle_modes
@@ -23,7 +22,7 @@ from ..scenario.kinds import wrong_kind
 from ..scenario.schema import ScenarioError, load_scenario, vehicle_ref
 
 if TYPE_CHECKING:
-    from svbi.codegen.vehicle import VehicleModel
+    from ...codegen.vehicle import VehicleModel
 
 # SymPy and the symbolic core load inside the commands that use them: registering the commands
 # (every `svbi` invocation, `svbi run` included) must not import SymPy.
@@ -50,7 +49,7 @@ def derivation(model: VehicleModel) -> dict[str, Any]:
     import sympy as sp
 
     # deferred: brings SymPy and Jinja2 (about 0.5 s), for derivation and emission only
-    from svbi.codegen import constraints
+    from ...codegen import constraints
 
     out: dict[str, Any] = {
         "model": model.name,
@@ -104,8 +103,8 @@ def _to_json(value: Any) -> Any:
 
 def _notes() -> str:
     # deferred: brings SymPy and Jinja2 (about 0.5 s), for derivation and emission only
-    from svbi.codegen import beam
-    from svbi.codegen.vehicle import a_split
+    from ...codegen import beam
+    from ...codegen.vehicle import a_split
 
     return (
         f"Symbols: {a_split} = aux-point mass split, g = gravity, m_g = aux point mass, "
@@ -342,8 +341,8 @@ def _fail_file(message: str) -> NoReturn:
 
 def _load(model: str) -> VehicleModel:
     # deferred: brings SymPy and Jinja2 (about 0.5 s), for derivation and emission only
-    from svbi.codegen.topology import load_topology
-    from svbi.codegen.vehicle import derive_vehicle
+    from ...codegen.topology import load_topology
+    from ...codegen.vehicle import derive_vehicle
 
     try:
         vehicle = derive_vehicle(load_topology(model))

@@ -34,8 +34,7 @@ from typing import Literal, Protocol
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from svbi.codegen.input_files import MAX_DATA_BYTES, InputFileError, read_bytes
-
+from ...codegen.input_files import MAX_DATA_BYTES, InputFileError, read_bytes
 from .piecewise import Pieces, PiecewisePolynomial, horner
 from .textfile import decode_text
 

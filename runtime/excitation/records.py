@@ -25,7 +25,7 @@ from pathlib import Path
 import numpy as np
 from numpy.typing import NDArray
 
-from svbi.codegen.input_files import MAX_DATA_BYTES, InputFileError, read_text
+from ...codegen.input_files import MAX_DATA_BYTES, InputFileError, read_text
 
 G = 9.81
 """Standard gravity used to convert records in g (docs/design.md section 2)."""

@@ -29,8 +29,7 @@ from typing import Any
 
 import numpy as np
 
-from svbi.codegen.plain_types import GRAVITY
-
+from ...codegen.plain_types import GRAVITY
 from ..model.contact_rows import BridgeConstraintMass, vehicle_constraint_masses
 from ..model.system import Contacts, Model, State
 from .monolithic import Monolithic, Triplets, solve_sparse

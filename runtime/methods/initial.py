@@ -30,8 +30,7 @@ from dataclasses import dataclass
 import numpy as np
 import scipy.sparse as sps
 
-from svbi.codegen.plain_types import GRAVITY
-
+from ...codegen.plain_types import GRAVITY
 from ..model.contact_rows import ShapeKernel
 from ..model.system import Model, State
 from ..model.vehicle_static import free_modes, refined_solve, vehicle_static_on_rigid_track

@@ -24,8 +24,7 @@ from __future__ import annotations
 import numpy as np
 import scipy.linalg as sla
 
-from svbi.codegen.plain_types import GRAVITY
-
+from ...codegen.plain_types import GRAVITY
 from ..model.contact_rows import ContactRowKernel, ContactRows, ShapeKernel, point_row
 from ..model.system import Contacts, Model, State
 from .newmark import Newmark

@@ -26,8 +26,7 @@ from dataclasses import dataclass
 import numpy as np
 import scipy.linalg as sla
 
-from svbi.codegen.plain_types import GRAVITY
-
+from ...codegen.plain_types import GRAVITY
 from ..model.contact_rows import ShapeKernel
 from ..model.system import Contacts, Model, State
 from .substructures import SubstructureCompliance

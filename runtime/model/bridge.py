@@ -23,8 +23,7 @@ from typing import Any
 import numpy as np
 import scipy.linalg as sla
 
-from svbi.codegen.plain_types import GRAVITY
-
+from ...codegen.plain_types import GRAVITY
 from .modes import member_sparse
 
 DENSE_LIMIT = 600

@@ -175,7 +175,7 @@ class CreepParameters:
         """Numeric values keyed by the symbols of ``svbi.codegen.creep`` (imports SymPy: for tests
         and derivations, not for a run)."""
         # deferred: brings SymPy and Jinja2 (about 0.5 s), for derivation and emission only
-        from svbi.codegen import creep as law
+        from ...codegen import creep as law
 
         named = self.named_values()
         return {s: named[s.name] for s in law.PARAMETERS}

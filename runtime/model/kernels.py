@@ -14,8 +14,7 @@ import types
 from functools import cache
 from pathlib import Path
 
-from svbi.codegen.plain_types import PYTHON_KERNELS_FILE, TopologyError, builtin_topologies
-
+from ...codegen.plain_types import PYTHON_KERNELS_FILE, TopologyError, builtin_topologies
 from ..toolchain import generated_root, python_module
 
 FRAME2D = "frame2d"

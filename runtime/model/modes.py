@@ -13,8 +13,7 @@ from typing import Any
 import numpy as np
 import scipy.linalg as sla
 
-from svbi.codegen.plain_types import NumericVehicle
-
+from ...codegen.plain_types import NumericVehicle
 from .kernels import frame2d
 
 

@@ -20,12 +20,11 @@ from typing import Any
 import numpy as np
 import sympy as sp
 
-from svbi.codegen import contact3d as c3
-from svbi.codegen.beam import le as LE
-from svbi.codegen.beam import xi as XI
-from svbi.codegen.topology3d import Topology3D, load_topology3d
-from svbi.codegen.vehicle3d import derive_vehicle3d
-
+from ...codegen import contact3d as c3
+from ...codegen.beam import le as LE
+from ...codegen.beam import xi as XI
+from ...codegen.topology3d import Topology3D, load_topology3d
+from ...codegen.vehicle3d import derive_vehicle3d
 from .span3d import Span3D
 
 ARGS = (

@@ -17,8 +17,7 @@ from typing import Any
 
 import numpy as np
 
-from svbi.codegen.plain_types import GRAVITY, NumericVehicle
-
+from ...codegen.plain_types import GRAVITY, NumericVehicle
 from .vehicle import GeneratedVehicle, VehicleTopology, vehicle
 from .vehicle_static import vehicle_static_on_rigid_track
 

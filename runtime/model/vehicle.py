@@ -15,14 +15,13 @@ from typing import Any
 
 import numpy as np
 
-from svbi.codegen.plain_types import (
+from ...codegen.plain_types import (
     NumericVehicle,
     TopologyError,
     check_value,
     mechanism_problem,
     validate_split,
 )
-
 from .kernels import load
 
 

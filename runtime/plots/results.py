@@ -28,8 +28,7 @@ from matplotlib.axes import Axes
 from matplotlib.figure import Figure
 from matplotlib.lines import Line2D
 
-from svbi.codegen.input_files import MAX_TOML_BYTES, loads_toml, read_text
-
+from ...codegen.input_files import MAX_TOML_BYTES, loads_toml, read_text
 from ..run.atomic import write_atomic
 from ..scenario.kinds import wrong_kind
 

@@ -20,8 +20,7 @@ from typing import Any
 
 import numpy as np
 
-from svbi.codegen import loop_abi
-
+from ...codegen import loop_abi
 from ...examples import paper_section_keys
 from ..backends.c import build as c_solver_build
 from ..backends.c.stepper import CStepper
@@ -39,7 +38,7 @@ OUTPUT_NAMES = loop_abi.OUTPUT_NAMES
 def example_scenario(vehicle: str) -> dict[str, Any]:
     """The built-in scenario of the exported example: two cars over two spans, quake and irregularity."""
     # deferred: brings SymPy and Jinja2 (about 0.5 s), for derivation and emission only
-    from svbi.codegen.topology import load_topology
+    from ...codegen.topology import load_topology
 
     moving = load_topology(vehicle).kind == "moving-load"
     return {
@@ -260,7 +259,7 @@ def scenario_files(
     if spec.model != model_name and Path(spec.model).name != model_name:
         raise ValueError(f"the scenario's vehicle is {spec.model!r}, not the exported model {model_name!r}")
     # deferred: brings SymPy and Jinja2 (about 0.5 s), for derivation and emission only
-    from svbi.codegen.loop_glue import environment
+    from ...codegen.loop_glue import environment
 
     env = environment()
     files = {**(extra or {}), **c_solver_build.render_sources(spec, embedded=embedded)}
@@ -300,7 +299,7 @@ def write_solver(
 ) -> tuple[Path, dict[str, bytes]]:
     """Write the solver example of ``model_name`` (built-in scenario unless ``scenario`` is given)."""
     # deferred: brings SymPy and Jinja2 (about 0.5 s), for derivation and emission only
-    from svbi.codegen.c_emit import write_files
+    from ...codegen.c_emit import write_files
 
     files, _ = scenario_files(model_name, scenario or example_scenario(model_name), extra, embedded)
     return write_files(files, folder, prune=False), files

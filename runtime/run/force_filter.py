@@ -24,8 +24,7 @@ from pathlib import Path
 
 import numpy as np
 
-from svbi.codegen.c_flags import STRICT_FLAGS
-
+from ...codegen.c_flags import STRICT_FLAGS
 from .. import toolchain as kernel_cache
 from ..backends.c.build import simd_flags
 from ..toolchain import cache_root

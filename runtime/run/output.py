@@ -24,7 +24,7 @@ from collections.abc import Iterable, Iterator
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
-from svbi.codegen.plain_types import builtin_topologies
+from ...codegen.plain_types import builtin_topologies
 
 if TYPE_CHECKING:
     import xarray as xr

@@ -13,8 +13,7 @@ import math
 from collections.abc import Iterable, Mapping
 from typing import TYPE_CHECKING, Any
 
-from svbi.codegen.plain_types import TopologyError, builtin_topologies
-
+from ...codegen.plain_types import TopologyError, builtin_topologies
 from ..excitation.irregularity import read_profile_cached
 from ..model.hslm import hslm_parameters
 from ..model.train import Kinematics, vehicle_model

@@ -26,7 +26,7 @@ from typing import Annotated, Any, Literal
 import tomli_w
 from pydantic import BaseModel, ConfigDict, Field, PrivateAttr, ValidationError, model_validator
 
-from svbi.codegen.input_files import (
+from ...codegen.input_files import (
     MAX_DATA_BYTES,
     MAX_TOML_BYTES,
     InputFileError,
@@ -35,8 +35,7 @@ from svbi.codegen.input_files import (
     loads_toml,
     read_bytes,
 )
-from svbi.codegen.plain_types import TopologyError
-
+from ...codegen.plain_types import TopologyError
 from ..excitation.irregularity import read_profile_cached
 from ..excitation.textfile import TextFileError, decode_text
 from ..model.bridge import Girder, Pier, Section

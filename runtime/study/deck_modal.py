@@ -35,8 +35,7 @@ from typing import Any
 import numpy as np
 import scipy.linalg as sla
 
-from svbi.codegen.plain_types import builtin_topologies
-
+from ...codegen.plain_types import builtin_topologies
 from ..model.hslm import hslm_parameters
 from ..model.kernels import frame2d
 from ..model.modes import span_matrices, span_support_dofs

@@ -52,9 +52,8 @@ from pydantic import (
     ValidationError,
 )
 
-from svbi.codegen.input_files import MAX_TOML_BYTES, InputFileError, TOMLNestingError, loads_toml, read_bytes
-
 from ... import __version__
+from ...codegen.input_files import MAX_TOML_BYTES, InputFileError, TOMLNestingError, loads_toml, read_bytes
 from ..excitation.textfile import TextFileError, decode_text
 from ..run.atomic import write_atomic
 from ..run.output import folder_problem, same_file

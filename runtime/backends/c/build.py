@@ -39,8 +39,8 @@ from typing import Any
 
 import numpy as np
 
-from svbi.codegen.c_flags import CASADI_WARNING_EXCEPTION, STRICT_FLAGS
-from svbi.codegen.loop_abi import (
+from ....codegen.c_flags import CASADI_WARNING_EXCEPTION, STRICT_FLAGS
+from ....codegen.loop_abi import (
     BRIDGE_FOLDER,
     CREEP_FILES,
     EXCITATION_FIELDS,
@@ -58,8 +58,7 @@ from svbi.codegen.loop_abi import (
     TYPES_HEADER,
     Field,
 )
-from svbi.codegen.plain_types import c_identifier
-
+from ....codegen.plain_types import c_identifier
 from ... import toolchain as kernel_cache
 from ...model.contact_rows import bridge_row_tables, bridge_row_tables_changing_speed, shape_tables
 from ...model.kernels import frame2d
@@ -214,13 +213,13 @@ def glue_sources(spec: LoopSpec, embedded: bool = False) -> dict[str, bytes]:
     (rendered now)."""
     files = _committed(SOLVER_FOLDER, (TYPES_HEADER,))
     if files is None:
-        from svbi.codegen import loop_glue  # generation: Jinja2 (a source tree without generated/)
+        from ....codegen import loop_glue  # generation: Jinja2 (a source tree without generated/)
 
         files = loop_glue.solver_types()
     bridge_names = (ROWS_HEADER,) if spec.moving_load else (ROWS_HEADER, *CREEP_FILES)
     bridge = None if embedded and not spec.moving_load else _committed(BRIDGE_FOLDER, bridge_names)
     if bridge is None:
-        from svbi.codegen import loop_glue  # generation: Jinja2, SymPy, CasADi (the embedded creep law)
+        from ....codegen import loop_glue  # generation: Jinja2, SymPy, CasADi (the embedded creep law)
 
         bridge = loop_glue.contact_rows()
         if not spec.moving_load:
@@ -229,7 +228,7 @@ def glue_sources(spec: LoopSpec, embedded: bool = False) -> dict[str, bytes]:
     folder = MOVING_LOAD_FOLDER if spec.moving_load else spec.model
     topology = _committed(folder, (TOPOLOGY_HEADER,)) if "/" not in folder else None
     if topology is None or not _topology_matches(topology[TOPOLOGY_HEADER], spec):
-        from svbi.codegen import loop_glue  # generation: Jinja2 (a topology file's sizes)
+        from ....codegen import loop_glue  # generation: Jinja2 (a topology file's sizes)
 
         topology = loop_glue.topology(spec.model, spec.nv, spec.nw)
     files.update(topology)

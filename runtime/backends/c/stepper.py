@@ -34,9 +34,8 @@ from typing import Any
 
 import numpy as np
 
-from svbi.codegen import loop_abi
-from svbi.codegen.plain_types import GRAVITY
-
+from ....codegen import loop_abi
+from ....codegen.plain_types import GRAVITY
 from ...excitation.ground import GroundMotion
 from ...excitation.irregularity import NoIrregularity, SampledIrregularity
 from ...excitation.piecewise import horner
