@@ -32,6 +32,7 @@ import os
 import shutil
 import signal
 import sys
+import threading
 import time
 import tomllib
 import warnings
@@ -831,6 +832,7 @@ def _compute(
     stop = parts_dir(out) / f".stop-{os.getpid()}-{time.time_ns()}"
     futures: dict[Any, int] = {}
     finished = False
+    signals = _DeferredSignals()
     try:
         jobs = [
             (
@@ -850,9 +852,11 @@ def _compute(
         pending = set(futures)
         alone_since: float | None = None
         while pending:
+            signals.act()  # a Ctrl-C or SIGTERM received while waiting stops the sweep here
             try:
-                result = wait(pending, timeout=2.0, return_when="FIRST_COMPLETED")
-            except TimeoutError:  # none finished in 2 s: are there workers at all?
+                with signals:
+                    result = wait(pending, timeout=0.5, return_when="FIRST_COMPLETED")
+            except TimeoutError:  # none finished in 0.5 s: are there workers at all?
                 result = None
             if result is None or not result.done:
                 if scheduler and not client.nthreads():
@@ -879,6 +883,7 @@ def _compute(
                         bar.update(1)
                     if on_done is not None:
                         on_done(done)
+        signals.act()  # one received during the last wait
         finished = True
     finally:
         if not finished:
@@ -894,6 +899,37 @@ def _compute(
         if cluster is not None:
             cluster.close()
     return lost
+
+
+class _DeferredSignals:
+    """SIGINT and SIGTERM recorded while Dask waits, acted on by :meth:`act` outside Dask's calls.
+
+    A KeyboardInterrupt raised inside ``distributed.wait`` interrupts the client's event-loop
+    handshake half-way: the client can then no longer close, and its ``__del__`` prints a traceback
+    at exit. Inside ``with signals:`` a signal is only recorded; :meth:`act` then delivers it to
+    the handler that was in place (KeyboardInterrupt, or ``RunInterrupted`` for SIGTERM) from
+    svbi's own code, at most one wait (0.5 s) later."""
+
+    SIGNALS = (signal.SIGINT, signal.SIGTERM)
+
+    def __init__(self) -> None:
+        self.received: list[int] = []
+        self.previous: dict[int, Any] = {}
+
+    def __enter__(self) -> _DeferredSignals:
+        if threading.current_thread() is threading.main_thread():
+            for s in self.SIGNALS:
+                self.previous[s] = signal.signal(s, lambda signum, _frame: self.received.append(signum))
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        for s, handler in self.previous.items():
+            signal.signal(s, handler)
+        self.previous.clear()
+
+    def act(self) -> None:
+        if self.received:
+            signal.raise_signal(self.received.pop(0))  # the handler in place raises
 
 
 def _int_variable(values: np.ndarray, dims: list[str], attrs: dict[str, Any], missing: int) -> tuple:
