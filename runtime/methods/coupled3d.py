@@ -172,10 +172,9 @@ def _static_newton(
     raise RuntimeError(f"the static state did not converge in {NEWTON_ITERATIONS} Newton iterations")
 
 
-class CoupledDynamic3D:
-    """The monolithic 3D step; see the module docstring."""
-
-    name = "coupled-dynamic-3d"
+class _Step3D:
+    """What both 3D steps share: the Newmark set-up, the contact kernels, the histories and loads
+    of a step, the commit of its solution and the gaps."""
 
     def __init__(
         self, system: System3D, state: State3D, time_step: float, kappa: float = 1.0, zeta: float = 1.0
@@ -192,24 +191,61 @@ class CoupledDynamic3D:
             ContactKernel3D(w, system.track, le, system.speed, 2 * zeta * omega, omega * omega)
             for w in system.vehicle.wheelsets
         ]
-        veh, nm, asm = system.vehicle, self.nm, self.asm
-        f = asm.free
-        CB = np.zeros_like(span.M) if system.bridge_damping is None else system.bridge_damping
-        self.CB = CB
-        self.k_hat_V = nm.effective(veh.K, veh.C, veh.M)
-        self.k_hat_B = nm.effective(span.K, CB, span.M)[np.ix_(f, f)]
+        self.CB = np.zeros_like(span.M) if system.bridge_damping is None else system.bridge_damping
         self.iterations = 0
 
-    def step(self, n: int) -> State3D:
-        """Advance from t_n to t_{n+1} = (n + 1) dt."""
-        sys_, st, nm, asm = self.system, self.state, self.nm, self.asm
+    def _loads(self, n: int) -> tuple[float, tuple, tuple, np.ndarray, np.ndarray]:
+        """t_{n+1}, the vehicle's and the span's Newmark histories, and their effective loads."""
+        sys_, st, nm = self.system, self.state, self.nm
         veh, span = sys_.vehicle, sys_.span
-        t = (n + 1) * self.dt
-        f = asm.free
         PtV, QtV = nm.increment_history(st.qd, st.qdd)
         fV = sys_.vehicle_load() - veh.K @ st.q + veh.M @ PtV + veh.C @ QtV
         PB, QB = nm.history(st.u, st.ud, st.udd)
-        fB = (span.M @ PB + self.CB @ QB)[f]
+        fB = (span.M @ PB + self.CB @ QB)[self.asm.free]
+        return (n + 1) * self.dt, (PtV, QtV), (PB, QB), fV, fB
+
+    def _commit(
+        self, t: float, dq: np.ndarray, u: np.ndarray, P: np.ndarray, hist_V: tuple, hist_B: tuple
+    ) -> State3D:
+        """The state at t_{n+1} from the vehicle's increment, the span's displacements and P."""
+        st, nm = self.state, self.nm
+        st.qd, st.qdd = nm.update_increment(dq, *hist_V)
+        st.q = st.q + dq
+        st.ud, st.udd = nm.update(u, *hist_B)
+        st.u = u
+        st.P = P
+        st.t = t
+        return st
+
+    def gaps(self) -> np.ndarray:
+        """Normal gaps of every contact at the state's time (m), wheelset by wheelset."""
+        st, asm = self.state, self.asm
+        out = []
+        for w, (e, xi) in enumerate(self.system.contact_location(st.t)):
+            out.extend(self.kernels[w].gap(asm.z(w, e, st.q, st.u), xi))
+        return np.array(out)
+
+
+class CoupledDynamic3D(_Step3D):
+    """The monolithic 3D step; see the module docstring."""
+
+    name = "coupled-dynamic-3d"
+
+    def __init__(
+        self, system: System3D, state: State3D, time_step: float, kappa: float = 1.0, zeta: float = 1.0
+    ) -> None:
+        super().__init__(system, state, time_step, kappa, zeta)
+        veh, span, nm = system.vehicle, system.span, self.nm
+        self.k_hat_V = nm.effective(veh.K, veh.C, veh.M)
+        self.k_hat_B = nm.effective(span.K, self.CB, span.M)[np.ix_(self.asm.free, self.asm.free)]
+
+    def step(self, n: int) -> State3D:
+        """Advance from t_n to t_{n+1} = (n + 1) dt."""
+        sys_, st, asm = self.system, self.state, self.asm
+        f = asm.free
+        nm = self.nm
+        t, hist_V, hist_B, fV, fB = self._loads(n)
+        (PtV, QtV), (PB, QB) = hist_V, hist_B
         loc = sys_.contact_location(t)
         dq = np.zeros(asm.nV)
         u = st.u.copy()
@@ -245,18 +281,4 @@ class CoupledDynamic3D:
             P += dx[asm.oP :]
             if converged(np.abs(dx[: asm.oP]).max(), max(np.abs(q).max(), np.abs(u).max())):
                 break
-        st.qd, st.qdd = nm.update_increment(dq, PtV, QtV)
-        st.q = st.q + dq
-        st.ud, st.udd = nm.update(u, PB, QB)
-        st.u = u
-        st.P = P
-        st.t = t
-        return st
-
-    def gaps(self) -> np.ndarray:
-        """Normal gaps of every contact at the state's time (m), wheelset by wheelset."""
-        st, asm = self.state, self.asm
-        out = []
-        for w, (e, xi) in enumerate(self.system.contact_location(st.t)):
-            out.extend(self.kernels[w].gap(asm.z(w, e, st.q, st.u), xi))
-        return np.array(out)
+        return self._commit(t, dq, u, P, hist_V, hist_B)

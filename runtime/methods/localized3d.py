@@ -24,12 +24,11 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..model.system3d import ContactKernel3D, System3D
-from .coupled3d import NEWTON_ITERATIONS, Convergence, State3D, _Assembly
-from .newmark import Newmark
+from ..model.system3d import System3D
+from .coupled3d import NEWTON_ITERATIONS, Convergence, State3D, _Step3D
 
 
-class LocalizedDynamic3D:
+class LocalizedDynamic3D(_Step3D):
     """The partitioned 3D step; see the module docstring."""
 
     name = "localized-dynamic-3d"
@@ -37,35 +36,19 @@ class LocalizedDynamic3D:
     def __init__(
         self, system: System3D, state: State3D, time_step: float, kappa: float = 1.0, zeta: float = 1.0
     ) -> None:
-        self.system = system
-        self.state = state
-        self.dt = time_step
-        self.nm = nm = Newmark(time_step)
-        omega = kappa / time_step
-        self.asm = asm = _Assembly(system)
-        span, veh = system.span, system.vehicle
-        le = span.length / span.n_elements
-        self.kernels = [
-            ContactKernel3D(w, system.track, le, system.speed, 2 * zeta * omega, omega * omega)
-            for w in veh.wheelsets
-        ]
-        f = asm.free
-        self.CB = np.zeros_like(span.M) if system.bridge_damping is None else system.bridge_damping
+        super().__init__(system, state, time_step, kappa, zeta)
+        span, veh, nm, f = system.span, system.vehicle, self.nm, self.asm.free
         # the compliances, inverted once (small dense matrices, as the 2D stepper's vehicles)
         self.A_V = np.linalg.inv(nm.effective(veh.K, veh.C, veh.M))
         self.S_B = np.linalg.inv(nm.effective(span.K, self.CB, span.M)[np.ix_(f, f)])
-        self.iterations = 0
 
     def step(self, n: int) -> State3D:
         """Advance from t_n to t_{n+1} = (n + 1) dt."""
-        sys_, st, nm, asm = self.system, self.state, self.nm, self.asm
-        veh, span = sys_.vehicle, sys_.span
-        t = (n + 1) * self.dt
+        sys_, st, asm = self.system, self.state, self.asm
         f = asm.free
-        PtV, QtV = nm.increment_history(st.qd, st.qdd)
-        fV = sys_.vehicle_load() - veh.K @ st.q + veh.M @ PtV + veh.C @ QtV
-        PB, QB = nm.history(st.u, st.ud, st.udd)
-        fB = (span.M @ PB + self.CB @ QB)[f]
+        nm = self.nm
+        t, hist_V, hist_B, fV, fB = self._loads(n)
+        (PtV, QtV), (PB, QB) = hist_V, hist_B
         # predictors: each subsystem alone, no contact force
         dq0 = self.A_V @ fV
         uf0 = self.S_B @ fB
@@ -113,18 +96,4 @@ class LocalizedDynamic3D:
             u[f] = uf_new
             if converged(change, max(np.abs(st.q + dq).max(), np.abs(u).max())):
                 break
-        st.qd, st.qdd = nm.update_increment(dq, PtV, QtV)
-        st.q = st.q + dq
-        st.ud, st.udd = nm.update(u, PB, QB)
-        st.u = u
-        st.P = P
-        st.t = t
-        return st
-
-    def gaps(self) -> np.ndarray:
-        """Normal gaps of every contact at the state's time (m), wheelset by wheelset."""
-        st, asm = self.state, self.asm
-        out = []
-        for w, (e, xi) in enumerate(self.system.contact_location(st.t)):
-            out.extend(self.kernels[w].gap(asm.z(w, e, st.q, st.u), xi))
-        return np.array(out)
+        return self._commit(t, dq, u, P, hist_V, hist_B)
