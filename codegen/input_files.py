@@ -111,18 +111,38 @@ def read_bytes(path: str | os.PathLike[str], limit: int) -> bytes:
         os.close(fd)
 
 
+class TextFileError(InputFileError):
+    """Bytes that are not UTF-8 text; ``where`` is ``file:line``, ``problem`` the rest."""
+
+    def __init__(self, where: str, problem: str) -> None:
+        self.where, self.path, self.problem = where, where.rsplit(":", 1)[0], problem
+        ValueError.__init__(self, f"{where}: {problem}")
+
+
+def decode_text(raw: bytes, name: str) -> str:
+    """``raw`` decoded as UTF-8, a leading byte-order mark (Windows editors) dropped; text that is
+    not UTF-8 is a :class:`TextFileError` naming ``name``, the line and the column of the first bad
+    byte."""
+    try:
+        return raw.decode("utf-8-sig")
+    except UnicodeDecodeError as exc:
+        line = raw.count(b"\n", 0, exc.start) + 1
+        column = exc.start - (raw.rfind(b"\n", 0, exc.start) + 1) + 1
+        raise TextFileError(
+            f"{name}:{line}",
+            f"not UTF-8 text (byte 0x{raw[exc.start]:02x} at column {column}); is this a binary file? "
+            "A text file must be saved as UTF-8",
+        ) from None
+
+
 def read_text(path: str | os.PathLike[str], limit: int = MAX_TOML_BYTES, *, errors: str = "strict") -> str:
     """The UTF-8 text of a regular file of at most ``limit`` bytes (see :func:`read_bytes`), a
-    leading byte-order mark dropped; with ``errors="strict"``, bytes that are not UTF-8 are an
-    :class:`InputFileError` naming the line."""
+    leading byte-order mark dropped; with ``errors="strict"``, bytes that are not UTF-8 are a
+    :class:`TextFileError` (:func:`decode_text`)."""
     data = read_bytes(path, limit)
-    try:
-        return data.decode("utf-8-sig", errors=errors)
-    except UnicodeDecodeError as exc:
-        line = data.count(b"\n", 0, exc.start) + 1
-        raise InputFileError(
-            path, f"line {line}: not UTF-8 text (byte 0x{data[exc.start]:02x}); is this a binary file?"
-        ) from None
+    if errors == "strict":
+        return decode_text(data, os.fspath(path))
+    return data.decode("utf-8-sig", errors=errors)
 
 
 def toml_depth(data: Any) -> int:

@@ -34,9 +34,8 @@ from typing import Literal, Protocol
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from ...codegen.input_files import MAX_DATA_BYTES, InputFileError, read_bytes
+from ...codegen.input_files import MAX_DATA_BYTES, InputFileError, TextFileError, decode_text, read_bytes
 from .piecewise import Pieces, PiecewisePolynomial, horner
-from .textfile import decode_text
 
 Level = Literal["low", "high"]
 Component = Literal["vertical", "alignment", "cross-level"]
@@ -516,6 +515,8 @@ def _read_columns(path: str | Path, three_d: bool) -> tuple[NDArray[np.float64],
     p = Path(path)
     try:  # a regular file of bounded size (never /dev/zero, a FIFO or a folder), UTF-8
         text = decode_text(read_bytes(p, MAX_DATA_BYTES), str(p))
+    except TextFileError as exc:  # file:line of the first bad byte
+        raise ValueError(str(exc)) from None
     except InputFileError as exc:
         raise ValueError(f"{p}: cannot read irregularity profile: {exc.problem}") from None
     xs: list[float] = []

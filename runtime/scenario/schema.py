@@ -30,14 +30,15 @@ from ...codegen.input_files import (
     MAX_DATA_BYTES,
     MAX_TOML_BYTES,
     InputFileError,
+    TextFileError,
     TOMLNestingError,
+    decode_text,
     file_problem,
     loads_toml,
     read_bytes,
 )
 from ...codegen.plain_types import TopologyError
 from ..excitation.irregularity import read_profile_cached
-from ..excitation.textfile import TextFileError, decode_text
 from ..model.bridge import Girder, Pier, Section
 from ..model.modes import vehicle_modes
 from ..model.train import topology, vehicle_model
@@ -392,10 +393,10 @@ def load_scenario(
     path = Path(path)
     try:  # a regular file of bounded size (never /dev/zero, a FIFO or a folder), UTF-8
         text = decode_text(read_bytes(path, MAX_TOML_BYTES), str(path))
+    except TextFileError as exc:  # before InputFileError, of which it is one: it has the line
+        raise ScenarioError([Problem("<file>", exc.problem, exc.where)], str(path)) from None
     except InputFileError as exc:
         raise ScenarioError([Problem("<file>", exc.problem, str(path))], str(path)) from None
-    except TextFileError as exc:
-        raise ScenarioError([Problem("<file>", exc.problem, exc.where)], str(path)) from None
     return loads_scenario(
         text, source=str(path), base_dir=path.resolve().parent, overrides=overrides, check=check
     )

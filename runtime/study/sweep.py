@@ -54,8 +54,15 @@ from pydantic import (
 )
 
 from ... import __version__
-from ...codegen.input_files import MAX_TOML_BYTES, InputFileError, TOMLNestingError, loads_toml, read_bytes
-from ..excitation.textfile import TextFileError, decode_text
+from ...codegen.input_files import (
+    MAX_TOML_BYTES,
+    InputFileError,
+    TextFileError,
+    TOMLNestingError,
+    decode_text,
+    loads_toml,
+    read_bytes,
+)
 from ..run.atomic import write_atomic
 from ..run.output import folder_problem, same_file
 from ..run.results import write_netcdf
@@ -243,10 +250,10 @@ def load_study(path: str | Path, sets: Sequence[str] | dict[str, Any] = ()) -> S
     sets = dict(sets) if isinstance(sets, dict) else parse_sets(sets)
     try:  # a regular file of bounded size (never /dev/zero, a FIFO or a folder), UTF-8
         text = decode_text(read_bytes(path, MAX_TOML_BYTES), source)
+    except TextFileError as exc:  # before InputFileError, of which it is one: it has the line
+        raise StudyError([Problem("<file>", exc.problem, exc.where)], source) from None
     except InputFileError as exc:
         raise StudyError([Problem("<file>", exc.problem, source)], source) from None
-    except TextFileError as exc:
-        raise StudyError([Problem("<file>", exc.problem, exc.where)], source) from None
     try:
         data = loads_toml(text)
     except TOMLNestingError as exc:
