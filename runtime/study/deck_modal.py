@@ -20,26 +20,42 @@ every vertical bending mode up to that frequency ``fc`` in full, each with the d
 * the acceleration is taken at every node of the span and the peak is the envelope over nodes and
   time (the second mode has its node at midspan, so midspan alone misses it).
 
+The long form (``[[bridge.girders]]``, ``[[bridge.piers]]``) is read the same way over the whole
+structure, since a continuous girder's or a pier's modes are not those of one span:
+
+* the modes are those of the whole bridge (girders, continuity, bearings and piers; ground held),
+  from the run's own assembled matrices (:class:`svbi.runtime.model.bridge.Bridge`);
+* ``f1`` and ``f3`` are the first and third **vertical deck modes**: those with at least half of
+  their kinetic energy in the deck's vertical DOFs (a pier's sway mode is not the member's
+  fundamental mode); every mode of the structure up to ``fc`` is kept, whatever its kind (a mode
+  the vertical wheel loads do not excite contributes nothing);
+* every mode kept has the girders' damping ratio (the smallest, if the girders differ: the
+  conservative reading);
+* the envelope is taken over each span's nodes, span by span.
+
 The simulation's own deck (Rayleigh damping fitted to modes 1 and 2, every mode of the mesh) is not
-changed; this is the post-processing the check needs. It applies to traffic runs on bridges of
-simply supported spans (the ``[bridge]`` shorthand): with an earthquake the deck's motion is not
-the traffic's, and a long-form bridge's modes are not those of one span.
+changed; this is the post-processing the check needs. It applies to traffic runs: with an
+earthquake the deck's motion is not the traffic's.
 """
 
 from __future__ import annotations
 
+import json
 from collections.abc import Mapping
 from dataclasses import dataclass
+from functools import lru_cache
 from typing import Any
 
 import numpy as np
 import scipy.linalg as sla
 
 from ...codegen.plain_types import builtin_topologies
+from ..model.bridge import Bridge
 from ..model.hslm import hslm_parameters
 from ..model.kernels import frame2d
 from ..model.modes import span_matrices, span_support_dofs
 from ..model.train import Kinematics, vehicle_model
+from ..scenario.schema import BridgeSpec
 
 EN1990_MIN_CUTOFF_HZ = 30.0
 """EN 1990 A2.4.4.2.1(4)P: the deck acceleration counts frequencies up to max(30 Hz, 1.5 f1, f3)."""
@@ -116,6 +132,98 @@ def span_mode_set(bridge: Mapping[str, Any]) -> SpanModeSet:
         if w[np.argmax(np.abs(w))] < 0:
             row *= -1.0
     return SpanModeSet(freq[keep], shapes, f1, f3, length, elements, float(bridge.get("damping_ratio", 0.02)))
+
+
+VERTICAL_DECK_SHARE = 0.5
+"""A mode of a long-form bridge is a vertical deck mode (for ``f1`` and ``f3``) when at least this
+share of its kinetic energy is in the deck's vertical DOFs."""
+LONG_FORM_DOF_LIMIT = 3000
+"""The long form's modes come from one dense solve of the whole structure (every mode at once, about
+a second at 1,000 free DOFs); above this many free DOFs (some 60 spans of 16 elements) the check
+falls back to the filtered midspan acceleration and says why."""
+
+
+@dataclass(frozen=True)
+class BridgeModeSet:
+    """The modes of a whole long-form bridge that the EN 1990 deck check counts (module docstring)."""
+
+    frequencies_hz: np.ndarray
+    """Frequencies of the modes kept (Hz, ascending)."""
+    shapes: np.ndarray
+    """Mass-normalised mode shapes over the bridge's global DOFs, one row per mode."""
+    f1: float
+    f3: float
+    damping_ratio: float
+    bridge: Bridge
+
+    @property
+    def cutoff_hz(self) -> float:
+        return max(EN1990_MIN_CUTOFF_HZ, 1.5 * self.f1, self.f3)
+
+
+def long_form_bridge(bridge: Mapping[str, Any]) -> Bridge:
+    """The run's :class:`Bridge` of a long-form ``[bridge]`` table (every default filled in)."""
+    spec = BridgeSpec.model_validate(dict(bridge), strict=False)
+    girders, piers = spec.layout()
+    return Bridge(0, 0.0, 1.0, 1.0, 1.0, 1.0, 0.0, spec.elements_per_span, spec.rail_height, girders, piers)
+
+
+def long_form_mode_set(bridge: Mapping[str, Any]) -> BridgeModeSet:
+    """The modes up to the EN 1990 cutoff of a long-form ``[bridge]`` (module docstring); the same
+    table gives the same modes, computed once per process."""
+    return _long_form_mode_set(json.dumps(bridge, sort_keys=True, default=str))
+
+
+@lru_cache(maxsize=8)
+def _long_form_mode_set(key: str) -> BridgeModeSet:
+    b = long_form_bridge(json.loads(key))
+    free = b.free_global
+    if free.size > LONG_FORM_DOF_LIMIT:
+        raise ValueError(
+            f"the bridge has {free.size} free DOFs, more than the {LONG_FORM_DOF_LIMIT} of the"
+            " dense modal solve of the EN 1990 deck check"
+        )
+    K = b.K_global.tocsc()[free][:, free].toarray()
+    M = b.M_global.tocsc()[free][:, free].toarray()
+    eig, vec = sla.eigh(K, M)  # every mode, vᵀ M v = I
+    freq = np.sqrt(np.clip(eig, 0.0, None)) / (2 * np.pi)
+    deck = np.zeros(b.nglobal, dtype=bool)
+    for s in range(b.spans):
+        deck[b.global_dof[s][1::3]] = True
+    d = deck[free]
+    share = np.einsum("im,im->m", vec[d], M[np.ix_(d, d)] @ vec[d])  # kinetic energy in the deck's w
+    vertical = freq[share >= VERTICAL_DECK_SHARE]
+    if vertical.size == 0:
+        raise ValueError("the bridge has no vertical deck mode")
+    f1, f3 = float(vertical[0]), float(vertical[min(2, vertical.size - 1)])
+    cutoff = max(EN1990_MIN_CUTOFF_HZ, 1.5 * f1, f3)
+    keep = freq <= cutoff * (1.0 + 1e-9)
+    shapes = np.zeros((int(keep.sum()), b.nglobal))
+    shapes[:, free] = vec[:, keep].T
+    zeta = min(g.section.damping_ratio for g in b.girders)
+    return BridgeModeSet(freq[keep], shapes, f1, f3, float(zeta), b)
+
+
+def long_form_shape_values(modes: BridgeModeSet, x: np.ndarray) -> np.ndarray:
+    """The long form's mode shapes' vertical deck deflection at points ``x`` (m from the bridge's
+    start): ``(..., modes)``, zero off the bridge; the generated Hermite shape functions of each
+    span's elements, as a run loads the deck."""
+    b = modes.bridge
+    loc = b.locate(np.asarray(x, dtype=float))
+    out = np.zeros((*loc.on.shape, modes.shapes.shape[0]))
+    idx = np.nonzero(loc.on)
+    if idx[0].size == 0:
+        return out
+    span, element, xi = loc.span[idx], loc.element[idx], loc.xi[idx]
+    powers = np.stack([np.ones_like(xi), xi, xi * xi, xi * xi * xi], axis=-1)
+    rows = np.empty((xi.size, 6))
+    for le in np.unique(b.span_element_length[span]):
+        at = b.span_element_length[span] == le
+        n0 = np.asarray(frame2d().shape_coefficients(float(le), 0.0)[0], dtype=float)
+        rows[at] = powers[at] @ n0
+    dofs = b.global_dof[span[:, None], 3 * element[:, None] + np.arange(6)]  # (on, 6)
+    out[idx] = np.einsum("pj,mpj->pm", rows, modes.shapes[:, dofs])
+    return out
 
 
 def shape_values(modes: SpanModeSet, x: np.ndarray) -> np.ndarray:
@@ -209,7 +317,7 @@ class DeckEnvelope:
     time: np.ndarray
     x: np.ndarray
     """Where along the span (m from its left support) the peak occurs."""
-    modes: SpanModeSet
+    modes: SpanModeSet | BridgeModeSet
 
 
 def wheel_positions(table: Mapping[str, Any], t: np.ndarray, contacts: int) -> np.ndarray:
@@ -239,15 +347,18 @@ def wheel_positions(table: Mapping[str, Any], t: np.ndarray, contacts: int) -> n
 def deck_envelope(
     table: Mapping[str, Any], t: np.ndarray, forces: np.ndarray, positions: np.ndarray | None = None
 ) -> DeckEnvelope:
-    """The EN 1990 deck acceleration of every span of a shorthand bridge by modal truncation
-    (module docstring): ``forces`` are the wheel forces (time x contact, N, compression positive,
-    pushing the deck down), ``positions`` their x (time x contact; from the scenario when None)."""
+    """The EN 1990 deck acceleration of every span by modal truncation (module docstring: one
+    span's modes for the shorthand, the whole structure's for the long form): ``forces`` are the
+    wheel forces (time x contact, N, compression positive, pushing the deck down), ``positions``
+    their x (time x contact; from the scenario when None)."""
     bridge = table["bridge"]
-    modes = span_mode_set(bridge)
     t = np.asarray(t, dtype=float)
     forces = np.asarray(forces, dtype=float).reshape(t.size, -1)
     if positions is None:
         positions = wheel_positions(table, t, forces.shape[1])
+    if not is_simply_supported(bridge):
+        return _long_form_envelope(long_form_mode_set(bridge), t, forces, positions)
+    modes = span_mode_set(bridge)
     spans = int(bridge.get("spans", 1))
     length = modes.span_length
     nm = modes.frequencies_hz.size
@@ -270,5 +381,29 @@ def deck_envelope(
             continue
         k = int(np.argmax(a))
         i, j = np.unravel_index(k, a.shape)
+        peak[s], when[s], where[s] = a[i, j], t[i], node_x[j]
+    return DeckEnvelope(peak, when, where, modes)
+
+
+def _long_form_envelope(
+    modes: BridgeModeSet, t: np.ndarray, forces: np.ndarray, positions: np.ndarray
+) -> DeckEnvelope:
+    """:func:`deck_envelope` of a long-form bridge: one modal load over the whole structure, the
+    envelope over each span's nodes."""
+    b = modes.bridge
+    phi = long_form_shape_values(modes, positions)  # (time, contact, modes), zero off the bridge
+    # deflection is up positive and the wheel force (compression positive) pushes the deck down
+    load = -np.einsum("tc,tcm->tm", forces, phi)
+    acc = modal_acceleration(load, t, modes.frequencies_hz, modes.damping_ratio)  # (time, modes)
+    peak = np.full(b.spans, np.nan)
+    when = np.full(b.spans, np.nan)
+    where = np.full(b.spans, np.nan)
+    for s in range(b.spans):
+        nodes = modes.shapes[:, b.global_dof[s][1::3]]  # (modes, nodes of span s)
+        a = np.abs(acc @ nodes)
+        if a.size == 0:
+            continue
+        i, j = np.unravel_index(int(np.argmax(a)), a.shape)
+        node_x = np.linspace(0.0, float(b.span_lengths[s]), b.elements + 1)
         peak[s], when[s], where[s] = a[i, j], t[i], node_x[j]
     return DeckEnvelope(peak, when, where, modes)

@@ -4,15 +4,15 @@ Every metric is a peak over the whole stored run, with the time at which it occu
 
 * ``peak_midspan_uz`` (span): max |``midspan_uz``|, the absolute vertical midspan displacement (m).
 * ``peak_deck_acceleration`` (span): the vertical deck acceleration EN 1990:2002+A1 A2.4.4.2.1(4)P
-  limits. For a run without an earthquake on a bridge of simply supported spans (the ``[bridge]``
-  shorthand): the envelope over the span's nodes and over time of the deck's response by modal
-  truncation, every bending mode up to the greater of 30 Hz, 1.5 f1 and f3 counted in full, each
-  with the damping ratio ``bridge.damping_ratio``, under the run's wheel forces
-  (:mod:`svbi.runtime.study.deck_modal`); ``peak_deck_acceleration_x`` says where along the span.
-  Otherwise (an earthquake, a long-form bridge): max |a| of the absolute midspan acceleration
-  ``deck_acceleration`` after a low-pass filter at that frequency (4th-order Butterworth, zero
-  phase, at the output rate), ``peak_deck_acceleration_x`` the midspan. The attribute
-  ``deck_acceleration_method`` says which.
+  limits. For a run without an earthquake: the envelope over each span's nodes and over time of
+  the deck's response by modal truncation, every mode up to the greater of 30 Hz, 1.5 f1 and f3
+  counted in full, each with the bridge's damping ratio, under the run's wheel forces
+  (:mod:`svbi.runtime.study.deck_modal`: one span's bending modes for the ``[bridge]`` shorthand,
+  the whole structure's modes for the long form); ``peak_deck_acceleration_x`` says where along
+  the span. With an earthquake (or stored times that are not equally spaced): max |a| of the
+  absolute midspan acceleration ``deck_acceleration`` after a low-pass filter at that frequency
+  (4th-order Butterworth, zero phase, at the output rate), ``peak_deck_acceleration_x`` the
+  midspan. The attribute ``deck_acceleration_method`` says which.
 * ``peak_midspan_uz_rel`` (span): max |``midspan_uz_rel``|, the midspan displacement relative to the
   ground under the span (results that carry it).
 * ``peak_carbody_az`` (car): max |``carbody_az``|, the vertical car-body acceleration (m/s²); NaN
@@ -47,7 +47,7 @@ from ..model.bridge import Bridge
 from ..model.modes import span_modes
 from ..run.force_filter import design, sosfiltfilt_rows
 from ..scenario.schema import BridgeSpec
-from .deck_modal import EN1990_MIN_CUTOFF_HZ, deck_envelope, has_earthquake, is_simply_supported
+from .deck_modal import EN1990_MIN_CUTOFF_HZ, SpanModeSet, deck_envelope, has_earthquake
 
 if TYPE_CHECKING:
     import xarray as xr
@@ -351,7 +351,7 @@ def _deck_acceleration(ds: xr.Dataset, t: np.ndarray) -> _Deck:
     traffic run on simply supported spans, else the filtered absolute midspan acceleration."""
     table = scenario_table(ds)
     bridge = table["bridge"]
-    if is_simply_supported(bridge) and not has_earthquake(table) and t.size > 1:
+    if not has_earthquake(table) and t.size > 1:
         forces = np.asarray(ds["contact_force"].transpose("time", "car", "wheel").values, dtype=float)
         try:
             env = deck_envelope(table, t, forces.reshape(t.size, -1))
@@ -362,8 +362,9 @@ def _deck_acceleration(ds: xr.Dataset, t: np.ndarray) -> _Deck:
         if env is not None:
             cutoff = env.modes.cutoff_hz
             n = env.modes.frequencies_hz.size
+            which = "bending modes" if isinstance(env.modes, SpanModeSet) else "modes of the whole bridge"
             doc = (
-                f"max |vertical deck acceleration| over the span's nodes, {n} bending modes up to "
+                f"max |vertical deck acceleration| over the span's nodes, {n} {which} up to "
                 f"{cutoff:.4g} Hz, damping ratio {env.modes.damping_ratio:g} each (EN 1990 A2.4.4.2.1)"
             )
             return _Deck(env.peak, env.time, env.x, cutoff, DECK_MODAL, n, doc)
