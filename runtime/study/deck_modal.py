@@ -162,10 +162,20 @@ class BridgeModeSet:
 
 
 def long_form_bridge(bridge: Mapping[str, Any]) -> Bridge:
-    """The run's :class:`Bridge` of a long-form ``[bridge]`` table (every default filled in)."""
+    """The run's :class:`Bridge` of a long-form ``[bridge]`` table (every default filled in), with
+    its global numbering (``global_dof``, ``nglobal``, ``K_global``, ``M_global``, ``free_global``)
+    even where the long form describes the paper's chain, which a run keeps span by span."""
     spec = BridgeSpec.model_validate(dict(bridge), strict=False)
     girders, piers = spec.layout()
-    return Bridge(0, 0.0, 1.0, 1.0, 1.0, 1.0, 0.0, spec.elements_per_span, spec.rail_height, girders, piers)
+    b = Bridge(0, 0.0, 1.0, 1.0, 1.0, 1.0, 0.0, spec.elements_per_span, spec.rail_height, girders, piers)
+    if b.uniform:  # independent identical spans: the global numbering is span after span
+        import scipy.sparse as sps  # noqa: PLC0415 - with the long form's check only
+
+        M, K, free = b.assembled()
+        b.global_dof = np.arange(b.spans * b.ndof).reshape(b.spans, b.ndof)
+        b.nglobal = b.spans * b.ndof
+        b.M_global, b.K_global, b.free_global = sps.csc_matrix(M), sps.csc_matrix(K), free
+    return b
 
 
 def long_form_mode_set(bridge: Mapping[str, Any]) -> BridgeModeSet:

@@ -10,14 +10,27 @@
   the group placed at every 1/64 of the span, the uniform load over the rest of the span; the
   largest nodal deflection.
 
+A long-form bridge (continuous girders, piers, bearings) is loaded the same way on the whole
+structure (:func:`long_form_deflections`): for every node of the deck, its influence line (by
+Maxwell's reciprocity, the deflection line of a unit load at that node, from the run's assembled
+stiffness, ground held) is loaded by the axle group at every 1/64 of the shortest span along the
+whole bridge and by the distributed load wherever it deflects the node downwards (EN 1991-2
+6.3.2(1): "applied ... where unfavourable"), outside 0.8 m of the outer axles; the largest
+deflection over a span's nodes is that span's. Φ takes each girder's determinant length (EN 1991-2
+Table 6.2, case 5.1 and 5.2): its span if simply supported, ``k L_m`` over ``n`` continuous spans
+(``k`` = 1.2, 1.3, 1.4, 1.5 for 2, 3, 4, 5 or more spans, ``L_m`` their mean), at least its longest
+span.
+
 The same deflection with α = 1 is the δ of the passenger-comfort criterion of EN 1990 A2.4.4.3.2.
 """
 
 from __future__ import annotations
 
 import functools
+import json
 import math
 from collections.abc import Mapping
+from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
@@ -103,3 +116,105 @@ def _deflection(length: float, elements: int, e: float, area: float, inertia: fl
     w = np.zeros((k.shape[0], u.shape[1]))
     w[free] = u
     return float(np.max(-w[1::3]))
+
+
+CONTINUOUS_LPHI_FACTOR = {2: 1.2, 3: 1.3, 4: 1.4}
+"""EN 1991-2 Table 6.2 case 5.2: LΦ = k L_m for a girder continuous over n spans (k = 1.5 for 5+)."""
+
+
+def determinant_length(spans: tuple[float, ...]) -> float:
+    """EN 1991-2 Table 6.2, cases 5.1 and 5.2: LΦ of a girder over ``spans`` (m)."""
+    if len(spans) == 1:
+        return float(spans[0])
+    k = CONTINUOUS_LPHI_FACTOR.get(len(spans), 1.5)
+    return max(k * float(np.mean(spans)), float(max(spans)))
+
+
+@dataclass(frozen=True)
+class SpanDeflections:
+    """LM71's static deflection of every span of a long-form bridge (α = 1, without Φ)."""
+
+    deflection: np.ndarray
+    """Largest deflection (m, downwards positive) over each span's nodes."""
+    span_length: np.ndarray
+    determinant_length: np.ndarray
+    """LΦ of the girder each span belongs to (m)."""
+    continuous_spans: np.ndarray
+    """How many spans the girder of each span is continuous over (1: simply supported)."""
+
+
+def long_form_deflections(bridge: Mapping[str, Any]) -> SpanDeflections:
+    """LM71 on a long-form ``[bridge]`` (module docstring); cached per bridge table."""
+    return _long_form_deflections(json.dumps(bridge, sort_keys=True, default=str))
+
+
+@functools.lru_cache(maxsize=16)
+def _long_form_deflections(key: str) -> SpanDeflections:
+    import scipy.sparse.linalg as spla  # noqa: PLC0415 - only for a long form's check
+
+    from .deck_modal import long_form_bridge  # noqa: PLC0415 - its modes' module, not needed above
+
+    b = long_form_bridge(json.loads(key))
+    free = b.free_global
+    K = b.K_global.tocsc()
+    lu = spla.splu(K[free][:, free].tocsc())
+    ne = b.elements
+    nodes = np.concatenate([b.global_dof[s][1::3] for s in range(b.spans)])  # deck w, span by span
+    rhs = np.zeros((b.nglobal, nodes.size))
+    rhs[nodes, np.arange(nodes.size)] = 1.0
+    G = np.zeros((b.nglobal, nodes.size))
+    G[free] = lu.solve(rhs[free])  # column j: the deflection line of a unit upward load at node j
+
+    def eta(x: np.ndarray) -> np.ndarray:
+        """Downward deflection of every node per unit downward load at ``x`` (points x nodes)."""
+        loc = b.locate(x)
+        out = np.zeros((x.size, nodes.size))
+        on = np.nonzero(loc.on | np.isclose(x, b.length))[0]
+        span, element, xi = loc.span[on], loc.element[on], loc.xi[on]
+        rows = np.empty((on.size, 6))
+        powers = np.stack([np.ones_like(xi), xi, xi * xi, xi**3], axis=-1)
+        for le in np.unique(b.span_element_length[span]):
+            at = b.span_element_length[span] == le
+            rows[at] = powers[at] @ np.asarray(frame2d().shape_coefficients(float(le), 0.0)[0], dtype=float)
+        dofs = b.global_dof[span[:, None], 3 * element[:, None] + np.arange(6)]
+        out[on] = np.einsum("pj,pjn->pn", rows, G[dofs])
+        return out
+
+    gx, gw = np.polynomial.legendre.leggauss(4)
+    edges = np.concatenate(
+        [b.span_starts[s] + b.span_element_length[s] * np.arange(ne) for s in range(b.spans)]
+    )
+    edges = np.append(edges, b.length)
+
+    def udl_from_start(x: np.ndarray) -> np.ndarray:
+        """∫_0^x q max(η, 0) dx for every node (points x nodes): whole elements, then the part of the
+        element ``x`` falls in, each by 4-point Gauss."""
+        lo_e = np.clip(np.searchsorted(edges, x, side="right") - 1, 0, edges.size - 2)
+        whole = np.concatenate([np.zeros((1, nodes.size)), np.cumsum(element_integrals, axis=0)])[lo_e]
+        a, c = edges[lo_e], np.clip(x, 0.0, b.length)
+        pts = 0.5 * (a + c)[:, None] + 0.5 * (c - a)[:, None] * gx[None, :]
+        vals = np.maximum(eta(pts.ravel()), 0.0).reshape(x.size, gx.size, nodes.size)
+        return whole + LM71_UNIFORM * np.einsum("pgn,g,p->pn", vals, gw, 0.5 * (c - a))
+
+    mids = 0.5 * (edges[:-1] + edges[1:])
+    halves = 0.5 * np.diff(edges)
+    pts = mids[:, None] + halves[:, None] * gx[None, :]
+    vals = np.maximum(eta(pts.ravel()), 0.0).reshape(mids.size, gx.size, nodes.size)
+    element_integrals = LM71_UNIFORM * np.einsum("egn,g,e->en", vals, gw, halves)
+    total = element_integrals.sum(axis=0)
+    half = 1.5 * LM71_SPACING + LM71_CLEAR
+    reach = b.length + 3.0 * LM71_SPACING  # the group's centre from its first axle on to its last off
+    count = int(np.ceil(reach * GROUP_POSITIONS / float(b.span_lengths.min()))) + 1
+    centres = np.linspace(-1.5 * LM71_SPACING, b.length + 1.5 * LM71_SPACING, count)  # <= L_min / 64 apart
+    best = np.zeros(nodes.size)
+    for chunk in np.array_split(centres, max(1, centres.size // 64)):
+        axles = (chunk[:, None] + LM71_SPACING * np.array([-1.5, -0.5, 0.5, 1.5])[None, :]).ravel()
+        on_deck = (axles >= 0.0) & (axles <= b.length)
+        group = LM71_AXLE * (eta(np.where(on_deck, axles, 0.0)) * on_deck[:, None]).reshape(chunk.size, 4, -1)
+        window = udl_from_start(chunk + half) - udl_from_start(chunk - half)
+        best = np.maximum(best, (group.sum(axis=1) + total - window).max(axis=0))
+    per_span = best.reshape(b.spans, ne + 1).max(axis=1)
+    girder_of = b.span_girder
+    lphi = np.array([determinant_length(b.girders[g].spans) for g in girder_of])
+    continuous = np.array([len(b.girders[g].spans) for g in girder_of])
+    return SpanDeflections(per_span, b.span_lengths.copy(), lphi, continuous)
