@@ -44,7 +44,9 @@ def run3d(spans: int, cars: int, start: float, steps: int) -> tuple[np.ndarray, 
     stepper = CoupledDynamic3D(system, static_state(system), DT)
     mids = [bridge.midspan_node(s) for s in range(spans)]
     lateral_dofs = [bridge.dof(n, d) for n in range(bridge.nodes) for d in ("v", "phi")]
-    lateral_q = [i for i, n in enumerate(vehicle.dof_names) if n.split(".")[-1].startswith(("y_", "phi_", "psi_"))]
+    lateral_q = [
+        i for i, n in enumerate(vehicle.dof_names) if n.split(".")[-1].startswith(("y_", "phi_", "psi_"))
+    ]
     w, P, lateral = [], [], 0.0
     for n in range(steps):
         st = stepper.step(n)
