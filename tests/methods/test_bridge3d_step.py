@@ -109,3 +109,19 @@ def test_several_spans_in_the_vertical_plane_are_the_2d_run(spans, cars, start, 
         assert np.abs(P3[:, 2 * k] - P3[:, 2 * k + 1]).max() < 1e-11 * P2.max()
         assert np.abs(COS * (P3[:, 2 * k] + P3[:, 2 * k + 1]) - P2[:, k]).max() < 1e-11 * P2.max()
     assert lateral < 1e-14
+
+
+def test_set_up_errors_on_a_bridge() -> None:
+    """A deck of unequal elements is refused at set-up; a wheelset beyond the last abutment raises
+    the error of a single span (no approach track)."""
+    car = vehicle3d(parse_topology3d(SPRUNG_WHEELSET_3D))
+    plane = Section(MU, E, 1.0, Iy, 0.0)
+    section = section3d(plane, 10.0, 5.0)
+    uneven = Bridge3D([Girder((L,), plane), Girder((12.0,), plane)], ELEMENTS, [section] * 2)
+    with pytest.raises(ValueError, match="the deck's elements differ in length"):
+        System3D(car, uneven, Track3D(conicity=LAM))
+    bridge = Bridge3D([Girder((L,), plane)] * 2, ELEMENTS, [section] * 2)
+    system = System3D(car, bridge, Track3D(conicity=LAM), speed=V, start=19.0)
+    assert system.contact_location(0.0) == [(ELEMENTS + 7, pytest.approx(0.2))]
+    with pytest.raises(ValueError, match="wheelset 'ws' is off the span at t = 0.1 s"):
+        system.contact_location(0.1)
