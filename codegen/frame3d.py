@@ -36,7 +36,16 @@ import sympy as sp
 from svbi.codegen.beam import d_dx, integral_over_element, le, xi
 from svbi.codegen.kernels import FRAME3D, KernelSpec, ModelSpec, column
 
-__all__ = ["FRAME3D", "element_mass", "element_stiffness", "frame3d_model_spec", "shear_modulus"]
+__all__ = [
+    "FRAME3D",
+    "column_mass",
+    "column_rotation",
+    "column_stiffness",
+    "element_mass",
+    "element_stiffness",
+    "frame3d_model_spec",
+    "shear_modulus",
+]
 
 E = sp.Symbol("E", positive=True)
 """Young's modulus (Pa)."""
@@ -131,6 +140,41 @@ def element_stiffness() -> sp.Matrix:
     return integrand.applyfunc(integral_over_element)
 
 
+@cache
+def column_rotation() -> sp.Matrix:
+    """Global DOFs of both nodes to the local DOFs of an element whose axis points up (a pier).
+
+    The local axes in global components: ``x'`` up (``Z``), ``y'`` lateral (``Y``), ``z' = x' x y'``
+    (``-X``); their direction cosines ``Lambda`` (rows) take a global translation or rotation vector
+    to local components. The rotation DOFs are ``(phi, theta, psi) = (r_x, -r_y, r_z)`` in both frames
+    (``theta`` turns about ``-y``), so they transform with ``S Lambda S``, ``S = diag(1, -1, 1)``.
+    Local axial ``u' = W``, local lateral ``v' = V``, local vertical ``w' = -U``: restricted to
+    ``(u, w, theta)`` this is the 2D column's quarter turn (:func:`svbi.codegen.beam.column_rotation`).
+    """
+    x_local = sp.Matrix([0, 0, 1])
+    y_local = sp.Matrix([0, 1, 0])
+    z_local = x_local.cross(y_local)
+    lam = sp.Matrix.vstack(x_local.T, y_local.T, z_local.T)
+    s = sp.diag(1, -1, 1)
+    node = sp.diag(lam, s * lam * s)
+    return sp.diag(node, node)
+
+
+@cache
+def column_mass() -> sp.Matrix:
+    """Consistent mass of a vertical 3D column element in global DOFs (node 1 at the bottom):
+    ``R^T M_e R``. Its local ``I_y`` bends it along ``x`` (longitudinal sway), ``I_z`` along ``y``."""
+    r = column_rotation()
+    return r.T * element_mass() * r
+
+
+@cache
+def column_stiffness() -> sp.Matrix:
+    """Stiffness of a vertical 3D column element in global DOFs (node 1 at the bottom): ``R^T K_e R``."""
+    r = column_rotation()
+    return r.T * element_stiffness() * r
+
+
 SAMPLE: dict[str, float] = {
     # A 32 m box-girder span (the 17WCEE example's section), 2 m elements.
     "E": 35.5e9,
@@ -147,7 +191,8 @@ SAMPLE: dict[str, float] = {
 
 @cache
 def frame3d_model_spec() -> ModelSpec:
-    """The kernels of the 3D element (model ``frame3d``): element mass and stiffness."""
+    """The kernels of the 3D element (model ``frame3d``): element mass and stiffness, horizontal (a
+    deck) and vertical (a pier column)."""
     kernels = [
         KernelSpec(
             "element_mass",
@@ -161,6 +206,20 @@ def frame3d_model_spec() -> ModelSpec:
             "Stiffness matrix of the 3D frame element",
             [("section", column([E, G, A, I_y, I_z, J])), ("le", column([le]))],
             [("K_e", element_stiffness())],
+            {k: SAMPLE[k] for k in ("E", "G", "A", "I_y", "I_z", "J", "le")},
+        ),
+        KernelSpec(
+            "column_mass",
+            "Consistent mass matrix of a vertical 3D column element (global DOFs, node 1 at the bottom)",
+            [("section", column([mu, I_m])), ("le", column([le]))],
+            [("M_e", column_mass())],
+            {k: SAMPLE[k] for k in ("mu", "I_m", "le")},
+        ),
+        KernelSpec(
+            "column_stiffness",
+            "Stiffness matrix of a vertical 3D column element (global DOFs, node 1 at the bottom)",
+            [("section", column([E, G, A, I_y, I_z, J])), ("le", column([le]))],
+            [("K_e", column_stiffness())],
             {k: SAMPLE[k] for k in ("E", "G", "A", "I_y", "I_z", "J", "le")},
         ),
     ]

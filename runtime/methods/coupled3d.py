@@ -84,12 +84,12 @@ class _Assembly:
     def columns(self, w: int, element: int) -> np.ndarray:
         """Unknown of each of the contact's 16 ``z`` entries (-1: a held span DOF)."""
         ws = self.system.vehicle.wheelsets[w]
-        deck = self.full_to_free[6 * element + np.arange(12)]
+        deck = self.full_to_free[self.system.span.element_dofs(element)]
         return np.concatenate([ws.dofs, np.where(deck >= 0, self.oB + deck, -1)])
 
     def z(self, w: int, element: int, q: np.ndarray, u: np.ndarray) -> np.ndarray:
         ws = self.system.vehicle.wheelsets[w]
-        return np.concatenate([q[ws.dofs], u[6 * element : 6 * element + 12]])
+        return np.concatenate([q[ws.dofs], u[self.system.span.element_dofs(element)]])
 
     def add_contact(
         self,

@@ -14,6 +14,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from typing import Protocol
 
 import numpy as np
 from scipy.linalg import eigh
@@ -82,9 +83,36 @@ def element_matrices(section: Section3D, length: float) -> tuple[np.ndarray, np.
     return np.asarray(mass, dtype=float), np.asarray(stiffness, dtype=float)
 
 
+class Deck3D(Protocol):
+    """What the 3D step needs of a structure that carries the track: a simply supported span
+    (:class:`Span3D`) or a whole bridge (:class:`svbi.runtime.model.bridge3d.Bridge3D`).
+
+    ``M``, ``K`` are the global matrices over the structure's DOFs, ``free`` the DOFs not held by a
+    support; deck elements are numbered along the track from 0; ``element_dofs(e)`` gives the 12
+    global DOFs of deck element ``e`` in the frame element's order, and ``deck_location(x)`` the
+    element and local coordinate under the track position ``x`` (m from the deck's start).
+    """
+
+    length: float
+    n_elements: int
+    M: np.ndarray
+    K: np.ndarray
+    free: np.ndarray
+
+    @property
+    def element_length(self) -> float: ...
+
+    def dof(self, node: int, name: str) -> int: ...
+
+    def element_dofs(self, element: int) -> np.ndarray: ...
+
+    def deck_location(self, x: float) -> tuple[int, float]: ...
+
+
 @dataclass(frozen=True)
 class Span3D:
-    """Assembled matrices of a simply supported span; ``free`` are the unrestrained global DOFs."""
+    """Assembled matrices of a simply supported span; ``free`` are the unrestrained global DOFs.
+    Satisfies :class:`Deck3D` (deck element ``e`` joins nodes ``e`` and ``e + 1``)."""
 
     length: float
     n_elements: int
@@ -95,6 +123,24 @@ class Span3D:
     def dof(self, node: int, name: str) -> int:
         """Global index of DOF ``name`` (one of :data:`NODE_DOFS`) of ``node``."""
         return 6 * node + NODE_DOFS.index(name)
+
+    @property
+    def element_length(self) -> float:
+        """Length of every element (m)."""
+        return self.length / self.n_elements
+
+    def element_dofs(self, element: int) -> np.ndarray:
+        """The 12 global DOFs of element ``element``: ``6 e .. 6 e + 11``."""
+        return 6 * element + np.arange(12)
+
+    def deck_location(self, x: float) -> tuple[int, float]:
+        """``(element, xi)`` at ``x`` (m from the left support); the right support belongs to the last
+        element. ``ValueError`` off the span."""
+        if not 0.0 <= x <= self.length:
+            raise ValueError(f"x = {x} m is off the span (0 to {self.length} m)")
+        le = self.element_length
+        e = min(int(x // le), self.n_elements - 1)
+        return e, x / le - e
 
 
 def simply_supported_span(section: Section3D, length: float, n_elements: int) -> Span3D:

@@ -25,7 +25,7 @@ from ...codegen.beam import le as LE
 from ...codegen.beam import xi as XI
 from ...codegen.topology3d import Topology3D, load_topology3d
 from ...codegen.vehicle3d import derive_vehicle3d
-from .span3d import Span3D
+from .span3d import Deck3D
 
 ARGS = (
     *c3.WHEELSET_DOFS,
@@ -225,7 +225,9 @@ class System3D:
     """One 3D car on one simply supported 3D span, bilateral contact (docs/three-d.md)."""
 
     vehicle: Vehicle3DNumeric
-    span: Span3D
+    span: Deck3D
+    """A simply supported span (:class:`~svbi.runtime.model.span3d.Span3D`) or a bridge of several
+    spans (:class:`~svbi.runtime.model.bridge3d.Bridge3D`)."""
     track: Track3D = field(default_factory=Track3D)
     speed: float = 0.0
     start: float = 0.0
@@ -235,17 +237,20 @@ class System3D:
     bridge_damping: np.ndarray | None = None
     """The span's damping matrix (default none)."""
 
+    def __post_init__(self) -> None:
+        # the contact kernels take one element length (``span.element_length`` raises for a deck
+        # whose elements differ)
+        _ = self.span.element_length
+
     def contact_location(self, t: float) -> list[tuple[int, float]]:
-        """``(element, xi)`` under each wheelset at ``t``; a wheelset must be on the span."""
-        span = self.span
-        le = span.length / span.n_elements
+        """``(element, xi)`` under each wheelset at ``t`` (deck elements, ``span.deck_location``); a
+        wheelset must be on the deck (no approach track yet)."""
         out = []
         for w in self.vehicle.wheelsets:
             x = self.start + self.speed * t - w.offset
-            if not 0.0 <= x <= span.length:
+            if not 0.0 <= x <= self.span.length:
                 raise ValueError(f"wheelset {w.name!r} is off the span at t = {t} s (x = {x} m)")
-            e = min(int(x // le), span.n_elements - 1)
-            out.append((e, x / le - e))
+            out.append(self.span.deck_location(x))
         return out
 
     def vehicle_load(self) -> np.ndarray:
