@@ -31,6 +31,7 @@ from matplotlib.lines import Line2D
 from ...codegen.input_files import MAX_TOML_BYTES, loads_toml, read_text
 from ..run.atomic import write_atomic
 from ..scenario.kinds import wrong_kind
+from .lateral import LATERAL, is_3d, lateral_figure
 
 try:
     import tomllib
@@ -665,6 +666,8 @@ def make_figures(results: Results) -> dict[str, Figure]:
             ax.label_outer()
         _suptitle(fig, runs)
         figures[CONTACT] = fig
+    if is_3d(runs[0].data):  # a 3D run: the lateral response and running safety
+        figures[LATERAL] = lateral_figure(runs[0].data, scenario_title(runs[:1]))
     if "pier_top_ux" in runs[0].data:
         fig = Figure(figsize=(10.0, 7.5), layout="constrained")
         top, bottom = fig.subplots(2, 1, sharex=True)
