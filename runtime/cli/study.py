@@ -118,7 +118,7 @@ def check(
         float | None,
         typer.Option(
             "--carbody-ay-limit",
-            help="Limit of the car-body lateral acceleration (m/s²) for 3D runs; without it, for information.",
+            help="Limit of the car-body lateral acceleration (m/s²), 3D runs; without it, for information.",
         ),
     ] = None,
 ) -> None:

@@ -52,9 +52,17 @@ def panel_quotient(ax: Axes, ds: xr.Dataset) -> None:
     where = f"car {sel['car']}, wheelset {sel['wheel']}, {sel['side']}"
     ax.plot(_t(ds), ds["derailment_quotient"].sel(sel).values, lw=0.8, color="C0", label=f"Y/Q ({where})")
     if "derailment_quotient_2m" in ds.variables:
-        ax.plot(_t(ds), ds["derailment_quotient_2m"].sel(sel).values, lw=1.6, color="C1", label="(Y/Q) 2 m mean")
+        ax.plot(
+            _t(ds), ds["derailment_quotient_2m"].sel(sel).values, lw=1.6, color="C1", label="(Y/Q) 2 m mean"
+        )
     ax.axhline(NADAL_LIMIT, color="C3", ls="--", lw=1.0, label=f"Nadal {NADAL_LIMIT:g}")
-    ax.axhline(EN14363_QUOTIENT_LIMIT, color="C3", ls=":", lw=1.0, label=f"EN 14363 (Y/Q)_2m {EN14363_QUOTIENT_LIMIT:g}")
+    ax.axhline(
+        EN14363_QUOTIENT_LIMIT,
+        color="C3",
+        ls=":",
+        lw=1.0,
+        label=f"EN 14363 (Y/Q)_2m {EN14363_QUOTIENT_LIMIT:g}",
+    )
     ax.set_ylabel("Y/Q (-)")
     ax.set_title("(a) Derailment quotient, wheel of the peak (Y outwards)")
     ax.legend(fontsize="small", loc="upper right")
@@ -72,7 +80,9 @@ def panel_track_shift(ax: Axes, ds: xr.Dataset, alpha: float = PRUDHOMME_ALPHA) 
         label=f"sum Y (car {sel['car']}, wheelset {sel['wheel']})",
     )
     if "axle_lateral_force_2m" in ds.variables:
-        ax.plot(_t(ds), 1e-3 * ds["axle_lateral_force_2m"].sel(sel).values, lw=1.6, color="C1", label="2 m mean")
+        ax.plot(
+            _t(ds), 1e-3 * ds["axle_lateral_force_2m"].sel(sel).values, lw=1.6, color="C1", label="2 m mean"
+        )
     p0 = float(ds["static_wheel_load"].sel(sel).sum().values)
     limit = 1e-3 * float(prudhomme_limit(p0, alpha))
     for sign in (1.0, -1.0):
@@ -106,7 +116,14 @@ def panel_midspan(ax: Axes, ds: xr.Dataset) -> None:
     span = ds["span"].values[int(np.argmax(uy.max(axis=0))) if uy.size else 0]
     ax.plot(_t(ds), 1e3 * ds["midspan_uy"].sel(span=span).values, color="C0", lw=1.0, label="u_y absolute")
     if "midspan_uy_rel" in ds.variables:
-        ax.plot(_t(ds), 1e3 * ds["midspan_uy_rel"].sel(span=span).values, color="C0", ls="--", lw=1.0, label="u_y relative")
+        ax.plot(
+            _t(ds),
+            1e3 * ds["midspan_uy_rel"].sel(span=span).values,
+            color="C0",
+            ls="--",
+            lw=1.0,
+            label="u_y relative",
+        )
     ax.set_ylabel("u_y (mm), + left")
     twin = ax.twinx()
     twin.plot(_t(ds), 1e3 * ds["midspan_twist"].sel(span=span).values, color="C2", lw=1.0, label="twist")

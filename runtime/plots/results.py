@@ -237,7 +237,10 @@ def _series(ds: xr.Dataset, var: str, select: Mapping[str, int]) -> xr.DataArray
     """The time series `var` at the given positions, or None when the variable is absent or empty."""
     if var not in ds.variables or any(ds.sizes.get(d, 0) == 0 for d in EXPECTED_DIMS[var]):
         return None
-    return ds[var].isel({d: i for d, i in select.items() if d in ds[var].dims})
+    picked = {d: i for d, i in select.items() if d in ds[var].dims}
+    if "side" in ds[var].dims:  # a 3D run's wheel: the left one of the wheelset, unless chosen
+        picked.setdefault("side", 0)
+    return ds[var].isel(picked)
 
 
 def _max_abs_over(ds: xr.Dataset, var: str) -> xr.DataArray | None:

@@ -164,7 +164,13 @@ class Histories3D:
         wheel = np.asarray(self.normal_force).shape
         if len(wheel) != 4 or wheel[0] != n or wheel[3] != 2:
             raise ValueError(f"normal_force: expected (steps, cars, wheelsets, 2), got {wheel}")
-        for name in ("contact_angle", "creep_longitudinal", "creep_lateral", "flange_force", "flange_contact"):
+        for name in (
+            "contact_angle",
+            "creep_longitudinal",
+            "creep_lateral",
+            "flange_force",
+            "flange_contact",
+        ):
             if np.shape(getattr(self, name)) != wheel:
                 raise ValueError(f"{name}: expected shape {wheel}, got {np.shape(getattr(self, name))}")
         if self.in_contact is not None and np.shape(self.in_contact) != wheel:
@@ -205,16 +211,16 @@ def _a(units: str, long_name: str) -> dict[str, str]:
     return {"units": units, "long_name": long_name}
 
 
-def _lowpass(rows: np.ndarray, cutoff_hz: float, dt: float, every: int, k: int) -> np.ndarray:
-    """The zero-phase Butterworth low-pass of the 2D contact forces (``results.Recorder``), at the
-    full rate, then every ``every``-th row: unfiltered when the cutoff is at or above Nyquist."""
+def _lowpass(rows: np.ndarray, cutoff_hz: float, dt: float) -> np.ndarray:
+    """The zero-phase Butterworth low-pass of the 2D contact forces (``results.Recorder``) along
+    axis 0, at the full rate: unchanged when the cutoff is at or above Nyquist."""
     n = rows.shape[0]
     flat = np.ascontiguousarray(rows.reshape(n, -1), dtype=float)
     if n < 2 or not cutoff_hz < 0.5 / dt:
-        return flat[::every][:k].reshape((-1, *rows.shape[1:])).copy()
+        return flat.reshape(rows.shape).copy()
     sos, zi = design(FILTER_ORDER, cutoff_hz, 1.0 / dt)
     padlen = min(3 * (2 * len(sos) + 1), n - 1)
-    return sosfiltfilt_rows(sos, flat, padlen, every, k, zi).reshape((-1, *rows.shape[1:]))
+    return sosfiltfilt_rows(sos, flat, padlen, 1, n, zi).reshape(rows.shape)
 
 
 def lateral_variables(
@@ -226,11 +232,12 @@ def lateral_variables(
     every = max(1, int(output_every))
     t_all = np.asarray(h.time, dtype=float)
     n = t_all.size
-    k = -(-n // every)
     dt = float(np.median(np.diff(t_all))) if n > 1 else 1.0
     pick = slice(None, None, every)
     side = SIDE_SIGN[None, None, None, :]
-    contact = np.ones(np.shape(h.normal_force), bool) if h.in_contact is None else np.asarray(h.in_contact, bool)
+    contact = (
+        np.ones(np.shape(h.normal_force), bool) if h.in_contact is None else np.asarray(h.in_contact, bool)
+    )
     q, y = wheel_forces(
         np.asarray(h.normal_force, float),
         np.asarray(h.contact_angle, float),
@@ -238,20 +245,22 @@ def lateral_variables(
         np.asarray(h.flange_force, float),
         side,
     )
-    qf = _lowpass(q, force_filter_hz, dt, every, k)
-    yf = _lowpass(y, force_filter_hz, dt, every, k)
+    # filtered at the full rate (the 2 m means need every step), then stored every ``every`` steps
+    qf_full = np.where(contact, _lowpass(q, force_filter_hz, dt), 0.0)  # off the rail: nothing
+    yf_full = _lowpass(y, force_filter_hz, dt)
+    qf, yf = qf_full[pick], yf_full[pick]
     stored_contact = contact[pick]
-    qf = np.where(stored_contact, qf, 0.0)  # a wheel off its rail carries nothing (2D: the same)
     q0 = np.asarray(h.static_wheel_load, dtype=float)
     with np.errstate(divide="ignore", invalid="ignore"):
         unloading = np.where(q0 > 0, (q0 - qf) / np.where(q0 > 0, q0, 1.0), np.nan)
     yq = derailment_quotient(yf, qf, stored_contact)
     sy = axle_lateral_force(y)
-    syf = axle_lateral_force(yf)
     flange = np.asarray(h.flange_contact, dtype=bool)
     wheel = ("time", "car", "wheel", "side")
     axle = ("time", "car", "wheel")
-    cut = f"Butterworth order {FILTER_ORDER}, zero phase, cutoff {force_filter_hz:g} Hz, at the full step rate"
+    cut = (
+        f"Butterworth order {FILTER_ORDER}, zero phase, cutoff {force_filter_hz:g} Hz, at the full step rate"
+    )
     v: dict[str, Variable] = {
         "contact_force": (
             wheel,
@@ -287,18 +296,29 @@ def lateral_variables(
         "wheel_lateral_force": (
             wheel,
             y[pick],
-            _a("N", "lateral wheel-rail force Y in track axes, the wheel on its rail, positive outwards (raw)"),
+            _a(
+                "N",
+                "lateral wheel-rail force Y in track axes, the wheel on its rail, positive outwards (raw)",
+            ),
         ),
         "wheel_lateral_force_filtered": (wheel, yf, _a("N", f"wheel_lateral_force low-pass filtered: {cut}")),
         "derailment_quotient": (
             wheel,
             yq,
-            _a("1", "Y/Q of the filtered forces, Y positive outwards; NaN where Q <= 0 or the wheel is off its rail"),
+            _a(
+                "1",
+                "Y/Q of the filtered forces, Y positive outwards; NaN where Q <= 0 or the wheel is off "
+                "its rail",
+            ),
         ),
         "axle_lateral_force": (
             axle,
             sy[pick],
-            _a("N", "sum of Y of the wheelset in track axes (Y_left - Y_right), force on the track, positive left (raw)"),
+            _a(
+                "N",
+                "sum of Y of the wheelset in track axes (Y_left - Y_right): its force on the track, "
+                "positive left (raw)",
+            ),
         ),
         "unloading_ratio": (
             wheel,
@@ -313,9 +333,17 @@ def lateral_variables(
         "wheel_rail_lateral_displacement": (
             axle,
             np.asarray(h.wheel_rail_lateral, float)[pick],
-            _a("m", "lateral displacement of the wheelset relative to the track centreline under it, positive left"),
+            _a(
+                "m",
+                "lateral displacement of the wheelset relative to the track centreline under it, "
+                "positive left",
+            ),
         ),
-        "flange_contact": (wheel, flange[pick].astype(np.int8), _a("1", "1: flange in contact with its rail")),
+        "flange_contact": (
+            wheel,
+            flange[pick].astype(np.int8),
+            _a("1", "1: flange in contact with its rail"),
+        ),
         "carbody_ay": (
             ("time", "car"),
             np.asarray(h.carbody_ay, float)[pick],
@@ -348,12 +376,14 @@ def lateral_variables(
         ),
     }
     if h.in_contact is not None:
-        v["contact_state"] = (wheel, stored_contact.astype(np.int8), _a("1", "1: wheel on its rail, 0: off it"))
+        v["contact_state"] = (
+            wheel,
+            stored_contact.astype(np.int8),
+            _a("1", "1: wheel on its rail, 0: off it"),
+        )
     if h.moving:
         s = np.asarray(h.distance, dtype=float)
-        yq_full = derailment_quotient(
-            _lowpass(y, force_filter_hz, dt, 1, n), np.where(contact, _lowpass(q, force_filter_hz, dt, 1, n), 0.0), contact
-        )
+        yq_full = derailment_quotient(yf_full, qf_full, contact)
         v["derailment_quotient_2m"] = (
             wheel,
             sliding_mean(yq_full, s)[pick],
@@ -361,8 +391,12 @@ def lateral_variables(
         )
         v["axle_lateral_force_2m"] = (
             axle,
-            sliding_mean(axle_lateral_force(_lowpass(y, force_filter_hz, dt, 1, n)), s)[pick],
-            _a("N", f"axle_lateral_force of the filtered Y, sliding mean over {WINDOW_M:g} m of travel (EN 14363)"),
+            sliding_mean(axle_lateral_force(yf_full), s)[pick],
+            _a(
+                "N",
+                f"axle_lateral_force of the filtered Y, sliding mean over {WINDOW_M:g} m of travel "
+                "(EN 14363)",
+            ),
         )
     if h.pier_top_uy is not None:
         v["pier_top_uy"] = (
@@ -506,13 +540,17 @@ def summary_lines(attrs: dict[str, Any]) -> list[str]:
         )
     if "peak_unloading_ratio_side" in attrs:
         lines.append(
-            f"wheel unloading dQ/Q: peak {attrs['peak_unloading_ratio']:.3g} ({_at(attrs, 'peak_unloading_ratio')})"
+            f"wheel unloading dQ/Q: peak {attrs['peak_unloading_ratio']:.3g} "
+            f"({_at(attrs, 'peak_unloading_ratio')})"
         )
     count = int(attrs["flange_contacts"])
-    first = f", the first at {_at(attrs, 'flange_contact')}" if count and "flange_contact_time" in attrs else ""
+    first = (
+        f", the first at {_at(attrs, 'flange_contact')}" if count and "flange_contact_time" in attrs else ""
+    )
     lines.append(f"flange contacts: {count}{first}")
     if "peak_carbody_ay" in attrs:
         lines.append(
-            f"car-body lateral acceleration: peak {attrs['peak_carbody_ay']:.3g} m/s^2 ({_at(attrs, 'peak_carbody_ay')})"
+            f"car-body lateral acceleration: peak {attrs['peak_carbody_ay']:.3g} m/s^2 "
+            f"({_at(attrs, 'peak_carbody_ay')})"
         )
     return lines

@@ -135,7 +135,9 @@ def check_set(table: Mapping[str, Any]) -> tuple[str, str]:
     if has_earthquake(table):
         eq = table.get("earthquake", {})
         parts = ", ".join(
-            f"{c} = {eq.get(c)!r}" for c in ("vertical", "longitudinal", "lateral") if eq.get(c, "none") != "none"
+            f"{c} = {eq.get(c)!r}"
+            for c in ("vertical", "longitudinal", "lateral")
+            if eq.get(c, "none") != "none"
         )
         return SEISMIC, (
             f"the run has an earthquake ({parts}): running safety under the earthquake; the traffic "
@@ -527,7 +529,10 @@ def _seismic_rows(
 def _lateral_rows(metrics: xr.Dataset, opts: CheckOptions) -> list[Check]:
     """The running-safety rows of a 3D run (module docstring)."""
     rows: list[Check] = []
-    name = f"derailment quotient Y/Q <= {NADAL_LIMIT:g} (Nadal, flange {FLANGE_ANGLE_DEG:g} deg, mu {FLANGE_FRICTION:g})"
+    name = (
+        f"derailment quotient Y/Q <= {NADAL_LIMIT:g} "
+        f"(Nadal, flange {FLANGE_ANGLE_DEG:g} deg, mu {FLANGE_FRICTION:g})"
+    )
     w = _worst(metrics, "peak_derailment_quotient")
     if w is None:
         rows.append(Check(name, math.nan, NADAL_LIMIT, "1", "", None, False, "invalid: no wheel with Q > 0"))
@@ -540,7 +545,9 @@ def _lateral_rows(metrics: xr.Dataset, opts: CheckOptions) -> list[Check]:
             Check(name, None, EN14363_QUOTIENT_LIMIT, "1", "", None, None, "no 2 m window: the train stands")
         )
     elif w is not None:
-        rows.append(Check(name, w[0], EN14363_QUOTIENT_LIMIT, "1", w[1], w[2], w[0] <= EN14363_QUOTIENT_LIMIT))
+        rows.append(
+            Check(name, w[0], EN14363_QUOTIENT_LIMIT, "1", w[1], w[2], w[0] <= EN14363_QUOTIENT_LIMIT)
+        )
     else:
         rows.append(Check(name, math.nan, EN14363_QUOTIENT_LIMIT, "1", "", None, False, "invalid: all NaN"))
     rows.append(_prudhomme_row(metrics, opts.prudhomme_alpha))

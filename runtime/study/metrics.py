@@ -457,7 +457,9 @@ def _lateral_metrics(ds: xr.Dataset, t: np.ndarray, put: Any) -> None:
             "max of the 2 m sliding mean of Y/Q (EN 14363)",
         )
     put("peak_wheel_lateral_force", *_peak_max(arr("wheel_lateral_force", wheel), t), "max Y, outwards")
-    put("peak_axle_lateral_force", *_peak_abs(arr("axle_lateral_force", axle), t), "max |sum Y| of a wheelset")
+    put(
+        "peak_axle_lateral_force", *_peak_abs(arr("axle_lateral_force", axle), t), "max |sum Y| of a wheelset"
+    )
     if "axle_lateral_force_2m" in ds.variables:
         put(
             "peak_axle_lateral_force_2m",

@@ -18,9 +18,9 @@ import math
 
 import numpy as np
 import pytest
+from cases import histories3d as histories
 
 from svbi.runtime.run.results3d import (
-    Histories3D,
     dataset3d,
     nadal_limit,
     prudhomme_limit,
@@ -49,7 +49,12 @@ def by_hand(n: float, delta: float, t: float, flange: float, side: int) -> tuple
 @pytest.mark.parametrize("side", [1, -1])
 @pytest.mark.parametrize(
     ("n", "delta", "t", "flange"),
-    [(60e3, math.atan(0.05), 0.0, 0.0), (55e3, 0.12, 8e3, 0.0), (40e3, 0.3, -6e3, 25e3), (1e3, 1.2, 3e3, 0.0)],
+    [
+        (60e3, math.atan(0.05), 0.0, 0.0),
+        (55e3, 0.12, 8e3, 0.0),
+        (40e3, 0.3, -6e3, 25e3),
+        (1e3, 1.2, 3e3, 0.0),
+    ],
 )
 def test_q_and_y_of_a_wheel_on_a_cone(n, delta, t, flange, side):
     q, y = wheel_forces(np.array(n), np.array(delta), np.array(t), np.array(flange), np.array(float(side)))
@@ -81,40 +86,6 @@ def test_prudhomme_and_nadal_limits():
     assert round(nadal_limit(gamma, mu), 2) == 1.34
 
 
-def histories(
-    normal: float = 50e3,
-    angle: float = 0.05,
-    steps: int = 400,
-    cars: int = 2,
-    axles: int = 4,
-    dt: float = 1e-3,
-    speed: float = 50.0,
-    **arrays: np.ndarray,
-) -> Histories3D:
-    t = np.arange(steps) * dt
-    wheel = (steps, cars, axles, 2)
-    base = dict(
-        time=t,
-        distance=speed * t,
-        normal_force=np.full(wheel, normal),
-        contact_angle=np.full(wheel, angle),
-        creep_longitudinal=np.zeros(wheel),
-        creep_lateral=np.zeros(wheel),
-        flange_force=np.zeros(wheel),
-        flange_contact=np.zeros(wheel, bool),
-        wheel_rail_lateral=np.zeros(wheel[:3]),
-        static_wheel_load=np.full(wheel[1:], normal * math.cos(angle)),
-        carbody_ay=np.zeros((steps, cars)),
-        carbody_roll=np.zeros((steps, cars)),
-        midspan_uy=np.zeros((steps, 2)),
-        midspan_uy_rel=np.zeros((steps, 2)),
-        midspan_twist=np.zeros((steps, 2)),
-        midspan_twist_rel=np.zeros((steps, 2)),
-    )
-    base.update(arrays)
-    return Histories3D(**base)
-
-
 WHEEL_VARIABLES = {
     "contact_force": "N",
     "contact_force_filtered": "N",
@@ -130,7 +101,11 @@ WHEEL_VARIABLES = {
     "unloading_ratio": "1",
     "flange_contact": "1",
 }
-AXLE_VARIABLES = {"axle_lateral_force": "N", "axle_lateral_force_2m": "N", "wheel_rail_lateral_displacement": "m"}
+AXLE_VARIABLES = {
+    "axle_lateral_force": "N",
+    "axle_lateral_force_2m": "N",
+    "wheel_rail_lateral_displacement": "m",
+}
 OTHER = {
     "carbody_ay": (("time", "car"), "m/s^2"),
     "carbody_roll": (("time", "car"), "rad"),
