@@ -216,8 +216,10 @@ def check_results(ds: xr.Dataset, name: str = "results") -> None:
                 f"{name}: required variable '{var}' is missing (a results file has "
                 f"{', '.join(REQUIRED_VARIABLES)}; see docs/design.md section 7)"
             )
+    side = {"side"} if is_3d(ds) else set()  # a 3D run's wheels have a side (docs/scenario.md)
     for var, dims in EXPECTED_DIMS.items():
-        if var in ds.variables and set(ds[var].dims) != set(dims):
+        allowed = (set(dims), set(dims) | side) if "wheel" in dims else (set(dims),)
+        if var in ds.variables and set(ds[var].dims) not in allowed:
             raise ResultsFileError(f"{name}: variable '{var}' has dims {ds[var].dims}, expected {dims}")
 
 

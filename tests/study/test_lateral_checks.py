@@ -50,6 +50,7 @@ def vertical_base(t: np.ndarray, earthquake: bool = True) -> xr.Dataset:
     return xr.Dataset(
         {
             "midspan_uz": (("time", "span"), np.zeros((t.size, 2))),
+            "midspan_ux": (("time", "span"), np.zeros((t.size, 2))),
             "deck_acceleration": (("time", "span"), np.zeros((t.size, 2))),
             "carbody_az": (("time", "car"), np.zeros((t.size, 2))),
         },
@@ -193,3 +194,24 @@ def test_a_sweep_part_keeps_the_3d_metrics(tmp_path: Path):
         assert name in back, name
     assert back["side"].values.astype(str).tolist() == ["left", "right"]
     np.testing.assert_allclose(back.peak_derailment_quotient.values, m.peak_derailment_quotient.values)
+
+
+def test_svbi_metrics_and_check_of_a_3d_results_file(tmp_path: Path):
+    from typer.testing import CliRunner
+
+    from svbi.runtime.cli.app import _register, app
+    from svbi.runtime.run.results import write_netcdf
+
+    if not app.registered_commands:
+        _register()
+    path = write_netcdf(results(quotient_peak=1.4, shift_peak=1e3), tmp_path / "r3d.nc")
+    done = CliRunner().invoke(app, ["metrics", str(path)])
+    assert done.exit_code == 0, done.output
+    assert "peak_derailment_quotient" in done.output and "car 2, wheel 3, side right" in done.output
+    done = CliRunner().invoke(app, ["check", str(path), "--prudhomme-alpha", "0.85"])
+    assert done.exit_code == 3, done.output  # Y/Q 1.4 > 1.34
+    assert "seismic set" in done.output and "Prud'homme, alpha = 0.85" in done.output
+    line = next(x for x in done.output.splitlines() if x.startswith("derailment quotient Y/Q <= 1.34"))
+    assert "1.4 " in line and "FAIL" in line
+    done = CliRunner().invoke(app, ["check", str(path), "--prudhomme-alpha", "0"])
+    assert done.exit_code == 2 and "--prudhomme-alpha must be greater than 0" in done.output
