@@ -568,7 +568,10 @@ def _wheel_of(ds: xr.Dataset, prefix: str) -> dict[str, int]:
     """The (car, wheel) named by the run's ``<prefix>_car`` / ``_wheel`` attributes (1-based)."""
     car = int(ds.attrs.get(f"{prefix}_car", 1))
     wheel = int(ds.attrs.get(f"{prefix}_wheel", 1))
-    return {"car": car - 1, "wheel": wheel - 1}
+    out = {"car": car - 1, "wheel": wheel - 1}
+    if f"{prefix}_side" in ds.attrs:  # a 3D run: the wheel of the wheelset
+        out["side"] = 0 if str(ds.attrs[f"{prefix}_side"]) == "left" else 1
+    return out
 
 
 def panel_airborne(ax: Axes, runs: Sequence[Run]) -> None:

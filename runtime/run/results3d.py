@@ -32,7 +32,7 @@ with the opposite. EN 14363 names the components of that force in track axes:
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
@@ -157,7 +157,6 @@ class Histories3D:
     in_contact: np.ndarray | None = None
     pier_top_uy: np.ndarray | None = None
     pier_top_uy_rel: np.ndarray | None = None
-    extra_attrs: dict[str, Any] = field(default_factory=dict)
 
     def __post_init__(self) -> None:
         n = np.asarray(self.time).shape[0]
@@ -419,11 +418,9 @@ def lateral_variables(
     }
     if h.pier_top_uy is not None:
         coords["pier"] = ("pier", np.arange(1, np.shape(h.pier_top_uy)[1] + 1))
-    full_flange = flange
     attrs = lateral_summary(
-        t_all[pick], yq, sy[pick], unloading, np.asarray(h.carbody_ay, float)[pick], t_all, full_flange
+        t_all[pick], yq, sy[pick], unloading, np.asarray(h.carbody_ay, float)[pick], t_all, flange
     )
-    attrs.update(h.extra_attrs)
     return v, coords, attrs
 
 
