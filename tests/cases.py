@@ -2,7 +2,12 @@
 
 from __future__ import annotations
 
+import math
+
+import numpy as np
+
 from svbi.examples import paper_section
+from svbi.runtime.run.results3d import Histories3D
 
 L, MU, E, AREA, Iy = paper_section()
 """The paper's span and deck section (examples/paper-2020.toml)."""
@@ -109,3 +114,39 @@ body = "ws"
 lateral = "-0.75"
 radius = "r0"
 """
+
+
+def histories3d(
+    normal: float = 50e3,
+    angle: float = 0.05,
+    steps: int = 400,
+    cars: int = 2,
+    axles: int = 4,
+    dt: float = 1e-3,
+    speed: float = 50.0,
+    **arrays: np.ndarray,
+) -> Histories3D:
+    """Histories of a 3D run (run/results3d.py): every wheel at the normal force ``normal`` and the
+    contact angle ``angle``, nothing lateral, the train at ``speed``; ``arrays`` replace fields."""
+    t = np.arange(steps) * dt
+    wheel = (steps, cars, axles, 2)
+    base = dict(
+        time=t,
+        distance=speed * t,
+        normal_force=np.full(wheel, normal),
+        contact_angle=np.full(wheel, angle),
+        creep_longitudinal=np.zeros(wheel),
+        creep_lateral=np.zeros(wheel),
+        flange_force=np.zeros(wheel),
+        flange_contact=np.zeros(wheel, bool),
+        wheel_rail_lateral=np.zeros(wheel[:3]),
+        static_wheel_load=np.full(wheel[1:], normal * math.cos(angle)),
+        carbody_ay=np.zeros((steps, cars)),
+        carbody_roll=np.zeros((steps, cars)),
+        midspan_uy=np.zeros((steps, 2)),
+        midspan_uy_rel=np.zeros((steps, 2)),
+        midspan_twist=np.zeros((steps, 2)),
+        midspan_twist_rel=np.zeros((steps, 2)),
+    )
+    base.update(arrays)
+    return Histories3D(**base)

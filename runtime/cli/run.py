@@ -26,6 +26,7 @@ from ..run.output import (
     signals_interrupt,
 )
 from ..run.results import write_netcdf
+from ..run.results3d import summary_lines
 from ..run.simulate import SimulationIncomplete, simulate
 from ..scenario.schema import ScenarioError, ScenarioWarning, load_scenario
 from .messages import echo_caught
@@ -141,6 +142,8 @@ def _run(
                 f"{attrs['peak_uplift_wheel']}), longest flight {attrs['longest_flight_s']:.4g} s, "
                 f"{attrs.get('airborne_time_s', 0.0):.4g} s airborne over all wheels"
             )
+        for line in summary_lines(attrs):  # a 3D run's running safety (none for a 2D run)
+            typer.echo(line)
         if "pier_drift" in ds:  # a bridge with piers: the largest drift of a pier top over its base
             import numpy as np
 

@@ -107,18 +107,46 @@ def check(
     flange_height: Annotated[
         float, typer.Option("--flange-height", help="Wheel flange height (m) for the uplift check.")
     ] = 0.028,
+    prudhomme_alpha: Annotated[
+        float,
+        typer.Option(
+            "--prudhomme-alpha",
+            help="α of Prud'homme's track-shift limit α (10 + P0/3) kN (3D runs): 1.0, 0.85 for freight.",
+        ),
+    ] = 1.0,
+    carbody_ay_limit: Annotated[
+        float | None,
+        typer.Option(
+            "--carbody-ay-limit",
+            help="Limit of the car-body lateral acceleration (m/s²), 3D runs; without it, for information.",
+        ),
+    ] = None,
 ) -> None:
     """EN 1990 Annex A2 checks of a run or of every run of a sweep store (docs/sweep.md).
 
     A run without an earthquake gets the traffic set (deck acceleration, deflection, end rotations,
     comfort), a run with one the seismic running-safety set. Exit status 0 when every limit is met,
     3 when one is exceeded, 2 on bad input."""
-    for value, name in ((alpha, "--alpha"), (flange_height, "--flange-height")):
+    for value, name in (
+        (alpha, "--alpha"),
+        (flange_height, "--flange-height"),
+        (prudhomme_alpha, "--prudhomme-alpha"),
+        (1.0 if carbody_ay_limit is None else carbody_ay_limit, "--carbody-ay-limit"),
+    ):
         if not value > 0:
             raise _fail(f"{name} must be greater than 0")
     if comfort_l_over_delta is not None and not comfort_l_over_delta > 0:
         raise _fail("--comfort-l-over-delta must be greater than 0")
-    options = CheckOptions(track_form, comfort, maintenance, alpha, comfort_l_over_delta, flange_height)
+    options = CheckOptions(
+        track_form,
+        comfort,
+        maintenance,
+        alpha,
+        comfort_l_over_delta,
+        flange_height,
+        prudhomme_alpha,
+        carbody_ay_limit,
+    )
     if results.exists() and is_store(results):
         _check_store(results, options)
         return

@@ -31,6 +31,7 @@ from matplotlib.lines import Line2D
 from ...codegen.input_files import MAX_TOML_BYTES, loads_toml, read_text
 from ..run.atomic import write_atomic
 from ..scenario.kinds import wrong_kind
+from .lateral import LATERAL, is_3d, lateral_figure
 
 try:
     import tomllib
@@ -215,8 +216,10 @@ def check_results(ds: xr.Dataset, name: str = "results") -> None:
                 f"{name}: required variable '{var}' is missing (a results file has "
                 f"{', '.join(REQUIRED_VARIABLES)}; see docs/design.md section 7)"
             )
+    side = {"side"} if is_3d(ds) else set()  # a 3D run's wheels have a side (docs/scenario.md)
     for var, dims in EXPECTED_DIMS.items():
-        if var in ds.variables and set(ds[var].dims) != set(dims):
+        allowed = (set(dims), set(dims) | side) if "wheel" in dims else (set(dims),)
+        if var in ds.variables and set(ds[var].dims) not in allowed:
             raise ResultsFileError(f"{name}: variable '{var}' has dims {ds[var].dims}, expected {dims}")
 
 
@@ -236,7 +239,10 @@ def _series(ds: xr.Dataset, var: str, select: Mapping[str, int]) -> xr.DataArray
     """The time series `var` at the given positions, or None when the variable is absent or empty."""
     if var not in ds.variables or any(ds.sizes.get(d, 0) == 0 for d in EXPECTED_DIMS[var]):
         return None
-    return ds[var].isel({d: i for d, i in select.items() if d in ds[var].dims})
+    picked = {d: i for d, i in select.items() if d in ds[var].dims}
+    if "side" in ds[var].dims:  # a 3D run's wheel: the left one of the wheelset, unless chosen
+        picked.setdefault("side", 0)
+    return ds[var].isel(picked)
 
 
 def _max_abs_over(ds: xr.Dataset, var: str) -> xr.DataArray | None:
@@ -562,7 +568,10 @@ def _wheel_of(ds: xr.Dataset, prefix: str) -> dict[str, int]:
     """The (car, wheel) named by the run's ``<prefix>_car`` / ``_wheel`` attributes (1-based)."""
     car = int(ds.attrs.get(f"{prefix}_car", 1))
     wheel = int(ds.attrs.get(f"{prefix}_wheel", 1))
-    return {"car": car - 1, "wheel": wheel - 1}
+    out = {"car": car - 1, "wheel": wheel - 1}
+    if f"{prefix}_side" in ds.attrs:  # a 3D run: the wheel of the wheelset
+        out["side"] = 0 if str(ds.attrs[f"{prefix}_side"]) == "left" else 1
+    return out
 
 
 def panel_airborne(ax: Axes, runs: Sequence[Run]) -> None:
@@ -665,6 +674,8 @@ def make_figures(results: Results) -> dict[str, Figure]:
             ax.label_outer()
         _suptitle(fig, runs)
         figures[CONTACT] = fig
+    if is_3d(runs[0].data):  # a 3D run: the lateral response and running safety
+        figures[LATERAL] = lateral_figure(runs[0].data, scenario_title(runs[:1]))
     if "pier_top_ux" in runs[0].data:
         fig = Figure(figsize=(10.0, 7.5), layout="constrained")
         top, bottom = fig.subplots(2, 1, sharex=True)

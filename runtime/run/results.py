@@ -649,7 +649,7 @@ def write_netcdf(ds: xr.Dataset, path: str | Path) -> Path:
 
     def write(tmp: Path) -> None:
         out = ds.copy()
-        for name in ("support_component", "end"):
+        for name in ("support_component", "end", "side"):
             if name in out.coords:
                 out.coords[name] = out.coords[name].astype(str)
         try:

@@ -95,7 +95,7 @@ def has_earthquake(table: Mapping[str, Any]) -> bool:
     eq = table.get("earthquake")
     if not eq:
         return False
-    for component in ("vertical", "longitudinal"):
+    for component in ("vertical", "longitudinal", "lateral"):  # lateral: 3D runs
         value = eq.get(component, "none")
         sources = value if isinstance(value, list) else [value]
         scale = float(eq.get("scale", 1.0)) * float(eq.get(f"{component}_scale", 1.0))

@@ -37,6 +37,24 @@ not apply to a deck shaken by the ground; the run is checked for running safety 
   absolute deck acceleration for information;
 * run complete.
 
+A 3D run (metrics with ``peak_derailment_quotient``) adds the lateral running-safety rows to the
+seismic set; a 2D run has none of them:
+
+* derailment quotient Y/Q (the largest over the wheels, Y outwards) at most Nadal's flange-climb
+  limit ``(tan γ - μ) / (1 + μ tan γ)``: 1.34 for a flange angle of 70° and a friction coefficient of
+  0.3;
+* its 2 m sliding mean ``(Y/Q)_2m`` at most 0.8, the limit of EN 14363 (vehicle acceptance) for
+  curves of radius 250 m or more; n/a for a train that does not move at every step;
+* the track-shift force of every wheelset, the 2 m sliding mean ``(ΣY)_2m`` (the unsmoothed ΣY
+  when the train does not move), at most Prud'homme's limit ``α (10 + P0/3)`` kN with P0 the
+  wheelset's static load in kN, α = 1 (0.85 for freight wagons: ``--prudhomme-alpha``), as
+  EN 14363 takes it: the wheelset with the largest ratio to its own limit is shown;
+* the wheel unloading ΔQ/Q of the row above, per wheel of each wheelset;
+* the car-body lateral acceleration, for information, or against a limit the user gives
+  (``--carbody-ay-limit``: svbi carries no code limit for it);
+* flange contacts (counted), and the lateral midspan displacement relative to the ground, for
+  information.
+
 Rows that do not apply show ``n/a`` and do not count.
 """
 
@@ -74,6 +92,20 @@ UNLOADING_LIMITS = (TRAFFIC_UNLOADING_LIMIT, SEISMIC_UNLOADING_LIMIT)
 """Both ΔP/P limits, normal operation first (the figures of a store draw the last)."""
 FLANGE_HEIGHT = 0.028
 """m, the nominal flange height of the S1002 wheel profile (EN 13715)."""
+FLANGE_ANGLE_DEG = 70.0
+"""Flange angle γ of Nadal's limit (degrees)."""
+FLANGE_FRICTION = 0.3
+"""Wheel-rail friction coefficient μ of Nadal's limit."""
+NADAL_LIMIT = round(
+    (math.tan(math.radians(FLANGE_ANGLE_DEG)) - FLANGE_FRICTION)
+    / (1.0 + FLANGE_FRICTION * math.tan(math.radians(FLANGE_ANGLE_DEG))),
+    2,
+)
+"""Nadal's flange-climb limit of Y/Q, ``(tan γ - μ) / (1 + μ tan γ)`` = 1.34 (γ 70°, μ 0.3)."""
+EN14363_QUOTIENT_LIMIT = 0.8
+"""``(Y/Q)_2m`` of EN 14363 (curves of radius at least 250 m)."""
+PRUDHOMME_ALPHA = 1.0
+"""α of Prud'homme's limit ``α (10 + P0/3)`` kN: 1.0, or 0.85 for freight wagons."""
 HSLM_MIN_SPAN = 7.0
 """m, EN 1991-2 Annex E, Table E.4: HSLM-A for simply supported spans of at least 7 m."""
 COMFORT_SPAN_FACTOR = 0.7
@@ -88,7 +120,8 @@ TRAFFIC, SEISMIC = "traffic", "seismic"
 @dataclass(frozen=True)
 class CheckOptions:
     """What the user chooses: track form (None: the scenario's), comfort level, track maintenance
-    (Φ2 or Φ3), α, Figure A2.3's L/δ at the line speed and the flange height."""
+    (Φ2 or Φ3), α, Figure A2.3's L/δ at the line speed, the flange height and, for 3D runs,
+    Prud'homme's α and a limit of the car-body lateral acceleration (None: for information)."""
 
     track_form: str | None = None
     comfort: str = "acceptable"
@@ -96,6 +129,8 @@ class CheckOptions:
     alpha: float = 1.0
     comfort_l_over_delta: float | None = None
     flange_height: float = FLANGE_HEIGHT
+    prudhomme_alpha: float = PRUDHOMME_ALPHA
+    carbody_ay_limit: float | None = None
 
 
 def check_set(table: Mapping[str, Any]) -> tuple[str, str]:
@@ -103,7 +138,9 @@ def check_set(table: Mapping[str, Any]) -> tuple[str, str]:
     if has_earthquake(table):
         eq = table.get("earthquake", {})
         parts = ", ".join(
-            f"{c} = {eq.get(c)!r}" for c in ("vertical", "longitudinal") if eq.get(c, "none") != "none"
+            f"{c} = {eq.get(c)!r}"
+            for c in ("vertical", "longitudinal", "lateral")
+            if eq.get(c, "none") != "none"
         )
         return SEISMIC, (
             f"the run has an earthquake ({parts}): running safety under the earthquake; the traffic "
@@ -184,6 +221,11 @@ CHECK_INPUTS: dict[str, tuple[str, ...]] = {
     "max_unloading_ratio": ("contact_force", "contact_force_filtered"),
     "peak_end_rotation": ("end_rotation",),
     "peak_joint_rotation": ("end_rotation",),
+    "peak_derailment_quotient": ("contact_force", "wheel_lateral_force"),
+    "peak_derailment_quotient_2m": ("contact_force", "wheel_lateral_force"),
+    "peak_axle_lateral_force_2m": ("wheel_lateral_force",),
+    "peak_axle_lateral_force": ("wheel_lateral_force",),
+    "peak_carbody_ay": ("carbody_ay",),
 }
 """The results variables behind each checked metric: a NaN sample in one makes the check invalid."""
 
@@ -193,6 +235,11 @@ ROW_METRICS: tuple[tuple[str, str], ...] = (
     ("wheel unloading", "max_unloading_ratio"),
     ("end rotation at abutments", "peak_end_rotation"),
     ("rotation between decks", "peak_joint_rotation"),
+    ("derailment quotient Y/Q <=", "peak_derailment_quotient"),
+    ("derailment quotient (Y/Q)_2m", "peak_derailment_quotient_2m"),
+    ("track-shift force (sum Y)_2m", "peak_axle_lateral_force_2m"),
+    ("track-shift force sum Y", "peak_axle_lateral_force"),
+    ("car-body lateral acceleration", "peak_carbody_ay"),
 )
 """The metric each row of the table reads, by the start of the row's name."""
 
@@ -501,6 +548,8 @@ def _seismic_rows(
                     v <= opts.flange_height,
                 )
             )
+    if "peak_derailment_quotient" in metrics:
+        rows += _lateral_rows(metrics, opts)
     w = _worst(metrics, "peak_midspan_uz_rel")
     if w is not None:
         rows.append(
@@ -530,6 +579,84 @@ def _seismic_rows(
             )
         )
     return rows
+
+
+def _lateral_rows(metrics: xr.Dataset, opts: CheckOptions) -> list[Check]:
+    """The running-safety rows of a 3D run (module docstring)."""
+    rows: list[Check] = []
+    name = (
+        f"derailment quotient Y/Q <= {NADAL_LIMIT:g} "
+        f"(Nadal, flange {FLANGE_ANGLE_DEG:g} deg, mu {FLANGE_FRICTION:g})"
+    )
+    w = _worst(metrics, "peak_derailment_quotient")
+    if w is None:
+        rows.append(Check(name, math.nan, NADAL_LIMIT, "1", "", None, False, "invalid: no wheel with Q > 0"))
+    else:
+        rows.append(Check(name, w[0], NADAL_LIMIT, "1", w[1], w[2], w[0] <= NADAL_LIMIT))
+    name = f"derailment quotient (Y/Q)_2m <= {EN14363_QUOTIENT_LIMIT:g} (EN 14363)"
+    w = _worst(metrics, "peak_derailment_quotient_2m")
+    if "peak_derailment_quotient_2m" not in metrics:
+        rows.append(
+            Check(name, None, EN14363_QUOTIENT_LIMIT, "1", "", None, None, "no 2 m window: the train stands")
+        )
+    elif w is not None:
+        rows.append(
+            Check(name, w[0], EN14363_QUOTIENT_LIMIT, "1", w[1], w[2], w[0] <= EN14363_QUOTIENT_LIMIT)
+        )
+    else:
+        rows.append(Check(name, math.nan, EN14363_QUOTIENT_LIMIT, "1", "", None, False, "invalid: all NaN"))
+    rows.append(_prudhomme_row(metrics, opts.prudhomme_alpha))
+    w = _worst(metrics, "peak_carbody_ay")
+    limit = opts.carbody_ay_limit
+    name = "car-body lateral acceleration"
+    if w is not None:
+        note = "for information (no limit given)" if limit is None else "limit given by the user"
+        passed = None if limit is None else w[0] <= limit
+        rows.append(Check(name, w[0], limit, "m/s^2", w[1], w[2], passed, note))
+    if "flange_contacts" in metrics:
+        counts = np.asarray(metrics["flange_contacts"].values, dtype=float)
+        total = float(np.nansum(counts))
+        w = _worst(metrics, "flange_contacts")
+        where = w[1] if w is not None and w[0] > 0 else ""
+        rows.append(Check("flange contacts", total, None, "", where, None, None, "all wheels"))
+    w = _worst(metrics, "peak_midspan_uy_rel")
+    if w is not None:
+        rows.append(
+            Check(
+                "lateral deck displacement relative to the ground",
+                w[0],
+                None,
+                "m",
+                w[1],
+                w[2],
+                None,
+                "midspan, for information",
+            )
+        )
+    return rows
+
+
+def _prudhomme_row(metrics: xr.Dataset, alpha: float) -> Check:
+    """``(ΣY)_2m`` (or ΣY) of every wheelset against ``α (10 + P0/3)`` kN of its own static load."""
+    smoothed = "peak_axle_lateral_force_2m" in metrics
+    metric = "peak_axle_lateral_force_2m" if smoothed else "peak_axle_lateral_force"
+    label = "(sum Y)_2m" if smoothed else "sum Y"
+    name = f"track-shift force {label} <= alpha (10 + P0/3) kN (Prud'homme, alpha = {alpha:g})"
+    if metric not in metrics or "static_axle_load" not in metrics:
+        return Check(name, None, None, "N", "", None, None, "not in the results")
+    da = metrics[metric]
+    values = np.asarray(da.values, dtype=float)
+    p0 = np.asarray(metrics["static_axle_load"].transpose(*da.dims).values, dtype=float)
+    limits = alpha * (10e3 + p0 / 3.0)
+    ratio = values / limits
+    if values.size == 0 or not np.isfinite(ratio).any():
+        return Check(name, math.nan, None, "N", "", None, False, "invalid: all NaN")
+    index = np.unravel_index(int(np.nanargmax(ratio)), ratio.shape)
+    where = ", ".join(f"{d} {metrics.coords[d].values[i]}" for d, i in zip(da.dims, index, strict=True))
+    when = float(np.asarray(metrics[f"{metric}_time"].values)[index]) if f"{metric}_time" in metrics else None
+    value, limit = float(values[index]), float(limits[index])
+    note = f"P0 = {p0[index] / 1e3:.4g} kN" + ("" if smoothed else "; no 2 m window: the train stands")
+    return Check(name, value, limit, "N", where, when, value <= limit, note)
 
 
 def _complete_row(metrics: xr.Dataset) -> Check:

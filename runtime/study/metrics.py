@@ -32,6 +32,23 @@ Every metric is a peak over the whole stored run, with the time at which it occu
   A2.4.4.2.3 (the two ends turn in opposite senses under load).
 * ``complete``: 1 when the run finished, 0 when it stopped early (then the peaks cover the stored
   part).
+
+A 3D run (results with ``derailment_quotient``, docs/three-d.md) has a ``side`` dimension on its
+per-wheel variables: the per-wheel metrics above have it too, ``wheel`` numbering the wheelsets,
+and the unloading ratio is ΔQ/Q0 with ``static_wheel_load`` as Q0. These are added (absent for a 2D
+run):
+
+* ``peak_derailment_quotient`` (car, wheel, side): max over time of Y/Q (filtered forces, Y positive
+  outwards; the samples where the wheel is off its rail left out); ``peak_derailment_quotient_2m``:
+  the same of its 2 m sliding mean (EN 14363; a train that moves at every step);
+* ``peak_wheel_lateral_force`` (car, wheel, side): max over time of the outward Y (N);
+* ``peak_axle_lateral_force`` (car, wheel): max |ΣY| (N); ``peak_axle_lateral_force_2m``: of its
+  2 m sliding mean; ``static_axle_load`` (car, wheel): the wheelset's static load P0 = ΣQ0 (N), for
+  Prud'homme's limit;
+* ``flange_contacts`` (car, wheel, side): flange contacts that begin (counted from the stored rows);
+* ``peak_carbody_ay`` (car): max |``carbody_ay``|;
+* ``peak_midspan_uy``, ``peak_midspan_uy_rel``, ``peak_midspan_twist``, ``peak_midspan_twist_rel``
+  (span) and ``peak_pier_top_uy``, ``peak_pier_top_uy_rel`` (pier): max |.| of the variables.
 """
 
 from __future__ import annotations
@@ -70,10 +87,44 @@ METRIC_DIMS: dict[str, tuple[str, ...]] = {
     "peak_end_rotation": ("span", "end"),
     "peak_joint_rotation": ("joint",),
     "peak_pier_drift": ("pier",),
+    "peak_derailment_quotient": ("car", "wheel", "side"),
+    "peak_derailment_quotient_2m": ("car", "wheel", "side"),
+    "peak_wheel_lateral_force": ("car", "wheel", "side"),
+    "peak_axle_lateral_force": ("car", "wheel"),
+    "peak_axle_lateral_force_2m": ("car", "wheel"),
+    "static_axle_load": ("car", "wheel"),
+    "flange_contacts": ("car", "wheel", "side"),
+    "peak_carbody_ay": ("car",),
+    "peak_midspan_uy": ("span",),
+    "peak_midspan_uy_rel": ("span",),
+    "peak_midspan_twist": ("span",),
+    "peak_midspan_twist_rel": ("span",),
+    "peak_pier_top_uy": ("pier",),
+    "peak_pier_top_uy_rel": ("pier",),
     "complete": (),
 }
 """Every metric and its dimensions (``lift_offs``, ``longest_contact_loss`` and ``peak_uplift`` only
-with unilateral contact, ``peak_midspan_uz_rel`` only when the results carry ``midspan_uz_rel``)."""
+with unilateral contact, ``peak_midspan_uz_rel`` only when the results carry ``midspan_uz_rel``, the
+3D metrics from ``peak_derailment_quotient`` on only for a 3D run, whose per-wheel metrics add
+``side``)."""
+
+LATERAL_METRICS = (
+    "peak_derailment_quotient",
+    "peak_derailment_quotient_2m",
+    "peak_wheel_lateral_force",
+    "peak_axle_lateral_force",
+    "peak_axle_lateral_force_2m",
+    "static_axle_load",
+    "flange_contacts",
+    "peak_carbody_ay",
+    "peak_midspan_uy",
+    "peak_midspan_uy_rel",
+    "peak_midspan_twist",
+    "peak_midspan_twist_rel",
+    "peak_pier_top_uy",
+    "peak_pier_top_uy_rel",
+)
+"""The metrics of a 3D run only."""
 
 METRIC_UNITS = {
     "peak_midspan_uz": "m",
@@ -89,6 +140,20 @@ METRIC_UNITS = {
     "peak_end_rotation": "rad",
     "peak_joint_rotation": "rad",
     "peak_pier_drift": "m",
+    "peak_derailment_quotient": "1",
+    "peak_derailment_quotient_2m": "1",
+    "peak_wheel_lateral_force": "N",
+    "peak_axle_lateral_force": "N",
+    "peak_axle_lateral_force_2m": "N",
+    "static_axle_load": "N",
+    "flange_contacts": "1",
+    "peak_carbody_ay": "m/s^2",
+    "peak_midspan_uy": "m",
+    "peak_midspan_uy_rel": "m",
+    "peak_midspan_twist": "rad",
+    "peak_midspan_twist_rel": "rad",
+    "peak_pier_top_uy": "m",
+    "peak_pier_top_uy_rel": "m",
     "complete": "1",
 }
 
@@ -220,6 +285,21 @@ METRIC_INPUTS = (
     "contact_state",
     "wheel_uplift",
     "pier_drift",
+    # 3D runs
+    "static_wheel_load",
+    "derailment_quotient",
+    "derailment_quotient_2m",
+    "wheel_lateral_force",
+    "axle_lateral_force",
+    "axle_lateral_force_2m",
+    "flange_contact",
+    "carbody_ay",
+    "midspan_uy",
+    "midspan_uy_rel",
+    "midspan_twist",
+    "midspan_twist_rel",
+    "pier_top_uy",
+    "pier_top_uy_rel",
 )
 """The results variables :func:`compute_metrics` reads (with ``time`` and the attributes): a sweep
 worker builds only these (``Recorder.dataset(variables=...)``) when it keeps no history."""
@@ -238,8 +318,12 @@ def compute_metrics(ds: xr.Dataset) -> xr.Dataset:
     t = np.asarray(ds["time"].values, dtype=float)
     out: dict[str, tuple[tuple[str, ...], Any, dict[str, str]]] = {}
 
+    per_wheel = tuple(d for d in ds["contact_force"].dims if d != "time")  # car, wheel[, side]
+
     def put(name: str, value: np.ndarray, when: np.ndarray | None, doc: str) -> None:
         dims = METRIC_DIMS[name]
+        if dims[:2] == ("car", "wheel") and name not in LATERAL_METRICS:
+            dims = per_wheel  # a 3D run's wheels have a side
         out[name] = (dims, value, {"units": METRIC_UNITS[name], "long_name": doc})
         if when is not None:
             out[f"{name}_time"] = (dims, when, {"units": "s", "long_name": f"time of {name}"})
@@ -263,8 +347,8 @@ def compute_metrics(ds: xr.Dataset) -> xr.Dataset:
         peak, when = np.full(ncar, np.nan), np.full(ncar, np.nan)
     put("peak_carbody_az", peak, when, "max |carbody_az| (vertical car-body acceleration)")
 
-    raw = np.asarray(ds["contact_force"].transpose("time", "car", "wheel").values, dtype=float)
-    pf = np.asarray(ds["contact_force_filtered"].transpose("time", "car", "wheel").values, dtype=float)
+    raw = np.asarray(ds["contact_force"].transpose("time", *per_wheel).values, dtype=float)
+    pf = np.asarray(ds["contact_force_filtered"].transpose("time", *per_wheel).values, dtype=float)
     shape = raw.shape[1:]
     if raw.shape[0] == 0 or _moving_load(ds):
         # a moving load's wheel force is prescribed: it never unloads (its ratio is rounding, 1e-14)
@@ -275,6 +359,8 @@ def compute_metrics(ds: xr.Dataset) -> xr.Dataset:
     else:
         if "max_unloading_ratio" not in out:
             p0 = raw[0]
+            if "static_wheel_load" in ds.variables:  # a 3D run: Q0 as the results give it
+                p0 = np.asarray(ds["static_wheel_load"].transpose(*per_wheel).values, dtype=float)
             with np.errstate(divide="ignore", invalid="ignore"):
                 ratio = np.where(p0 > 0, (p0 - pf) / p0, np.nan)
             idx = np.argmax(np.where(np.isnan(ratio), -np.inf, ratio), axis=0)
@@ -293,13 +379,13 @@ def compute_metrics(ds: xr.Dataset) -> xr.Dataset:
         )
 
     if "contact_state" in ds.variables:
-        state = np.asarray(ds["contact_state"].transpose("time", "car", "wheel").values)
+        state = np.asarray(ds["contact_state"].transpose("time", *per_wheel).values)
         on = state != 0
         lifts = np.sum(on[:-1] & ~on[1:], axis=0) if on.shape[0] > 1 else np.zeros(shape, int)
         put("lift_offs", lifts.astype(np.int64), None, "contact-to-lifted transitions")
         put("longest_contact_loss", *_longest_loss(~on, t), "longest time a wheel stayed lifted")
     if "wheel_uplift" in ds.variables:
-        up = np.asarray(ds["wheel_uplift"].transpose("time", "car", "wheel").values, dtype=float)
+        up = np.asarray(ds["wheel_uplift"].transpose("time", *per_wheel).values, dtype=float)
         if up.shape[0]:
             idx = np.argmax(up, axis=0)
             peak, when = np.take_along_axis(up, idx[None], 0)[0], t[idx]
@@ -320,9 +406,14 @@ def compute_metrics(ds: xr.Dataset) -> xr.Dataset:
         peak, when = _peak_abs(drift, t)
         put("peak_pier_drift", peak, when, "max |pier_drift| (pier top relative to the ground at its base)")
 
+    if "derailment_quotient" in ds.variables:
+        _lateral_metrics(ds, t, put)
+
     complete = _complete(ds)
     put("complete", np.int64(complete), None, "1: the run finished; 0: it stopped early")
-    coords = {d: ds.coords[d].values for d in ("span", "car", "wheel", "end", "pier") if d in ds.coords}
+    coords = {
+        d: ds.coords[d].values for d in ("span", "car", "wheel", "side", "end", "pier") if d in ds.coords
+    }
     if "peak_joint_rotation" in out:
         coords["joint"] = np.arange(1, ds.sizes["span"])
     attrs: dict[str, Any] = {
@@ -333,6 +424,62 @@ def compute_metrics(ds: xr.Dataset) -> xr.Dataset:
     if not complete:
         attrs["incomplete"] = str(ds.attrs.get("incomplete", ""))
     return xr.Dataset(out, coords=coords, attrs=attrs)
+
+
+def _peak_max(values: np.ndarray, t: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """max over axis 0 with NaN samples left out, and its time; NaN where every sample is NaN."""
+    if values.shape[0] == 0:
+        nan = np.full(values.shape[1:], np.nan)
+        return nan, nan.copy()
+    finite = np.isfinite(values)
+    idx = np.argmax(np.where(finite, values, -np.inf), axis=0)
+    peak = np.take_along_axis(values, idx[None], 0)[0]
+    any_finite = finite.any(axis=0)
+    return np.where(any_finite, peak, np.nan), np.where(any_finite, t[idx], np.nan)
+
+
+def _lateral_metrics(ds: xr.Dataset, t: np.ndarray, put: Any) -> None:
+    """The metrics of a 3D run (module docstring)."""
+    wheel, axle = ("time", "car", "wheel", "side"), ("time", "car", "wheel")
+
+    def arr(name: str, dims: tuple[str, ...]) -> np.ndarray:
+        return np.asarray(ds[name].transpose(*dims).values, dtype=float)
+
+    put(
+        "peak_derailment_quotient",
+        *_peak_max(arr("derailment_quotient", wheel), t),
+        "max Y/Q (filtered forces, Y outwards; wheels off their rail left out)",
+    )
+    if "derailment_quotient_2m" in ds.variables:
+        put(
+            "peak_derailment_quotient_2m",
+            *_peak_max(arr("derailment_quotient_2m", wheel), t),
+            "max of the 2 m sliding mean of Y/Q (EN 14363)",
+        )
+    put("peak_wheel_lateral_force", *_peak_max(arr("wheel_lateral_force", wheel), t), "max Y, outwards")
+    put(
+        "peak_axle_lateral_force", *_peak_abs(arr("axle_lateral_force", axle), t), "max |sum Y| of a wheelset"
+    )
+    if "axle_lateral_force_2m" in ds.variables:
+        put(
+            "peak_axle_lateral_force_2m",
+            *_peak_abs(arr("axle_lateral_force_2m", axle), t),
+            "max |sum Y| of a wheelset, 2 m sliding mean (EN 14363)",
+        )
+    q0 = np.asarray(ds["static_wheel_load"].transpose("car", "wheel", "side").values, dtype=float)
+    put("static_axle_load", q0.sum(axis=-1), None, "static load of the wheelset P0 (sum of Q0)")
+    on = arr("flange_contact", wheel) != 0
+    starts = on.copy()
+    if on.shape[0] > 1:
+        starts[1:] &= ~on[:-1]
+    put("flange_contacts", starts.sum(axis=0).astype(np.int64), None, "flange contacts that begin")
+    put("peak_carbody_ay", *_peak_abs(arr("carbody_ay", ("time", "car")), t), "max |carbody_ay|")
+    for name in ("midspan_uy", "midspan_uy_rel", "midspan_twist", "midspan_twist_rel"):
+        if name in ds.variables:
+            put(f"peak_{name}", *_peak_abs(arr(name, ("time", "span")), t), f"max |{name}|")
+    for name in ("pier_top_uy", "pier_top_uy_rel"):
+        if name in ds.variables:
+            put(f"peak_{name}", *_peak_abs(arr(name, ("time", "pier")), t), f"max |{name}|")
 
 
 @dataclass(frozen=True)

@@ -13,7 +13,7 @@ import copy
 import json
 import tomllib
 from collections.abc import Iterator, Mapping
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
@@ -163,14 +163,7 @@ def check_store(store: xr.Dataset, options: CheckOptions) -> StoreReport:
         which, why = check_set(table)
         form = options.track_form or str(table.get("bridge", {}).get("track_form", "ballasted"))
         moving_load = table.get("train", {}).get("vehicle") == "moving-load"
-        opts = CheckOptions(
-            form,
-            options.comfort,
-            options.maintenance,
-            options.alpha,
-            options.comfort_l_over_delta,
-            options.flange_height,
-        )
+        opts = replace(options, track_form=form)
         rows = en1990_checks(metrics, form, options.comfort, moving_load, table, opts)
         _, summary = sets.setdefault(which, (why, {}))
         for row in rows:

@@ -125,13 +125,14 @@ _RUN_UNITS = {
 }
 CUTOFF = "deck_acceleration_cutoff_hz"
 """The store's variable of each run's EN 1990 low-pass cutoff of the deck acceleration."""
-INTEGER_METRICS = ("lift_offs", "complete")
+INTEGER_METRICS = ("lift_offs", "flange_contacts", "complete")
 """Counts and flags: integers in the store (missing runs: the ``_FillValue`` -1; ``complete`` 0)."""
 RESERVED_NAMES = (
     "run",
     "span",
     "car",
     "wheel",
+    "side",
     "end",
     "joint",
     "pier",
@@ -1054,7 +1055,8 @@ def assemble(study: Study, out: Path, command: str = "") -> xr.Dataset:
     labels = {
         "span": "span (1 = first)",
         "car": "car (1 = leading)",
-        "wheel": "wheel of the car (1 = leading)",
+        "wheel": "wheel of the car (1 = leading; in 3D, the wheelset)",
+        "side": "wheel of the wheelset (3D runs): left or right",
         "end": "end of the span",
         "joint": "joint between span j and span j + 1",
         "pier": "pier",
@@ -1099,6 +1101,14 @@ def _metric_attrs(name: str) -> dict[str, str]:
         "peak_end_rotation": "max |end_rotation| of each span end",
         "peak_joint_rotation": "max angle between consecutive decks (theta1 + theta2)",
         "peak_pier_drift": "max |pier_drift| (pier top relative to the ground at its base)",
+        "peak_derailment_quotient": "max Y/Q (filtered forces, Y outwards)",
+        "peak_derailment_quotient_2m": "max of the 2 m sliding mean of Y/Q (EN 14363)",
+        "peak_wheel_lateral_force": "max Y, outwards",
+        "peak_axle_lateral_force": "max |sum Y| of a wheelset",
+        "peak_axle_lateral_force_2m": "max |sum Y| of a wheelset, 2 m sliding mean (EN 14363)",
+        "static_axle_load": "static load of the wheelset P0 (sum of Q0)",
+        "flange_contacts": "flange contacts that begin",
+        "peak_carbody_ay": "max |carbody_ay| (lateral car-body acceleration)",
         "complete": "1: the run finished; 0: it stopped early, failed or is missing",
     }.get(name, name)
     return {"units": METRIC_UNITS.get(name, "1"), "long_name": long}
