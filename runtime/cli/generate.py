@@ -35,12 +35,19 @@ def _render(target: str, embedded: bool = False) -> tuple[str, dict[str, bytes]]
     # deferred: brings SymPy and Jinja2 (about 0.5 s), for derivation and emission only
     from ...codegen import c_emit, python_emit
     from ...codegen import loop_glue as c_glue
+    from ...codegen.contact3d_kernels import CONTACT3D
     from ...codegen.frame3d import FRAME3D
     from ...codegen.kernels import FRAME2D, frame2d_model_spec, skip_reason, vehicle_model_spec
+    from ...codegen.topology3d import builtin_topologies_3d
+    from ...codegen.vehicle3d import render_vehicle3d
 
-    if target == FRAME3D:
-        # the 3D element is not yet in the C loop: its NumPy module only
+    if target in (FRAME3D, CONTACT3D):
+        # the 3D element and contact are not yet in the C loop: their NumPy modules only
         name, source = python_emit.render_target(target)
+        return name, {python_emit.FILENAME: source}
+    if target in builtin_topologies_3d():
+        # a 3D vehicle: its NumPy module only (not yet in the C loop)
+        name, source = render_vehicle3d(target)
         return name, {python_emit.FILENAME: source}
     if skip_reason(target) is not None:
         name, source = python_emit.render_target(target)
@@ -62,13 +69,16 @@ def _render(target: str, embedded: bool = False) -> tuple[str, dict[str, bytes]]
 
 def _targets() -> list[str]:
     """Every built-in model with generated files: the vehicles (moving loads: the NumPy module
-    only), ``frame2d`` and ``frame3d`` (the NumPy module only)."""
+    only), ``frame2d``, and the 3D models (NumPy modules only): the 3D vehicles, ``frame3d`` and
+    ``contact3d``."""
     # deferred: brings SymPy and Jinja2 (about 0.5 s), for derivation and emission only
+    from ...codegen.contact3d_kernels import CONTACT3D
     from ...codegen.frame3d import FRAME3D
     from ...codegen.kernels import FRAME2D
     from ...codegen.topology import builtin_topologies
+    from ...codegen.topology3d import builtin_topologies_3d
 
-    return [*builtin_topologies(), FRAME2D, FRAME3D]
+    return [*builtin_topologies(), *builtin_topologies_3d(), FRAME2D, FRAME3D, CONTACT3D]
 
 
 def _builtin_tree() -> dict[str, dict[str, bytes]]:
