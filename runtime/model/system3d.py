@@ -179,8 +179,10 @@ class ContactKernel3D:
     [...]_right]`` (2 x 3), ``creepage_gradient`` over ``z`` and ``creepage_rate_gradient`` over
     ``z'`` (2 x 3 x 16 each). The slip velocity is linear in ``z'``, so ``v`` times a rate gradient
     row is the generalized-force direction of the matching creep force (its power on the slip):
-    ``Q = -v (F_x dxi_x/dz' + F_y dxi_y/dz' + M_sp dxi_sp/dz')`` on ``z`` for the forces
-    ``(F_x, F_y, M_sp)`` that the rail exerts on the wheel.
+    ``Q = v (F_x dxi_x/dz' + F_y dxi_y/dz' + M_sp dxi_sp/dz')`` on ``z`` (wheelset and deck
+    together) for the force ``(F_x, F_y)`` along ``(t_x, t_y)`` and the moment ``M_sp`` about the
+    normal that the rail exerts on the wheel (their power on the slip is ``Q . z'`` plus terms free
+    of ``z'``).
 
     ``irregularity`` (9: ``[r_v, r_a, r_c]`` under the axle, their slopes and curvatures along
     ``x``) is an attribute the step may set before calling; zero by default.
