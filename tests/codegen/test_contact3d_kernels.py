@@ -245,3 +245,42 @@ def test_3d_topology_file_is_generated_once_into_the_cache(tmp_path: Path) -> No
     modules = list((tmp_path / "cache" / "python").glob("*/numpy_kernels.py"))
     assert len(modules) == 1
     assert modules[0].read_bytes() == Path(load("manchester-3d").__file__).read_bytes()
+
+
+def test_c_kernels_build_and_equal_the_numpy_module(tmp_path: Path) -> None:
+    """The committed C kernels of ``contact3d`` build with the strict flags, and their example
+    program prints, at the spec's sample, what the NumPy module (checked above against SymPy)
+    returns, to 1e-12 of each output's largest entry (both double precision, CSE'd differently)."""
+    import re
+    import shutil
+
+    make = shutil.which("make")
+    if make is None or shutil.which(os.environ.get("CC", "cc").split()[0]) is None:
+        pytest.skip("no make or C compiler")
+    committed = Path(load(ck.CONTACT3D).__file__).parent
+    for path in committed.iterdir():
+        if path.suffix in (".c", ".h") or path.name == "Makefile":
+            shutil.copy(path, tmp_path / path.name)
+    build = subprocess.run([make, "-C", str(tmp_path)], capture_output=True, text=True, check=False)
+    assert build.returncode == 0, build.stdout + build.stderr
+    assert "warning" not in (build.stdout + build.stderr).lower()
+    run = subprocess.run([str(tmp_path / "contact3d_main")], capture_output=True, text=True, check=True)
+    printed: dict[tuple[str, str], dict[tuple[int, int], float]] = {}
+    for line in run.stdout.splitlines():
+        m = re.fullmatch(r"(\w+)\.(\w+)\[(\d+)\]\[(\d+)\] = (\S+)", line)
+        assert m, f"unexpected line {line!r}"
+        printed.setdefault((m[1], m[2]), {})[(int(m[3]), int(m[4]))] = float(m[5])
+    module = load(ck.CONTACT3D)
+    spec = ck.contact3d_model_spec()
+    for kernel in spec.kernels:
+        args = [v[0] if len(v) == 1 else np.array(v) for v in kernel.sample_inputs()]
+        result = getattr(module, kernel.name)(*args)
+        results = result if len(kernel.outputs) > 1 else (result,)
+        for (name, matrix), want in zip(kernel.outputs, results, strict=True):
+            want = np.asarray(want, dtype=float).reshape(matrix.shape)
+            got = np.zeros(matrix.shape)
+            for (i, j), value in printed[(kernel.name, name)].items():
+                got[i, j] = value
+            assert len(printed[(kernel.name, name)]) == want.size
+            scale = float(np.max(np.abs(want)))
+            assert float(np.max(np.abs(got - want))) <= 1e-12 * scale, f"{kernel.name}.{name}"
