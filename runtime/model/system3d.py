@@ -118,7 +118,7 @@ def vehicle3d(topology: Any, parameters: Mapping[str, float] | None = None) -> V
         for f in (module.mass_matrix, module.damping_matrix, module.stiffness_matrix)
     )
     F = np.asarray(module.gravity_load(p), dtype=float).reshape(n)
-    positions, laterals, radii = (np.atleast_1d(np.asarray(a, dtype=float)) for a in module.wheel_geometry(p))
+    _, laterals, radii = (np.atleast_1d(np.asarray(a, dtype=float)) for a in module.wheel_geometry(p))
     body_positions, heights = (np.atleast_1d(np.asarray(a, dtype=float)) for a in module.body_geometry(p))
 
     wheelsets = []
