@@ -10,6 +10,7 @@
   the complex step of the residual along Newmark's direction is the residual Jacobian;
 * the committed modules are what the generator writes, byte for byte;
 * the 3D vehicles' generated matrices equal ``derive_vehicle3d(...).numeric(...)``;
+* ``v`` times the creepages' rate gradients is the generalized force of a unit creep force (virtual work);
 * the 3D step's model glue imports no SymPy for a built-in car; a 3D topology file is derived once
   into the cache and later only loaded.
 """
@@ -284,3 +285,38 @@ def test_c_kernels_build_and_equal_the_numpy_module(tmp_path: Path) -> None:
             assert len(printed[(kernel.name, name)]) == want.size
             scale = float(np.max(np.abs(want)))
             assert float(np.max(np.abs(got - want))) <= 1e-12 * scale, f"{kernel.name}.{name}"
+
+
+def test_rate_gradients_of_the_creepages_give_the_forces_generalized_forces() -> None:
+    """``v dxi/dz'`` is the generalized force of a unit creep force: in the nominal state, against
+    the virtual work of a force along ``t_x`` (``F_x``) and ``t_y`` (``F_y``) on the wheel at its
+    contact point ``(0, s b, -r0)`` from the axle centre and its reaction on the rail head, which
+    moves by ``(u - h theta - (e + s b) psi, v - h phi, w + (e + s b) phi)`` of the deck section
+    (written out here from the contact geometry of docs/three-d.md)."""
+    from svbi.codegen import frame3d
+
+    module = load(ck.CONTACT3D)
+    values = dict(ck.SAMPLE)
+    values.update({s.name: 0.0 for s in (*ck.Z, *ck.Z_T, *ck.Z_TT, *ck.IRREGULARITY)})
+    rates = np.asarray(module.creepage_rate_gradients(*_arguments([values[s.name] for s in ARGS])))
+    r0, b, lam, e, h, v, le, xi = (values[k] for k in ("r0", "b", "lam", "e_t", "h_t", "v", "le", "xi"))
+    n = frame3d.shape_functions()
+    at = {frame3d.xi: xi, frame3d.le: le}
+
+    def row(m: sp.Matrix) -> np.ndarray:
+        return np.array(m.xreplace(at).evalf(), dtype=float).reshape(-1)
+
+    nu, nv, nw, nphi = (row(n[k]) for k in ("u", "v", "w", "phi"))
+    theta, psi = row(sp.diff(n["w"], frame3d.xi) / frame3d.le), row(sp.diff(n["v"], frame3d.xi) / frame3d.le)
+    root = np.sqrt(1 + lam**2)
+    for k, s in enumerate((1, -1)):
+        arm = e + s * b
+        # F_x = 1 along t_x = (1, 0, 0): on the wheel a yaw moment -s b; on the deck -(x_rail)
+        fx = np.concatenate([[0.0, 0.0, 0.0, -s * b], -(nu - h * theta - arm * psi)])
+        # F_y = 1 along t_y = (0, 1, s lam) / sqrt(1 + lam^2)
+        fy_lat, fy_vert = 1 / root, s * lam / root
+        roll = s * b * fy_vert + r0 * fy_lat  # r_y F_z - r_z F_y
+        deck = -(fy_lat * (nv - h * nphi) + fy_vert * (nw + arm * nphi))
+        fy = np.concatenate([[fy_lat, fy_vert, roll, 0.0], deck])
+        assert np.allclose(v * rates[3 * k], fx, rtol=0, atol=1e-14), k
+        assert np.allclose(v * rates[3 * k + 1], fy, rtol=0, atol=1e-14), k
