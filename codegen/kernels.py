@@ -32,6 +32,8 @@ FRAME2D = "frame2d"
 """Model name of the bridge frame element kernels (:func:`beam_kernels`)."""
 FRAME3D = "frame3d"
 """Model name of the 3D frame element kernels (:func:`svbi.codegen.frame3d.frame3d_model_spec`)."""
+CONTACT3D = "contact3d"
+"""Model name of the 3D contact kernels (:func:`svbi.codegen.contact3d_kernels.contact3d_model_spec`)."""
 
 
 class KernelError(ValueError):
@@ -955,9 +957,13 @@ def frame2d_model_spec() -> ModelSpec:
 
 def skip_reason(name_or_path: str) -> str | None:
     """Why a model has nothing to generate (moving loads), or None."""
-    if name_or_path in (FRAME2D, FRAME3D):
+    if name_or_path in (FRAME2D, FRAME3D, CONTACT3D):
         return None
     from svbi.codegen.topology import load_topology
+    from svbi.codegen.topology3d import builtin_topologies_3d
+
+    if name_or_path in builtin_topologies_3d():
+        return None
 
     topology = load_topology(name_or_path)
     if topology.kind != "rigid-body" or not topology.bodies:

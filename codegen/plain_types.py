@@ -36,6 +36,12 @@ def builtin_topologies() -> list[str]:
     return sorted(p.name[: -len(".toml")] for p in folder.iterdir() if p.name.endswith(".toml"))
 
 
+def builtin_topologies_3d() -> list[str]:
+    """Names of the 3D topologies that ship with svbi."""
+    folder = resources.files("svbi.codegen.vehicles3d")
+    return sorted(p.name[: -len(".toml")] for p in folder.iterdir() if p.name.endswith(".toml"))
+
+
 def check_value(source: str, key: str, raw: Any, signed: bool, like: Any) -> float | tuple[float, ...]:
     """A parameter value: a finite number (non-negative unless ``signed``), or a non-empty list of
     them when ``like`` (the default) is a list."""

@@ -70,7 +70,7 @@ from typing import Any
 import sympy as sp
 
 from svbi.codegen.input_files import MAX_TOML_BYTES, InputFileError, TOMLNestingError, loads_toml, read_text
-from svbi.codegen.plain_types import TopologyError
+from svbi.codegen.plain_types import TopologyError, builtin_topologies_3d
 from svbi.codegen.topology import (
     Parameter,
     only_keys,
@@ -174,12 +174,6 @@ class Topology3D:
         f = self.parameters[stop.forces].value
         assert isinstance(d, tuple) and isinstance(f, tuple)
         return d, f
-
-
-def builtin_topologies_3d() -> list[str]:
-    """Names of the 3D topologies that ship with svbi."""
-    folder = resources.files(PACKAGE)
-    return sorted(p.name[: -len(".toml")] for p in folder.iterdir() if p.name.endswith(".toml"))
 
 
 def load_topology3d(name_or_path: str | Path) -> Topology3D:

@@ -176,3 +176,91 @@ def derive_vehicle3d(topology: Topology3D | str) -> VehicleModel3D:
         gravity_load=sp.Matrix([-sp.diff(gravity_potential, q) for q in dofs]),
         contact_jacobian=jacobian,
     )
+
+
+# --------------------------------------------------------------------------------------------------
+# the generated module of a 3D vehicle (``generated/<name>/numpy_kernels.py``)
+
+
+def vehicle3d_model_spec(model: VehicleModel3D) -> Any:
+    """The kernels of a 3D vehicle, functions of its scalar parameter vector ``p``
+    (:attr:`Topology3D.symbols` order): ``M``, ``C``, ``K``, the gravity load (g = 9.81 m/s^2), the
+    wheels' and the bodies' positions."""
+    from svbi.codegen.kernels import KernelSpec, ModelSpec, column
+
+    topo = model.topology
+    params = topo.symbols
+    defaults = topo.defaults()
+    sample = {s.name: float(defaults[s.name]) for s in params}  # type: ignore[arg-type]
+    inputs = [("p", column(params))]
+
+    def spec(name: str, doc: str, outputs: list[tuple[str, sp.Matrix]]) -> KernelSpec:
+        return KernelSpec(name, doc, inputs, outputs, sample)
+
+    def col(values: list[sp.Expr]) -> sp.Matrix:
+        return sp.Matrix(len(values), 1, values)
+
+    kernels = [
+        spec("mass_matrix", "3D vehicle mass matrix", [("M", model.mass_matrix)]),
+        spec("damping_matrix", "3D vehicle damping matrix", [("C", model.damping_matrix)]),
+        spec("stiffness_matrix", "3D vehicle stiffness matrix", [("K", model.stiffness_matrix)]),
+        spec(
+            "gravity_load",
+            "Generalized gravity forces on the 3D vehicle DOFs (g = 9.81 m/s^2)",
+            [("F", model.gravity_load.xreplace({g: GRAVITY}))],
+        ),
+        spec(
+            "wheel_geometry",
+            "Per wheel: position behind the car's leading axle, lateral position, rolling radius",
+            [
+                ("positions", col([w.position for w in topo.wheels])),
+                ("laterals", col([w.lateral for w in topo.wheels])),
+                ("radii", col([w.radius for w in topo.wheels])),
+            ],
+        ),
+        spec(
+            "body_geometry",
+            "Per body: position of the centre of mass behind the car's leading axle, its height",
+            [
+                ("positions", col([b.position for b in topo.bodies])),
+                ("heights", col([b.height for b in topo.bodies])),
+            ],
+        ),
+    ]
+    return ModelSpec(
+        name=topo.name,
+        doc=f"3D vehicle model {topo.name}: {topo.description}",
+        kernels=kernels,
+        parameters=[(s.name, sample[s.name]) for s in params],
+        sizes={"n_dofs": len(model.dofs), "n_wheels": len(topo.wheels)},
+    )
+
+
+def vehicle3d_data(model: VehicleModel3D) -> dict[str, Any]:
+    """Plain data of a 3D vehicle's module: names, defaults, DOFs, bodies and wheels."""
+    topo = model.topology
+    return {
+        "name": topo.name,
+        "dimensions": 3,
+        "description": topo.description,
+        "parameters": tuple((p.name, p.value) for p in topo.parameters.values()),
+        "parameter_vector": tuple(s.name for s in topo.symbols),
+        "dof_names": tuple(q.name for q in model.dofs),
+        "bodies": tuple((b.name, tuple(b.dofs)) for b in topo.bodies),
+        "wheels": tuple((w.name, w.body) for w in topo.wheels),
+    }
+
+
+def render_vehicle3d(topology: Topology3D | str) -> tuple[str, bytes]:
+    """``(name, source)`` of the generated NumPy module of a 3D topology (or its name or path)."""
+    from svbi.codegen.python_emit import render_module
+
+    model = derive_vehicle3d(topology)
+    return model.name, render_module(vehicle3d_model_spec(model), vehicle3d_data(model))
+
+
+def render_vehicle3d_text(text: str, source: str = "<string>") -> bytes:
+    """The generated NumPy module of a 3D topology's TOML text (errors name ``source``)."""
+    from svbi.codegen.topology3d import parse_topology3d
+
+    return render_vehicle3d(parse_topology3d(text, source))[1]

@@ -735,3 +735,35 @@ def python_module(
     tmp.write_bytes(source)
     os.replace(tmp, final)
     return final
+
+
+def python_module_3d(
+    topology: str | os.PathLike[str] | None = None,
+    *,
+    text: str | None = None,
+    source: str = "<string>",
+    cache_dir: str | os.PathLike[str] | None = None,
+) -> Path:
+    """The generated NumPy module of a 3D topology file (or of its TOML ``text``, errors naming
+    ``source``), derived and emitted once into the cache as :func:`python_module` does for a 2D file:
+    keyed by the content and the generator, written atomically."""
+    if topology is None and text is None:
+        raise ValueError("python_module_3d needs a topology file or its text")
+    data = Path(topology).read_bytes() if topology is not None else str(text).encode()
+    key = hashlib.sha256(b"svbi python kernels 3d\n" + _codegen_digest().encode() + b"\n" + data).hexdigest()
+    final = cache_root(cache_dir) / "python" / key / PYTHON_KERNELS_FILE
+    if final.is_file():
+        return final
+    # deferred: brings SymPy, for derivation and emission only
+    from ..codegen.vehicle3d import render_vehicle3d, render_vehicle3d_text
+
+    rendered = (
+        render_vehicle3d(str(topology))[1]
+        if topology is not None
+        else render_vehicle3d_text(str(text), source)
+    )
+    final.parent.mkdir(parents=True, exist_ok=True)
+    tmp = final.with_name(f".{uuid.uuid4().hex}.tmp")
+    tmp.write_bytes(rendered)
+    os.replace(tmp, final)
+    return final

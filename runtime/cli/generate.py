@@ -35,12 +35,28 @@ def _render(target: str, embedded: bool = False) -> tuple[str, dict[str, bytes]]
     # deferred: brings SymPy and Jinja2 (about 0.5 s), for derivation and emission only
     from ...codegen import c_emit, python_emit
     from ...codegen import loop_glue as c_glue
+    from ...codegen.contact3d_kernels import CONTACT3D
     from ...codegen.frame3d import FRAME3D
     from ...codegen.kernels import FRAME2D, frame2d_model_spec, skip_reason, vehicle_model_spec
+    from ...codegen.topology3d import builtin_topologies_3d
+    from ...codegen.vehicle3d import render_vehicle3d
 
     if target == FRAME3D:
         # the 3D element is not yet in the C loop: its NumPy module only
         name, source = python_emit.render_target(target)
+        return name, {python_emit.FILENAME: source}
+    if target == CONTACT3D:
+        # the 3D contact: C kernels and CasADi Functions as every model, no loop glue (the C loop
+        # has no 3D contact yet)
+        from ...codegen.contact3d_kernels import contact3d_model_spec
+
+        options = c_emit.EmitOptions.embedded() if embedded else c_emit.EmitOptions()
+        name, source = python_emit.render_target(target)
+        files = {**c_emit.render_model(contact3d_model_spec(), options), python_emit.FILENAME: source}
+        return name, dict(sorted(files.items()))
+    if target in builtin_topologies_3d():
+        # a 3D vehicle: its NumPy module only (not yet in the C loop)
+        name, source = render_vehicle3d(target)
         return name, {python_emit.FILENAME: source}
     if skip_reason(target) is not None:
         name, source = python_emit.render_target(target)
@@ -62,13 +78,16 @@ def _render(target: str, embedded: bool = False) -> tuple[str, dict[str, bytes]]
 
 def _targets() -> list[str]:
     """Every built-in model with generated files: the vehicles (moving loads: the NumPy module
-    only), ``frame2d`` and ``frame3d`` (the NumPy module only)."""
+    only), ``frame2d``, and the 3D models: the 3D vehicles and ``frame3d`` (NumPy modules only) and
+    ``contact3d`` (its NumPy module, C kernels and CasADi Functions)."""
     # deferred: brings SymPy and Jinja2 (about 0.5 s), for derivation and emission only
+    from ...codegen.contact3d_kernels import CONTACT3D
     from ...codegen.frame3d import FRAME3D
     from ...codegen.kernels import FRAME2D
     from ...codegen.topology import builtin_topologies
+    from ...codegen.topology3d import builtin_topologies_3d
 
-    return [*builtin_topologies(), FRAME2D, FRAME3D]
+    return [*builtin_topologies(), *builtin_topologies_3d(), FRAME2D, FRAME3D, CONTACT3D]
 
 
 def _builtin_tree() -> dict[str, dict[str, bytes]]:

@@ -14,23 +14,32 @@ import types
 from functools import cache
 from pathlib import Path
 
-from ...codegen.plain_types import PYTHON_KERNELS_FILE, TopologyError, builtin_topologies
+from ...codegen.plain_types import (
+    PYTHON_KERNELS_FILE,
+    TopologyError,
+    builtin_topologies,
+    builtin_topologies_3d,
+)
 from ..toolchain import generated_root, python_module
 
 FRAME2D = "frame2d"
 """The bridge element model (``svbi.codegen.kernels.FRAME2D``)."""
 FRAME3D = "frame3d"
 """The 3D frame element model (``svbi.codegen.kernels.FRAME3D``), not yet used by runs."""
+CONTACT3D = "contact3d"
+"""The 3D contact model (``svbi.codegen.kernels.CONTACT3D``), not yet used by runs."""
 
 
 def module_path(model: str) -> Path:
-    """The file of a model's generated module: committed for ``frame2d``, ``frame3d`` and the
-    built-in vehicles, emitted into the cache for a topology file."""
-    if model in (FRAME2D, FRAME3D) or model in builtin_topologies():
+    """The file of a model's generated module: committed for ``frame2d``, ``frame3d``,
+    ``contact3d``, the built-in vehicles and the built-in 3D vehicles, emitted into the cache for a
+    (2D) topology file."""
+    models = (FRAME2D, FRAME3D, CONTACT3D, *builtin_topologies_3d())
+    if model in models or model in builtin_topologies():
         committed = generated_root() / model / PYTHON_KERNELS_FILE
         if committed.is_file():
             return committed
-        if model in (FRAME2D, FRAME3D):
+        if model in models:
             raise FileNotFoundError(f"{committed} is missing: run `svbi generate --all`")
         from importlib import resources
 
@@ -46,7 +55,12 @@ def module_path(model: str) -> Path:
 @cache
 def load(model: str) -> types.ModuleType:
     """The generated module of ``model`` (a built-in name, ``frame2d`` or a topology file path)."""
-    path = module_path(model)
+    return load_path(module_path(model))
+
+
+@cache
+def load_path(path: Path) -> types.ModuleType:
+    """The generated module in the file ``path``."""
     source = path.read_text(encoding="utf-8")
     module = types.ModuleType(f"svbi.generated.{re.sub(r'[^A-Za-z0-9_]', '_', path.parent.name)}")
     module.__file__ = str(path)

@@ -1,47 +1,36 @@
 """Model glue of the 3D time step (a prototype; docs/three-d.md, "The 3D time step (prototype)").
 
-A 3D vehicle (:mod:`svbi.codegen.vehicle3d`) on one simply supported 3D span
+A 3D vehicle (derived in :mod:`svbi.codegen.vehicle3d`) on one simply supported 3D span
 (:mod:`svbi.runtime.model.span3d`), each wheelset held on its two rails by the normal gaps of
-:mod:`svbi.codegen.contact3d`. The vehicle matrices and the contact expressions (gaps, their
-gradients and the discrete constraint residual ``g'' + 2 zeta omega g' + omega^2 g``) are turned into
-NumPy callables by ``sympy.lambdify`` at set-up: acceptable for a prototype; emitting them as
-kernels through the templates, like every other matrix of svbi, is the next step. This is the only
-runtime module besides the emitter path that imports SymPy and ``svbi.codegen``.
+:mod:`svbi.codegen.contact3d`. Nothing here derives: the contact expressions (gaps, their gradients
+and Hessians, the discrete constraint residuals and their Jacobians, the flange gaps, the
+creepages) are the generated kernels of ``generated/contact3d/numpy_kernels.py``
+(:mod:`svbi.codegen.contact3d_kernels`), and a built-in 3D vehicle's matrices its generated module
+``generated/<name>/numpy_kernels.py``. A 3D topology file of the user's (or a parsed topology
+object) is derived and emitted once into the compile cache (:func:`svbi.runtime.toolchain.python_module_3d`,
+the cache of the 2D topology files), which takes SymPy at that first set-up only.
 """
 
 from __future__ import annotations
 
-from collections.abc import Callable, Mapping
+import types
+from collections.abc import Mapping
 from dataclasses import dataclass, field
-from functools import cache
 from pathlib import Path
 from typing import Any
 
 import numpy as np
-import sympy as sp
 
-from ...codegen import contact3d as c3
-from ...codegen.beam import le as LE
-from ...codegen.beam import xi as XI
-from ...codegen.topology3d import Topology3D, load_topology3d
-from ...codegen.vehicle3d import derive_vehicle3d
+from ...codegen.plain_types import TopologyError, builtin_topologies_3d
+from ..toolchain import python_module_3d
+from .kernels import CONTACT3D, load, load_path
 from .span3d import Deck3D
 
-ARGS = (
-    *c3.WHEELSET_DOFS,
-    *c3.WHEELSET_RATES,
-    *c3.WHEELSET_ACCELERATIONS,
-    *c3.UE,
-    *c3.UE_T,
-    *c3.UE_TT,
-    XI,
-)
-"""Arguments of every contact callable: wheelset ``[y, z, phi, psi]``, its rates and accelerations,
-the element's 12 DOFs, their rates and accelerations, and ``xi``."""
 NZ = 16
-"""The contact's own unknowns: 4 wheelset DOFs and the element's 12."""
-COMPLEX_STEP = 1e-30
-"""Step of the complex-step derivatives (exact to round-off: no difference is taken)."""
+"""The contact's own unknowns ``z = [y_w, z_w, phi_w, psi_w, u_e (12)]``: 4 wheelset DOFs and the
+element's 12."""
+NIRREGULARITY = 9
+"""Irregularity arguments of the contact kernels: ``[r_v, r_a, r_c]``, their slopes and curvatures."""
 
 
 @dataclass(frozen=True)
@@ -85,44 +74,75 @@ class Vehicle3DNumeric:
         return self.dof_names.index(name)
 
 
-def vehicle3d(
-    topology: Topology3D | str | Path, parameters: Mapping[str, float] | None = None
-) -> Vehicle3DNumeric:
-    """Derive and evaluate a 3D vehicle; find its wheelsets (a body with ``y, z, phi, psi`` and two
-    wheels at ``+-b``, its reference at the axle centre: height = wheel radius). A wheelset's pitch
-    (its spin) is left out."""
-    topo = topology if isinstance(topology, Topology3D) else load_topology3d(str(topology))
-    model = derive_vehicle3d(topo)
-    num = model.numeric(dict(parameters or {}))
-    values: dict[str, Any] = topo.defaults() | dict(parameters or {})
-    subs = {p.symbol: values[n] for n, p in topo.parameters.items() if not isinstance(values[n], tuple)}
+def _vehicle_module(topology: Any) -> types.ModuleType:
+    """The generated module of a built-in 3D vehicle name, a 3D topology file or a parsed topology
+    (an object with its TOML ``text``, as :func:`svbi.codegen.topology3d.parse_topology3d` returns)."""
+    if isinstance(topology, str | Path):
+        name = str(topology)
+        if name in builtin_topologies_3d():
+            return load(name)
+        if not Path(name).is_file():
+            known = ", ".join(builtin_topologies_3d())
+            raise TopologyError(name, "vehicle", f"not a built-in 3D vehicle ({known}) and no such file")
+        return load_path(python_module_3d(name))
+    text = getattr(topology, "text", "")
+    if not text:
+        raise TypeError(
+            f"{topology!r} is not a 3D vehicle name, a topology file or a parsed topology with its text"
+        )
+    return load_path(python_module_3d(text=text, source=getattr(topology, "source", "<string>")))
 
-    def val(e: sp.Expr) -> float:
-        return float(sp.sympify(e).subs(subs))
+
+def vehicle3d(topology: Any, parameters: Mapping[str, float] | None = None) -> Vehicle3DNumeric:
+    """Evaluate a 3D vehicle's generated matrices and find its wheelsets (a body with
+    ``y, z, phi, psi`` and two wheels at ``+-b``, its reference at the axle centre: height = wheel
+    radius). A wheelset's pitch (its spin) is left out.
+
+    ``topology``: a built-in 3D vehicle's name (its committed module, no SymPy), a 3D topology file
+    or a parsed :class:`svbi.codegen.topology3d.Topology3D` (derived and emitted once into the
+    compile cache at the first set-up, which imports SymPy then; later set-ups only load it).
+    ``parameters`` override the topology's defaults."""
+    module = _vehicle_module(topology)
+    data = module.DATA
+    name = data["name"]
+    values: dict[str, Any] = dict(data["parameters"])
+    for key, value in (parameters or {}).items():
+        if key not in values:
+            raise KeyError(f"{name}: unknown parameter {key!r}")
+        values[key] = float(value)
+    p = [float(values[n]) for n in data["parameter_vector"]]
+    names = list(data["dof_names"])
+    n = len(names)
+    M, C, K = (
+        np.asarray(f(p), dtype=float).reshape(n, n)
+        for f in (module.mass_matrix, module.damping_matrix, module.stiffness_matrix)
+    )
+    F = np.asarray(module.gravity_load(p), dtype=float).reshape(n)
+    _, laterals, radii = (np.atleast_1d(np.asarray(a, dtype=float)) for a in module.wheel_geometry(p))
+    body_positions, heights = (np.atleast_1d(np.asarray(a, dtype=float)) for a in module.body_geometry(p))
 
     wheelsets = []
-    for body in topo.bodies:
-        wheels = [w for w in topo.wheels if w.body == body.name]
+    for j, (body, dofs) in enumerate(data["bodies"]):
+        wheels = [k for k, (_, wheel_body) in enumerate(data["wheels"]) if wheel_body == body]
         if not wheels:
             continue
-        if len(wheels) != 2 or not {"y", "z", "phi", "psi"} <= set(body.dofs):
+        if len(wheels) != 2 or not {"y", "z", "phi", "psi"} <= set(dofs):
             raise ValueError(
-                f"{topo.name}: body {body.name!r} carries wheels but is not a wheelset "
+                f"{name}: body {body!r} carries wheels but is not a wheelset "
                 "(two wheels at +-b and the DOFs y, z, phi, psi)"
             )
-        lateral = sorted(val(w.lateral) for w in wheels)
-        radius = val(wheels[0].radius)
-        if not np.isclose(lateral[0], -lateral[1]) or abs(val(body.height) - radius) > 1e-12 * radius:
+        lateral = sorted(float(laterals[k]) for k in wheels)
+        radius = float(radii[wheels[0]])
+        if not np.isclose(lateral[0], -lateral[1]) or abs(heights[j] - radius) > 1e-12 * radius:
             raise ValueError(
-                f"{topo.name}: wheelset {body.name!r} needs wheels at +-b and its reference at the axle "
+                f"{name}: wheelset {body!r} needs wheels at +-b and its reference at the axle "
                 "centre (height = wheel radius)"
             )
-        idx = np.array([num.index(f"{k}_{body.name}") for k in ("y", "z", "phi", "psi")])
-        wheelsets.append(Wheelset(body.name, idx, val(body.position), radius, lateral[1]))
+        idx = np.array([names.index(f"{k}_{body}") for k in ("y", "z", "phi", "psi")])
+        wheelsets.append(Wheelset(body, idx, float(body_positions[j]), radius, lateral[1]))
     # a wheelset's pitch is its spin: the contact model rolls the wheels at v / r0 and leaves the spin
     # perturbation out (docs/three-d.md), so the DOF goes (it has no stiffness: a static solve could
     # not hold it)
-    names = list(num.dof_names)
     spin = {names.index(f"theta_{w.name}") for w in wheelsets if f"theta_{w.name}" in names}
     keep = np.array([i for i in range(len(names)) if i not in spin], dtype=int)
     renumber = {old: new for new, old in enumerate(keep)}
@@ -131,93 +151,151 @@ def vehicle3d(
         for w in wheelsets
     ]
     sub = np.ix_(keep, keep)
-    return Vehicle3DNumeric(
-        tuple(names[i] for i in keep), num.M[sub], num.C[sub], num.K[sub], num.F_gravity[keep], wheelsets
-    )
-
-
-C1, C0 = sp.symbols("c1 c0", real=True)
-PARAMS = (c3.r0, c3.b, c3.lam, c3.ecc, c3.h_rail, c3.v, LE, C1, C0)
-
-
-@cache
-def _callables() -> tuple[Callable[..., Any], Callable[..., Any], Callable[..., Any]]:
-    """Gaps, their gradients over ``z`` and the discrete constraint residuals of both contacts,
-    lambdified once per process over :data:`ARGS`, :data:`PARAMS` and the irregularities."""
-    z = [*c3.WHEELSET_DOFS, *c3.UE]
-    gaps = [c.gap for c in c3.contacts()]
-    grads = [sp.diff(g, q) for g in gaps for q in z]
-    residuals = [gtt + C1 * gt + C0 * g for (gt, gtt), g in zip(c3.gap_rates(), gaps, strict=True)]
-    rough = (*c3.IRREGULARITIES, *c3.IRREGULARITY_SLOPES, *c3.IRREGULARITY_CURVATURES)
-    args = (*ARGS, *PARAMS, *rough)
-    return tuple(sp.lambdify(args, e, "numpy", cse=True) for e in (gaps, grads, residuals))  # type: ignore[return-value]
+    return Vehicle3DNumeric(tuple(names[i] for i in keep), M[sub], C[sub], K[sub], F[keep], wheelsets)
 
 
 class ContactKernel3D:
-    """Both normal gaps of one wheelset on a deck element, as NumPy callables.
+    """Both contacts of one wheelset on a deck element: the generated kernels of
+    ``generated/contact3d/`` (:mod:`svbi.codegen.contact3d_kernels`) at this wheelset's geometry.
 
-    ``gap``: ``g_s``; ``gradient``: ``dg_s/dz`` over ``z = [y_w, z_w, phi_w, psi_w, u_e (12)]``;
-    ``hessian``: its derivative (complex step on the symbolic gradient); ``residual``: the discrete
-    constraint ``E_s = g_s'' + c1 g_s' + c0 g_s`` (``c1 = 2 zeta omega``, ``c0 = omega^2``) with the
-    exact rates of :func:`svbi.codegen.contact3d.gap_rates`; ``residual_jacobian``:
-    ``dE/dz + a1 dE/dz' + a0 dE/dz''`` (Newmark's ``z' = a1 z - Q``, ``z'' = a0 z - P``).
+    ``z = [y_w, z_w, phi_w, psi_w, u_e (12)]`` (:data:`NZ`), ``zd``, ``zdd`` its rates and
+    accelerations, ``xi`` the contact's position in the element. Every result has the left contact
+    (side ``s = +1``) first, the right one second.
+
+    Normal contact:
+
+    * ``gap``: ``[g_left, g_right]``; ``gradient``: ``dg_s/dz`` (2 x 16); ``hessian``: its
+      derivative (2 x 16 x 16);
+    * ``residual``: the discrete constraint ``E_s = g_s'' + c1 g_s' + c0 g_s`` (``c1 = 2 zeta
+      omega``, ``c0 = omega^2``) with the exact rates of :func:`svbi.codegen.contact3d.gap_rates`;
+      ``residual_jacobian``: ``dE/dz + a1 dE/dz' + a0 dE/dz''`` (Newmark's ``z' = a1 z - Q``,
+      ``z'' = a0 z - P``), 2 x 16.
+
+    Flange contact (the lateral clearance ``flange_clearance`` per side; unilateral, ``g_F >= 0``):
+    ``flange_gap``, ``flange_gradient`` (2 x 16; the gap is linear: no Hessian), ``flange_residual``,
+    ``flange_residual_jacobian``, as the normal ones.
+
+    Creep (:mod:`svbi.codegen.creep3d`): ``creepages`` ``[[xi_x, xi_y, xi_sp]_left,
+    [...]_right]`` (2 x 3), ``creepage_gradient`` over ``z`` and ``creepage_rate_gradient`` over
+    ``z'`` (2 x 3 x 16 each). The slip velocity is linear in ``z'``, so ``v`` times a rate gradient
+    row is the generalized-force direction of the matching creep force (its power on the slip):
+    ``Q = v (F_x dxi_x/dz' + F_y dxi_y/dz' + M_sp dxi_sp/dz')`` on ``z`` (wheelset and deck
+    together) for the force ``(F_x, F_y)`` along ``(t_x, t_y)`` and the moment ``M_sp`` about the
+    normal that the rail exerts on the wheel (their power on the slip is ``Q . z'`` plus terms free
+    of ``z'``).
+
+    ``irregularity`` (9: ``[r_v, r_a, r_c]`` under the axle, their slopes and curvatures along
+    ``x``) is an attribute the step may set before calling; zero by default.
     """
 
     def __init__(
-        self, wheelset: Wheelset, track: Track3D, element_length: float, speed: float, c1: float, c0: float
+        self,
+        wheelset: Wheelset,
+        track: Track3D,
+        element_length: float,
+        speed: float,
+        c1: float,
+        c0: float,
+        flange_clearance: float = 0.0,
     ) -> None:
-        self._gap, self._grad, self._res = _callables()
-        self._params = [
+        self._k = load(CONTACT3D)
+        self._geometry = [
             wheelset.radius,
             wheelset.half_gauge,
             track.conicity,
             track.eccentricity,
             track.rail_height,
+            flange_clearance,
             speed,
             element_length,
-            c1,
-            c0,
-            *[0.0] * 9,  # no irregularity
         ]
+        self._c1, self._c0 = c1, c0
+        self.irregularity = np.zeros(NIRREGULARITY)
 
-    def _call(self, fn: Callable[..., Any], args: list[Any], shape: tuple[int, ...]) -> np.ndarray:
-        out = fn(*args, *self._params)
-        return np.array([np.broadcast_to(np.asarray(o), shape) for o in out])
+    def _call(
+        self,
+        name: str,
+        z: np.ndarray,
+        zd: np.ndarray | None,
+        zdd: np.ndarray | None,
+        xi: float,
+        a1: float = 0.0,
+        a0: float = 0.0,
+    ) -> Any:
+        zero = np.zeros(NZ)
+        zd = zero if zd is None else zd
+        zdd = zero if zdd is None else zdd
+        fn = getattr(self._k, name)
+        return fn(
+            z[:4],
+            zd[:4],
+            zdd[:4],
+            z[4:],
+            zd[4:],
+            zdd[4:],
+            xi,
+            self._geometry,
+            self.irregularity,
+            (self._c1, self._c0, a1, a0),
+        )
 
-    @staticmethod
-    def _args(z: np.ndarray, zd: np.ndarray, zdd: np.ndarray, xi: Any) -> list[Any]:
-        return [*z[:4], *zd[:4], *zdd[:4], *z[4:], *zd[4:], *zdd[4:], xi]
+    # normal contact
 
     def gap(self, z: np.ndarray, xi: float) -> np.ndarray:
         """``[g_left, g_right]``."""
-        zero = np.zeros(NZ)
-        return self._call(self._gap, self._args(z, zero, zero, xi), ())
+        return np.asarray(self._call("normal_gaps", z, None, None, xi))
 
     def gradient(self, z: np.ndarray, xi: float) -> np.ndarray:
         """2 x 16."""
-        zero = np.zeros(NZ)
-        return self._call(self._grad, self._args(z, zero, zero, xi), ()).reshape(2, NZ)
+        return np.asarray(self._call("normal_gap_gradients", z, None, None, xi))
 
     def hessian(self, z: np.ndarray, xi: float) -> np.ndarray:
-        """2 x 16 x 16, by the complex step on the gradient."""
-        h = COMPLEX_STEP
-        zc = z[:, None] + 1j * h * np.eye(NZ)
-        zero = np.zeros((NZ, NZ))
-        out = self._call(self._grad, self._args(zc, zero, zero, xi), (NZ,))
-        return (out.imag / h).reshape(2, NZ, NZ)
+        """2 x 16 x 16."""
+        return np.array(self._call("normal_gap_hessians", z, None, None, xi))
 
     def residual(self, z: np.ndarray, zd: np.ndarray, zdd: np.ndarray, xi: float) -> np.ndarray:
         """``[E_left, E_right]``."""
-        return self._call(self._res, self._args(z, zd, zdd, xi), ())
+        return np.asarray(self._call("normal_residuals", z, zd, zdd, xi))
 
     def residual_jacobian(
         self, z: np.ndarray, zd: np.ndarray, zdd: np.ndarray, xi: float, a1: float, a0: float
     ) -> np.ndarray:
         """2 x 16: the derivative of ``E`` along ``z_{n+1}`` with Newmark's rates."""
-        h = COMPLEX_STEP
-        eye = 1j * h * np.eye(NZ)
-        args = self._args(z[:, None] + eye, zd[:, None] + a1 * eye, zdd[:, None] + a0 * eye, xi)
-        return self._call(self._res, args, (NZ,)).imag / h
+        return np.asarray(self._call("normal_residual_jacobians", z, zd, zdd, xi, a1, a0))
+
+    # flange contact
+
+    def flange_gap(self, z: np.ndarray, xi: float) -> np.ndarray:
+        """``[g_F_left, g_F_right]`` (m)."""
+        return np.asarray(self._call("flange_gaps", z, None, None, xi))
+
+    def flange_gradient(self, z: np.ndarray, xi: float) -> np.ndarray:
+        """2 x 16 (constant in ``z``)."""
+        return np.asarray(self._call("flange_gap_gradients", z, None, None, xi), dtype=float)
+
+    def flange_residual(self, z: np.ndarray, zd: np.ndarray, zdd: np.ndarray, xi: float) -> np.ndarray:
+        """``[E_F_left, E_F_right]``, ``E_F = g_F'' + c1 g_F' + c0 g_F``."""
+        return np.asarray(self._call("flange_residuals", z, zd, zdd, xi))
+
+    def flange_residual_jacobian(
+        self, z: np.ndarray, zd: np.ndarray, zdd: np.ndarray, xi: float, a1: float, a0: float
+    ) -> np.ndarray:
+        """2 x 16: the derivative of ``E_F`` along ``z_{n+1}`` with Newmark's rates."""
+        return np.asarray(self._call("flange_residual_jacobians", z, zd, zdd, xi, a1, a0))
+
+    # creep
+
+    def creepages(self, z: np.ndarray, zd: np.ndarray, xi: float) -> np.ndarray:
+        """2 x 3: ``[xi_x, xi_y, xi_sp]`` of each side."""
+        return np.asarray(self._call("creepages", z, zd, None, xi)).reshape(2, 3)
+
+    def creepage_gradient(self, z: np.ndarray, zd: np.ndarray, xi: float) -> np.ndarray:
+        """2 x 3 x 16: ``d xi / dz``."""
+        return np.asarray(self._call("creepage_gradients", z, zd, None, xi)).reshape(2, 3, NZ)
+
+    def creepage_rate_gradient(self, z: np.ndarray, zd: np.ndarray, xi: float) -> np.ndarray:
+        """2 x 3 x 16: ``d xi / dz'``."""
+        return np.asarray(self._call("creepage_rate_gradients", z, zd, None, xi)).reshape(2, 3, NZ)
 
 
 @dataclass
