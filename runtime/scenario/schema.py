@@ -801,6 +801,8 @@ def _three_d_problems(s: Scenario) -> Iterable[tuple[str, str]]:
             )
         elif not all(math.isfinite(float(v)) for v in values):
             yield f"train.parameters.{name}", f"must be finite (got {value!r})"
+        elif not topo.parameters[name].signed and not all(float(v) >= 0 for v in values):
+            yield f"train.parameters.{name}", f"must not be negative (got {value!r})"
     size = list(size_problems(s, {}))
     yield from size
     why = f"required in a 3D scenario (train.vehicle {t.vehicle!r} is a 3D vehicle)"

@@ -314,6 +314,9 @@ def load_study(path: str | Path, sets: Sequence[str] | dict[str, Any] = ()) -> S
             raise StudyError(
                 [Problem(f"--set {p.key}", p.message, "--set") for p in exc.problems], source
             ) from None
+    three_d = _three_d(scenario_path, sets, where("scenario"))
+    if three_d:  # one line for the base scenario, not one per axis
+        raise StudyError(problems + three_d, source)
     # every value of every axis must make a valid scenario on its own (errors name the study line)
     for table, values in (("axes", spec.axes), ("zip", spec.zip)):
         for key, items in values.items():
@@ -328,8 +331,6 @@ def load_study(path: str | Path, sets: Sequence[str] | dict[str, Any] = ()) -> S
                         Problem(f"{table}.{key}", f"value {item!r}: {message}", where(f"{table}.{key}"))
                     )
                     break
-    if not problems:
-        problems.extend(_three_d(scenario_path, sets, where("scenario")))
     if problems:
         raise StudyError(problems, source)
     study = Study(path, spec, scenario_path, scenario_path.read_text(encoding="utf-8-sig"), text, sets=sets)

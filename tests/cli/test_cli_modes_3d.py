@@ -167,3 +167,11 @@ def test_modes_of_a_3d_scenario_with_both_shear_keys_is_one_line(tmp_path: Path)
     assert (
         "bridge.shear_modulus: give bridge.poisson_ratio or bridge.shear_modulus, not both" in result.output
     )
+
+
+def test_train_parameters_reach_the_3d_vehicle() -> None:
+    base = modes_json("--count", "1")["frequencies_hz"]
+    heavier = modes_json("--count", "1", "--set", "train.parameters.carbody_mass=64000.0")["frequencies_hz"]
+    assert heavier[0] < base[0] and heavier[2] < base[2]  # the car body's sway and bounce
+    assert heavier[-1] == pytest.approx(base[-1], rel=1e-3)  # a bogie's highest mode barely moves
+

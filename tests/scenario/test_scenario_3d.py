@@ -131,7 +131,7 @@ def test_a_broken_3d_topology_file_is_one_problem_naming_train_vehicle(tmp_path:
 def test_an_unknown_parameter_of_a_3d_vehicle_is_refused(tmp_path: Path) -> None:
     found = problems(
         tmp_path,
-        scenario_text(extra="[train.parameters]\nwheel_mass = 1.0\n").replace("[train]\n", "[train]\n", 1),
+        scenario_text(extra="[train.parameters]\nwheel_mass = 1.0\n"),
     )
     assert any("train.parameters.wheel_mass" in p and "has no parameter" in p for p in found), found
 
@@ -398,3 +398,14 @@ def test_loads_scenario_from_text_knows_builtin_3d_vehicles() -> None:
         warnings.simplefilter("ignore", ScenarioWarning)
         sc = loads_scenario(scenario_text())
     assert sc.dimensions == 3
+
+
+def test_3d_vehicle_parameters_are_checked(tmp_path: Path) -> None:
+    text = scenario_text(extra="[train.parameters]\ncarbody_mass = -1.0\n")
+    found = problems(tmp_path, text)
+    assert found == [
+        f"{tmp_path / 's.toml'}:{line_of(text, 'carbody_mass')}: train.parameters.carbody_mass: "
+        "must not be negative (got -1.0)"
+    ]
+    sc = load(tmp_path, text.replace("-1.0", "40000.0"))
+    assert sc.train.parameters == {"carbody_mass": 40000.0}
