@@ -174,4 +174,3 @@ def test_train_parameters_reach_the_3d_vehicle() -> None:
     heavier = modes_json("--count", "1", "--set", "train.parameters.carbody_mass=64000.0")["frequencies_hz"]
     assert heavier[0] < base[0] and heavier[2] < base[2]  # the car body's sway and bounce
     assert heavier[-1] == pytest.approx(base[-1], rel=1e-3)  # a bogie's highest mode barely moves
-

@@ -409,3 +409,18 @@ def test_3d_vehicle_parameters_are_checked(tmp_path: Path) -> None:
     ]
     sc = load(tmp_path, text.replace("-1.0", "40000.0"))
     assert sc.train.parameters == {"carbody_mass": 40000.0}
+
+
+def test_conicity_and_flange_clearance_default_to_the_vehicles_parameters(tmp_path: Path) -> None:
+    source = resources.files("svbi.codegen.vehicles3d").joinpath("manchester-3d.toml")
+    with resources.as_file(source) as file:
+        text = Path(file).read_text(encoding="utf-8")
+    text += (
+        '\n[parameters.conicity]\nvalue = 0.2\nunit = "-"\ndescription = "equivalent conicity"\n'
+        '\n[parameters.flange_clearance]\nvalue = 0.009\nunit = "m"\ndescription = "flange clearance"\n'
+    )
+    (tmp_path / "car.toml").write_text(text, encoding="utf-8")
+    geometry = track_geometry_3d(load(tmp_path, scenario_text("car.toml")))
+    assert (geometry.conicity, geometry.flange_clearance) == (0.2, 0.009)
+    given = load(tmp_path, scenario_text("car.toml", extra="[contact]\nconicity = 0.05\n"))
+    assert track_geometry_3d(given).conicity == 0.05  # [contact] first, then the vehicle, then 0.1
