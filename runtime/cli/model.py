@@ -216,7 +216,8 @@ def modes(
 ) -> None:
     """Print the vehicle's natural frequencies on rigid track (Hz, ascending), and span frequencies.
 
-    Given a scenario file, its vehicle (with ``train.parameters``) and its bridge's spans."""
+    Given a scenario file, its vehicle (with ``train.parameters``) and its bridge's spans; a 3D
+    scenario adds the span's lateral and torsional frequencies (docs/scenario.md, "3D scenarios")."""
     import numpy as np
 
     model_path = model + "".join(f" --set {item}" for item in set_)
