@@ -17,9 +17,9 @@ from ...codegen.plain_types import TopologyError, spin_dofs
 from ...examples import paper_section_keys
 from ..model.hslm import hslm_axles
 from ..model.modes import span_modes, vehicle_modes
-from ..scenario.build import bridge_from_scenario
+from ..scenario.build import bridge_from_scenario, distinct_spans_3d
 from ..scenario.kinds import wrong_kind
-from ..scenario.schema import ScenarioError, load_scenario, vehicle_ref
+from ..scenario.schema import Scenario, ScenarioError, load_scenario, vehicle_ref
 
 if TYPE_CHECKING:
     from ...codegen.vehicle import VehicleModel
@@ -216,11 +216,16 @@ def modes(
 ) -> None:
     """Print the vehicle's natural frequencies on rigid track (Hz, ascending), and span frequencies.
 
-    Given a scenario file, its vehicle (with ``train.parameters``) and its bridge's spans."""
+    Given a scenario file, its vehicle (with ``train.parameters``) and its bridge's spans; a 3D
+    scenario adds the span's lateral and torsional frequencies (docs/scenario.md, "3D scenarios")."""
     import numpy as np
 
     model_path = model + "".join(f" --set {item}" for item in set_)
-    scenario = _scenario_modes(model, set_)
+    sc = _scenario_file(model, set_)
+    if sc is not None and sc.dimensions == 3:
+        _modes_3d(sc, model_path, as_json, count)
+        return
+    scenario = _scenario_modes(sc) if sc is not None else None
     spans = ""
     if scenario is not None:
         model, overrides, bridge, count_spans = scenario
@@ -363,9 +368,9 @@ def _other_kind(path: str) -> str:
     return f"{path}: {kind}" if kind else ""
 
 
-def _scenario_modes(path: str, sets: list[str]) -> tuple[str, dict[str, Any], dict[str, float], int] | None:
-    """A scenario file (a TOML file with ``[bridge]`` and ``[train]`` tables, not a topology) as
-    (vehicle reference, its parameter values, its span's keys); None for anything else."""
+def _scenario_file(path: str, sets: list[str]) -> Scenario | None:
+    """The scenario of a scenario file (a TOML file with ``[bridge]`` and ``[train]`` tables, not a
+    topology), with the ``--set`` overrides; None for anything else. An invalid one: one line, exit 2."""
     p = Path(path)
     if p.suffix != ".toml" or not os.path.isfile(p):
         return None
@@ -376,10 +381,14 @@ def _scenario_modes(path: str, sets: list[str]) -> tuple[str, dict[str, Any], di
     if not ("bridge" in data and "train" in data):
         return None
     try:
-        sc = load_scenario(p, overrides=sets)
+        return load_scenario(p, overrides=sets)
     except ScenarioError as exc:
         typer.echo(f"error: {exc}", err=True)
         raise typer.Exit(2) from None
+
+
+def _scenario_modes(sc: Scenario) -> tuple[str, dict[str, Any], dict[str, float], int]:
+    """A 2D scenario as (vehicle reference, its parameter values, its span's keys, its spans)."""
     parameters: dict[str, Any] = dict(sc.train.parameters)
     if sc.train.hslm is not None:
         loads, offsets, length = hslm_axles(sc.train.hslm)
@@ -390,6 +399,93 @@ def _scenario_modes(path: str, sets: list[str]) -> tuple[str, dict[str, Any], di
         return vehicle_ref(sc), parameters, {"whole": built}, b.spans
     bridge = {key: float(getattr(b, key)) for key in BRIDGE_KEYS}
     return vehicle_ref(sc), parameters, bridge, b.spans
+
+
+SPAN_FAMILIES_3D = {
+    "vertical": "span_frequencies_hz",
+    "lateral": "span_lateral_frequencies_hz",
+    "torsion": "span_torsional_frequencies_hz",
+    "axial": "span_axial_frequencies_hz",
+}
+"""The families of a 3D span's modes (``span3d.GROUPS``) and their JSON keys."""
+
+
+def span_frequencies_3d(sc: Scenario, count: int) -> list[dict[str, Any]]:
+    """Each distinct span of a 3D scenario: its length, which spans it is, and the ``count`` lowest
+    frequencies (Hz) of each family (vertical, lateral, torsional, axial) of the simply supported
+    span on forks (``runtime/model/span3d.py``, ``bridge.elements_per_span`` elements)."""
+    from ..model.span3d import family_frequencies, simply_supported_span
+
+    out = []
+    for spec in distinct_spans_3d(sc):
+        span = simply_supported_span(spec.section, spec.length, sc.bridge.elements_per_span)
+        entry: dict[str, Any] = {"span_length": spec.length, "spans": list(spec.spans)}
+        for family, key in SPAN_FAMILIES_3D.items():
+            entry[key] = [float(f) for f in family_frequencies(span, family, count)]
+        out.append(entry)
+    return out
+
+
+def vehicle_frequencies_3d(reference: str, parameters: dict[str, Any]) -> list[float]:
+    """Natural frequencies (Hz, ascending) of a 3D vehicle with its wheelsets held: its car body's
+    and bogies' modes on the suspensions (docs/three-d.md)."""
+    import numpy as np
+    from scipy.linalg import eigh
+
+    from ..model.system3d import vehicle3d  # deferred: SymPy
+
+    v = vehicle3d(reference, parameters)
+    held = {int(i) for w in v.wheelsets for i in w.dofs}
+    keep = [i for i in range(len(v.dof_names)) if i not in held]
+    eigenvalues = eigh(v.K[np.ix_(keep, keep)], v.M[np.ix_(keep, keep)], eigvals_only=True)
+    return [float(f) for f in np.sqrt(np.maximum(eigenvalues, 0.0)) / (2.0 * np.pi)]
+
+
+def _modes_3d(sc: Scenario, model_path: str, as_json: bool, count: int) -> None:
+    """`svbi modes` of a 3D scenario: the vehicle with its wheelsets held, and the vertical,
+    lateral, torsional and axial frequencies of each distinct span."""
+    if count < 1:
+        _fail_file(f"{model_path}: --count: must be at least 1 (got {count})")
+    ref = vehicle_ref(sc)
+    name = Path(ref).stem if os.sep in ref else ref
+    out: dict[str, Any] = {"model": name, "dimensions": 3}
+    try:
+        out["frequencies_hz"] = vehicle_frequencies_3d(ref, dict(sc.train.parameters))
+    except (ValueError, KeyError) as exc:  # a vehicle whose wheelsets the 3D model cannot find
+        _fail_file(f"{model_path}: train.vehicle: {exc}")
+    spans = span_frequencies_3d(sc, count)
+    for entry in spans:
+        values = [f for key in SPAN_FAMILIES_3D.values() for f in entry[key]]
+        if not all(math.isfinite(f) and f >= MIN_FREQUENCY_HZ for f in values):
+            _fail_file(
+                f"{model_path}: bridge: the span's frequencies are not finite numbers above "
+                f"{MIN_FREQUENCY_HZ:g} Hz with these sections (a unit slip?)"
+            )
+    if len(spans) == 1:  # the shorthand, or a long form whose spans are all alike
+        out.update({key: spans[0][key] for key in SPAN_FAMILIES_3D.values()})
+    else:
+        out["distinct_spans"] = spans
+    if as_json:
+        typer.echo(json.dumps(out, indent=1))
+        return
+    typer.echo(f"{name} (3D): natural frequencies with the wheelsets held (Hz)")
+    for i, f in enumerate(out["frequencies_hz"], 1):
+        typer.echo(f"  mode {i:2d}: {f:10.4f}")
+    labels = {
+        "span_frequencies_hz": "vertical bending",
+        "span_lateral_frequencies_hz": "lateral bending",
+        "span_torsional_frequencies_hz": "torsional",
+        "span_axial_frequencies_hz": "axial",
+    }
+    for entry in spans:
+        which = (
+            f"each of the {len(entry['spans'])} simply supported spans of the scenario"
+            if len(spans) == 1
+            else f"spans {', '.join(str(i) for i in entry['spans'])}, simply supported on forks"
+        )
+        typer.echo(f"span {entry['span_length']:g} m ({which}): frequencies (Hz)")
+        for key, label in labels.items():
+            typer.echo(f"  {label:16s} " + ", ".join(f"{f:.4f}" for f in entry[key]))
 
 
 def _parse_sets(items: list[str]) -> tuple[dict[str, Any], dict[str, float]]:

@@ -1,8 +1,9 @@
 """Ground motion at the bridge supports and under the approach track: q, q', q'' (paper Eqs. 22-24).
 
 :class:`GroundMotion` answers ``motion(component, t, x) -> (q, qd, qdd)`` for the components
-``"vertical"`` and ``"longitudinal"``, broadcasting t against the positions x (support positions,
-or wheel positions on the approach ground). Three spatial models:
+``"vertical"`` and ``"longitudinal"`` (and ``"lateral"``, the transverse component of 3D
+scenarios: positive to the left of the train, docs/three-d.md), broadcasting t against the
+positions x (support positions, or wheel positions on the approach ground). Three spatial models:
 
 * **synchronous** (the paper's case): every x moves with q(t);
 * **wave passage**: the motion at x is q(t - (x - x_ref)/c_app), a wave with apparent velocity
@@ -31,6 +32,9 @@ from .records import Record, RecordError, read_record
 from .synthetic import DEFAULT_SEED, synthetic_motion, synthetic_record
 
 COMPONENTS = ("vertical", "longitudinal")
+"""The components of the 2D model (the vertical plane)."""
+COMPONENTS_3D = (*COMPONENTS, "lateral")
+"""With the transverse component of 3D scenarios."""
 Triple = tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]]
 Source = str | Path | Record
 """A component's source: ``"none"``, ``"synthetic"``, a record file path, or a :class:`Record`."""
@@ -60,12 +64,14 @@ class GroundMotion:
     """Wave-passage apparent velocity (m/s); None (or inf) is synchronous."""
     reference_position: float = 0.0
     """Where the wave passes at the arrival time (m)."""
+    lateral: ComponentMotion | None = None
+    """The transverse component (3D scenarios); None at rest."""
 
     def __post_init__(self) -> None:
         c = self.apparent_velocity
         if c is not None and (math.isnan(c) or c == 0.0):
             raise ValueError(f"earthquake.apparent_velocity must be nonzero (got {c} m/s)")
-        for name in COMPONENTS:
+        for name in COMPONENTS_3D:
             comp = getattr(self, name)
             if comp is not None and comp.positions is not None and c is not None and math.isfinite(c):
                 raise ValueError(
@@ -75,8 +81,8 @@ class GroundMotion:
 
     def component(self, name: str) -> ComponentMotion | None:
         """The motion of a component, None when it is ``"none"``."""
-        if name not in COMPONENTS:
-            raise ValueError(f"unknown ground-motion component {name!r} (expected one of {COMPONENTS})")
+        if name not in COMPONENTS_3D:
+            raise ValueError(f"unknown ground-motion component {name!r} (expected one of {COMPONENTS_3D})")
         return getattr(self, name)
 
     def is_active(self, name: str) -> bool:
@@ -86,7 +92,7 @@ class GroundMotion:
     @property
     def end_time(self) -> float:
         """Simulation time after which every active component is at rest at x_ref (0 if none)."""
-        ends = [c.end_time for c in (self.vertical, self.longitudinal) if c is not None]
+        ends = [c.end_time for c in (self.vertical, self.longitudinal, self.lateral) if c is not None]
         return max(ends, default=0.0)
 
     def delay(self, x: ArrayLike) -> NDArray[np.float64]:
@@ -237,6 +243,8 @@ def ground_motion(
     target_pga: float | None = None,
     vertical_scale: float = 1.0,
     longitudinal_scale: float = 1.0,
+    lateral: Source | Sequence[Source] = "none",
+    lateral_scale: float = 1.0,
 ) -> GroundMotion:
     """Build the :class:`GroundMotion` of a scenario's ``[earthquake]`` table.
 
@@ -244,7 +252,9 @@ def ground_motion(
     one-column files), a :class:`Record`, or a list of those, one per entry of
     ``support_positions``. Each record is first brought to ``target_pga`` (m/s², if given; the
     synthetic one otherwise to its documented PGA), then multiplied by ``scale`` and by the
-    component's ``vertical_scale`` or ``longitudinal_scale``. ``arrival`` (s, >= 0) is the
+    component's ``vertical_scale``, ``longitudinal_scale`` or ``lateral_scale``. ``lateral`` is the
+    transverse component of 3D scenarios, built as the other two (records, per-support lists, the
+    wave-passage delay). ``arrival`` (s, >= 0) is the
     simulation time of record time 0.
 
     ``duration`` (s), the length of the run, enables two checks: an arrival at or after the end of
@@ -257,7 +267,10 @@ def ground_motion(
             "in the middle of the record, and the train starts in static equilibrium at t = 0"
         )
     if duration is not None and arrival >= duration:
-        names = ", ".join(_source_names(vertical) + _source_names(longitudinal)) or "none"
+        names = (
+            ", ".join(_source_names(vertical) + _source_names(longitudinal) + _source_names(lateral))
+            or "none"
+        )
         raise ValueError(
             f"earthquake.arrival = {arrival} s: the record ({names}) would start at or after the end "
             f"of the run ({duration} s), so the earthquake would never act; lower the arrival or "
@@ -266,8 +279,8 @@ def ground_motion(
     if apparent_velocity is not None and math.isinf(apparent_velocity):
         apparent_velocity = None
     comps: dict[str, ComponentMotion | None] = {}
-    factors = {"vertical": vertical_scale, "longitudinal": longitudinal_scale}
-    for name, spec in (("vertical", vertical), ("longitudinal", longitudinal)):
+    factors = {"vertical": vertical_scale, "longitudinal": longitudinal_scale, "lateral": lateral_scale}
+    for name, spec in (("vertical", vertical), ("longitudinal", longitudinal), ("lateral", lateral)):
         kwargs = dict(
             scale=scale * factors[name],
             arrival=arrival,
@@ -297,9 +310,10 @@ def ground_motion(
         vertical=comps["vertical"],
         longitudinal=comps["longitudinal"],
         apparent_velocity=apparent_velocity,
+        lateral=comps["lateral"],
     )
     if duration is not None:
-        for name in COMPONENTS:
+        for name in COMPONENTS_3D:
             comp = motion.component(name)
             if comp is not None and comp.end_time < duration:
                 names = ", ".join(sorted({h.source if h.source else h.name for h in comp.histories}))

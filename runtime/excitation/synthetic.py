@@ -23,8 +23,9 @@ Parameter sets (``HORIZONTAL``, ``VERTICAL``):
   horizontal (the EN 1998-1 / ASCE rule of thumb), 0.2333 g.
 
 Both: t1 = 2 s, t2 = 10 s, c = 0.4 1/s, duration 20 s, dt = 0.005 s. The sample is reproducible:
-the white noise comes from ``numpy.random.default_rng([seed, k])``, k = 0 for vertical and 1 for
-horizontal, so the two components of one seed are independent.
+the white noise comes from ``numpy.random.default_rng([seed, k])``, k = 0 for vertical, 1 for
+horizontal (longitudinal) and 2 for lateral (the transverse component of 3D scenarios, the
+horizontal parameter set), so the components of one seed are independent.
 """
 
 from __future__ import annotations
@@ -89,14 +90,19 @@ HORIZONTAL = StochasticModel(omega_g=15.0, zeta_g=0.6, omega_f=1.5, zeta_f=0.6, 
 VERTICAL = StochasticModel(omega_g=25.0, zeta_g=0.6, omega_f=2.5, zeta_f=0.6, pga=0.35 * G * 2.0 / 3.0)
 """Vertical component (assumed): frequencies 5/3 of the horizontal ones, PGA 2/3 of it."""
 
-_COMPONENTS = {"vertical": (VERTICAL, 0), "horizontal": (HORIZONTAL, 1), "longitudinal": (HORIZONTAL, 1)}
+_COMPONENTS = {
+    "vertical": (VERTICAL, 0),
+    "horizontal": (HORIZONTAL, 1),
+    "longitudinal": (HORIZONTAL, 1),
+    "lateral": (HORIZONTAL, 2),
+}
 
 
 def _model(component: str) -> tuple[StochasticModel, int]:
     if component not in _COMPONENTS:
         raise ValueError(
             f"synthetic ground motion: unknown component {component!r} "
-            "(expected 'vertical', 'horizontal' or 'longitudinal')"
+            "(expected 'vertical', 'horizontal', 'longitudinal' or 'lateral')"
         )
     return _COMPONENTS[component]
 
@@ -104,7 +110,7 @@ def _model(component: str) -> tuple[StochasticModel, int]:
 def synthetic_record(component: str = "vertical", seed: int = DEFAULT_SEED) -> Record:
     """The raw synthetic accelerogram of a component (enveloped filtered noise at the documented PGA).
 
-    ``"longitudinal"`` is the horizontal parameter set.
+    ``"longitudinal"`` and ``"lateral"`` are the horizontal parameter set, with independent noise.
     """
     model, key = _model(component)
     n = int(round(model.duration / model.dt)) + 1

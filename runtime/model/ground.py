@@ -11,7 +11,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from ..excitation.ground import COMPONENTS, ComponentMotion, GroundMotion, Source, ground_motion
+from ..excitation.ground import COMPONENTS_3D, ComponentMotion, GroundMotion, Source, ground_motion
 from .bridge import LONGITUDINAL, VERTICAL, Bridge
 
 Triple = tuple[np.ndarray, np.ndarray, np.ndarray]
@@ -167,7 +167,10 @@ def ground_from_scenario(scenario: Any, duration: float | None = None) -> Any:
             return [source(v) for v in value]
         return source(value)
 
-    per_support = any(isinstance(getattr(eq, c), list) for c in COMPONENTS)
+    per_support = any(isinstance(getattr(eq, c), list) for c in eq.components)
+    lateral = (
+        {} if eq.lateral is None else {"lateral": spec("lateral"), "lateral_scale": eq.lateral_scale or 1.0}
+    )
     motion = ground_motion(
         vertical=spec("vertical"),
         longitudinal=spec("longitudinal"),
@@ -181,6 +184,7 @@ def ground_from_scenario(scenario: Any, duration: float | None = None) -> Any:
         duration=duration if duration is not None else scenario.solver.duration,
         seed=eq.seed,
         dt=eq.record_dt,
+        **lateral,
     )
     return RecordGround(motion)
 
@@ -202,7 +206,7 @@ class RecordGround(Ground):
         self.source = motion
         self.apparent_velocity = motion.apparent_velocity
         self.reference_position = motion.reference_position
-        self.components = {name: motion.component(name) for name in COMPONENTS}
+        self.components = {name: motion.component(name) for name in COMPONENTS_3D}
         self.per_support = any(c is not None and c.positions is not None for c in self.components.values())
         self.uniform = self.apparent_velocity is None and not self.per_support
         self._cache: dict[str, tuple[float, tuple[float, float, float]]] = {}
@@ -285,6 +289,14 @@ class RecordGround(Ground):
     def under_longitudinal(self, t: float, x: NDArray, speed: float, acceleration: float = 0.0) -> Triple:
         """Longitudinal ground motion under points moving at ``speed`` (total time derivatives)."""
         return self._moving("longitudinal", t, x, speed, acceleration)
+
+    def lateral(self, t: float, x: NDArray) -> Triple:
+        """The transverse component (3D scenarios) at fixed points ``x``: q, q', q''."""
+        return self.component("lateral", t, x)
+
+    def under_lateral(self, t: float, x: NDArray, speed: float, acceleration: float = 0.0) -> Triple:
+        """Transverse ground motion under points moving at ``speed`` (total time derivatives)."""
+        return self._moving("lateral", t, x, speed, acceleration)
 
     def check_start(self, x: NDArray) -> None:
         """A travelling wave must not have reached any of the points ``x`` (m) at t = 0."""

@@ -6,15 +6,26 @@ from __future__ import annotations
 
 import functools
 import math
+from dataclasses import dataclass
+from typing import Any
 
 from ..excitation.irregularity import SpectralIrregularity, make_irregularity, measured_profile
 from ..model.bridge import Bridge
 from ..model.creep_law import CreepParameters
 from ..model.ground import ground_from_scenario
 from ..model.hslm import hslm_parameters
+from ..model.span3d import POISSON_DEFAULT, Section3D
 from ..model.system import Ground, GroundAtRest, Model, Settings, crossing_duration
 from ..model.train import Train, vehicle_model
-from .schema import Problem, Scenario, ScenarioError, vehicle_ref
+from .kinds import NOT_RUN_3D
+from .schema import (
+    CONICITY_DEFAULT,
+    FLANGE_CLEARANCE_DEFAULT,
+    Problem,
+    Scenario,
+    ScenarioError,
+    vehicle_ref,
+)
 
 IRREGULARITY_TABLE_DIVISIONS = 50
 """Table spacing of the rail profile: at most ``track.wavelength_min / 50``. The quintic table then
@@ -72,6 +83,9 @@ def run_extent(
 
 def build_model(scenario: Scenario, hold_train: bool = False) -> Model:
     """Numbers for everything: bridge, train, excitations and solver settings."""
+    if scenario.dimensions == 3:  # checked and `svbi modes`, never a run that is not one
+        message = NOT_RUN_3D.format(vehicle=scenario.train.vehicle, file=scenario.source or "FILE")
+        raise ScenarioError([Problem("train.vehicle", message, scenario.source)], scenario.source)
     refused = scenario.bridge.long_form_problems()
     if refused:
         # a scenario validated with check=False still may not run a bridge the mechanics lacks
@@ -151,3 +165,148 @@ def _ground(scenario: Scenario, duration: float) -> Ground:
     if eq is None or (eq.vertical == "none" and eq.longitudinal == "none"):
         return GroundAtRest()
     return ground_from_scenario(scenario, duration)
+
+
+# --------------------------------------------------------------------------------------------------
+# 3D scenarios (docs/three-d.md): their sections and track geometry; not run yet
+
+
+def _shear(table: Any, fallback: Any, youngs_modulus: float) -> tuple[float, float | None]:
+    """(Poisson's ratio, shear modulus or None) of a section: its own keys, else ``fallback``'s
+    (``[bridge]`` for a girder), else Poisson's ratio 0.2."""
+    for source in (table, fallback):
+        if source is None:
+            continue
+        if source.shear_modulus is not None:
+            return POISSON_DEFAULT, float(source.shear_modulus)
+        if source.poisson_ratio is not None:
+            return float(source.poisson_ratio), None
+    return POISSON_DEFAULT, None
+
+
+def _pick(table: Any, fallback: Any, name: str) -> Any:
+    value = getattr(table, name, None)
+    return getattr(fallback, name, None) if value is None else value
+
+
+def section3d(scenario: Scenario, girder: int | None = None) -> Section3D:
+    """The 3D section of ``[bridge]`` (``girder`` None) or of ``[[bridge.girders]]`` number
+    ``girder`` (its keys, ``[bridge]``'s otherwise), defaults filled in (docs/scenario.md)."""
+    b = scenario.bridge
+    g = None if girder is None else (b.girders or [])[girder]
+    i_z, j = _pick(g, b, "lateral_second_moment"), _pick(g, b, "torsion_constant")
+    if i_z is None or j is None:
+        raise ValueError("a 3D section needs bridge.lateral_second_moment and bridge.torsion_constant")
+    e = float(_pick(g, b, "youngs_modulus"))
+    nu, shear = _shear(g, b, e)
+    torsional = _pick(g, b, "torsional_mass_per_length")
+    return Section3D(
+        E=e,
+        A=float(_pick(g, b, "area")),
+        I_y=float(_pick(g, b, "second_moment")),
+        I_z=float(i_z),
+        J=float(j),
+        mass_per_length=float(_pick(g, b, "mass_per_length")),
+        poisson_ratio=nu,
+        G=shear,
+        torsional_mass=None if torsional is None else float(torsional),
+    )
+
+
+@dataclass(frozen=True)
+class Span3DSpec:
+    """One distinct span of a 3D scenario: its length, section and where it occurs."""
+
+    length: float
+    section: Section3D
+    spans: tuple[int, ...]
+    """Indices of the spans (0 = the first in the direction of travel) that are this one."""
+
+
+def distinct_spans_3d(scenario: Scenario) -> list[Span3DSpec]:
+    """The distinct spans (length and 3D section) of a 3D scenario's bridge, in order of first
+    occurrence: one for the shorthand ``spans x span_length``."""
+    b = scenario.bridge
+    if b.girders is None:
+        return [Span3DSpec(float(b.span_length), section3d(scenario), tuple(range(b.spans)))]
+    found: dict[tuple[float, Section3D], list[int]] = {}
+    index = 0
+    for i, g in enumerate(b.girders):
+        section = section3d(scenario, i)
+        for length in g.spans:
+            found.setdefault((float(length), section), []).append(index)
+            index += 1
+    return [Span3DSpec(length, section, tuple(ids)) for (length, section), ids in found.items()]
+
+
+@dataclass(frozen=True)
+class Pier3D:
+    """A pier of a 3D scenario: its section in both planes and its bearings' lateral stiffness."""
+
+    support: int
+    section: Section3D
+    """``I_y``: the sway along the track (``second_moment``), ``I_z``: across it."""
+    bearing_stiffness_lateral: float | None
+    """N/m; None: rigid."""
+
+
+def piers_3d(scenario: Scenario) -> list[Pier3D]:
+    """The piers of a 3D scenario's long form, defaults filled in (docs/scenario.md)."""
+    out = []
+    for p in scenario.bridge.piers or []:
+        i_z = float(p.lateral_second_moment if p.lateral_second_moment is not None else p.second_moment)
+        j = float(p.torsion_constant if p.torsion_constant is not None else p.second_moment + i_z)
+        nu, shear = _shear(p, None, float(p.youngs_modulus))
+        section = Section3D(
+            E=float(p.youngs_modulus),
+            A=float(p.area),
+            I_y=float(p.second_moment),
+            I_z=i_z,
+            J=j,
+            mass_per_length=float(p.mass_per_length),
+            poisson_ratio=nu,
+            G=shear,
+            torsional_mass=p.torsional_mass_per_length,
+        )
+        out.append(Pier3D(p.support, section, p.bearing_stiffness_lateral))
+    return out
+
+
+@dataclass(frozen=True)
+class TrackGeometry3D:
+    """The wheel-rail geometry of a 3D scenario (``svbi.runtime.model.system3d.Track3D`` and the
+    flange clearance of ``codegen/contact3d.py``), SI units."""
+
+    conicity: float
+    eccentricity: float
+    rail_height: float
+    flange_clearance: float
+
+
+def track_geometry_3d(scenario: Scenario) -> TrackGeometry3D:
+    """``[contact]`` conicity and flange clearance (given, else the vehicle's parameters of those
+    names, else :data:`CONICITY_DEFAULT` and :data:`FLANGE_CLEARANCE_DEFAULT`), ``[bridge]``
+    track eccentricity (default 0) and rail height."""
+    from ..model.system3d import load_topology3d  # deferred: SymPy, for 3D scenarios only
+
+    params = load_topology3d(vehicle_ref(scenario)).parameters
+    given = scenario.train.parameters
+
+    def default(name: str, fallback: float) -> float:
+        if name in given:
+            return float(given[name])  # type: ignore[arg-type]
+        if name in params and not isinstance(params[name].value, tuple):
+            return float(params[name].value)  # type: ignore[arg-type]
+        return fallback
+
+    c, b = scenario.contact, scenario.bridge
+    return TrackGeometry3D(
+        conicity=float(c.conicity) if c.conicity is not None else default("conicity", CONICITY_DEFAULT),
+        eccentricity=float(b.track_eccentricity or 0.0),
+        rail_height=float(b.rail_height),
+        flange_clearance=(
+            float(c.flange_clearance)
+            if c.flange_clearance is not None
+            else default("flange_clearance", FLANGE_CLEARANCE_DEFAULT)
+        ),
+    )

@@ -17,6 +17,7 @@ from ...codegen.plain_types import TopologyError, builtin_topologies
 from ..excitation.irregularity import read_profile_cached
 from ..model.hslm import hslm_parameters
 from ..model.train import Kinematics, vehicle_model
+from .kinds import builtin_vehicles_3d
 
 if TYPE_CHECKING:
     from .schema import Scenario
@@ -77,6 +78,8 @@ def _geometry(s: Scenario, values: Mapping[str, Any]) -> tuple[list[float], floa
     """Wheel offsets behind the car's leading axle, the car length and the wheel radii (m), as
     ``Train`` places them; ``None`` when the vehicle cannot be evaluated (its own check says why)."""
 
+    if s.dimensions == 3:  # not run yet: its vehicle has no 2D kernels (docs/three-d.md)
+        return None
     vals = dict(values)
     if s.train.hslm is not None:
         vals.update(hslm_parameters(s.train.hslm))
@@ -275,7 +278,7 @@ def creep_warnings(s: Scenario) -> list[str]:
     """With ``contact.creep`` on, name the wheels that have no spin DOF: no creep force acts there
     (``wheel_creep.CreepForces``: a wheel creeps only through a non-zero column of ``W_T^V``)."""
 
-    if not s.contact.creep:
+    if not s.contact.creep or s.dimensions == 3:
         return []
     model = vehicle_model(vehicle_ref(s))
     if model.kind == "moving-load":
@@ -321,4 +324,5 @@ def _profile_coverage(
 def vehicle_ref(s: Scenario) -> str:
     """The scenario's vehicle: a built-in topology's name, or its topology file's resolved path."""
     name = s.train.vehicle
-    return name if name in builtin_topologies() else str(s.resolve_path(name))
+    builtin = builtin_vehicles_3d() if s.dimensions == 3 else builtin_topologies()
+    return name if name in builtin else str(s.resolve_path(name))

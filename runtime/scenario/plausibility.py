@@ -58,6 +58,21 @@ BANDS: dict[str, Band] = {
     "profile": Band(0.0, 0.05, "m", "rail irregularity amplitudes", "", "millimetres?"),
     "record_dt": Band(1.0e-4, 0.1, "s", "the time step of ground-motion records", "", "milliseconds?"),
     "target_pga": Band(0.01, 30.0, "m/s²", "recorded ground motions (about 3 g at most)", "g?", "cm/s²?"),
+    # 3D scenarios (docs/three-d.md)
+    "lateral_second_moment": Band(
+        1.0e-5, 2.0e3, "m⁴", "deck and pier sections", "m⁴? (check)", "cm⁴ or mm⁴?"
+    ),
+    "torsion_constant": Band(1.0e-6, 2.0e3, "m⁴", "deck and pier sections", "m⁴? (check)", "cm⁴ or mm⁴?"),
+    "poisson_ratio": Band(0.1, 0.35, "", "concrete, steel and timber", "", ""),
+    "shear_modulus": Band(3.0e8, 1.0e11, "Pa", "steel, concrete and timber", "MPa or GPa?", "not Pa?"),
+    "torsional_mass_per_length": Band(
+        1.0, 5.0e7, "kg m", "decks and piers (mass per length x radius of gyration²)", "", "kg mm?"
+    ),
+    "track_eccentricity": Band(-10.0, 10.0, "m", "tracks on a deck", "millimetres?", "millimetres?"),
+    "conicity": Band(0.01, 0.6, "", "equivalent conicities of wheel profiles", "", "an angle in degrees?"),
+    "flange_clearance": Band(
+        0.001, 0.02, "m", "wheelsets in track (about 5 … 10 mm a side)", "", "millimetres?"
+    ),
 }
 """The bands, by kind of quantity (the keys that use each are in :func:`plausibility_warnings`)."""
 
@@ -84,9 +99,24 @@ def _keyed(key: str, value: float | None, band: str) -> Iterator[tuple[str, str]
         yield from ((key, m) for m in _check(key, float(value), BANDS[band]))
 
 
+SECTION_BANDS = {
+    "mass_per_length": "mass_per_length",
+    "youngs_modulus": "youngs_modulus",
+    "area": "area",
+    "second_moment": "second_moment",
+    "damping_ratio": "damping_ratio",
+    "lateral_second_moment": "lateral_second_moment",
+    "torsion_constant": "torsion_constant",
+    "poisson_ratio": "poisson_ratio",
+    "shear_modulus": "shear_modulus",
+    "torsional_mass_per_length": "torsional_mass_per_length",
+}
+"""The band of each section key of ``[bridge]``, a girder and a pier."""
+
+
 def _section(prefix: str, obj: object) -> Iterator[tuple[str, str]]:
-    for name in ("mass_per_length", "youngs_modulus", "area", "second_moment", "damping_ratio"):
-        yield from _keyed(f"{prefix}.{name}", getattr(obj, name, None), name)
+    for name, band in SECTION_BANDS.items():
+        yield from _keyed(f"{prefix}.{name}", getattr(obj, name, None), band)
 
 
 def plausibility_warnings(s: Scenario) -> list[tuple[str, str]]:
@@ -108,9 +138,16 @@ def _warnings(s: Scenario) -> Iterable[tuple[str, str]]:
         key = f"bridge.piers[{i}]"
         yield from _keyed(f"{key}.height", p.height, "pier_height")
         yield from _section(key, p)
-        for name in ("bearing_stiffness_vertical", "bearing_stiffness_longitudinal"):
+        for name in (
+            "bearing_stiffness_vertical",
+            "bearing_stiffness_longitudinal",
+            "bearing_stiffness_lateral",
+        ):
             yield from _keyed(f"{key}.{name}", getattr(p, name), "bearing_stiffness")
     yield from _keyed("bridge.rail_height", b.rail_height, "rail_height")
+    yield from _keyed("bridge.track_eccentricity", b.track_eccentricity, "track_eccentricity")
+    yield from _keyed("contact.conicity", s.contact.conicity, "conicity")
+    yield from _keyed("contact.flange_clearance", s.contact.flange_clearance, "flange_clearance")
     yield from _keyed("train.speed", t.speed, "speed")
     yield from _keyed("train.speed_kmh", t.speed_kmh, "speed_kmh")
     yield from _keyed("train.acceleration", t.acceleration, "acceleration")
@@ -144,7 +181,7 @@ def _earthquake(s: Scenario) -> Iterable[tuple[str, str]]:
         return  # a record's own DT must agree with record_dt (checked when it is read)
     seen: set[str] = set()
     band = BANDS["record_dt"]
-    for comp in ("vertical", "longitudinal"):
+    for comp in eq.components:
         names = eq.sources(comp)
         for k, name in enumerate(names):
             if name in ("none", "synthetic") or name in seen:

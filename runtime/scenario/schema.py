@@ -42,7 +42,7 @@ from ..excitation.irregularity import read_profile_cached
 from ..model.bridge import Girder, Pier, Section
 from ..model.modes import vehicle_modes
 from ..model.train import topology, vehicle_model
-from .kinds import wrong_kind
+from .kinds import vehicle_dimensions, wrong_kind
 from .limits import creep_warnings, girder_problems, size_problems, vehicle_ref
 from .plausibility import plausibility_warnings
 
@@ -51,6 +51,14 @@ BACKENDS = ("numpy", "casadi", "c")
 IRREGULARITIES = ("none", "german-low", "german-high")
 HSLM_TRAINS = tuple(f"A{i}" for i in range(1, 11))
 KMH = 1.0 / 3.6
+
+CONICITY_DEFAULT = 0.1
+"""``contact.conicity`` of a 3D scenario whose vehicle carries no ``conicity`` parameter: within the
+usual equivalent conicities of new wheel profiles on their rails (0.05 … 0.15)."""
+FLANGE_CLEARANCE_DEFAULT = 0.005
+"""``contact.flange_clearance`` (m) of a 3D scenario whose vehicle carries no ``flange_clearance``
+parameter: half the play of a new wheelset in standard-gauge track, (1435 − (1360 + 2 × 32.5)) / 2 mm
+(track gauge, back-to-back distance, flange thickness)."""
 
 TIME_STEP_RESOLUTION = 20
 """Steps per period of the fastest vehicle mode below which a warning is given. Newmark's average
@@ -98,6 +106,18 @@ class _Table(BaseModel):
 _SECTION_FIELDS = ("mass_per_length", "youngs_modulus", "area", "second_moment", "damping_ratio")
 """The section keys a girder or pier may give for itself (``[bridge]``'s otherwise)."""
 
+SECTION_3D_FIELDS = (
+    "lateral_second_moment",
+    "torsion_constant",
+    "poisson_ratio",
+    "shear_modulus",
+    "torsional_mass_per_length",
+)
+"""The section keys of a 3D scenario (docs/scenario.md, "3D scenarios"): ``[bridge]``, each girder
+(``[bridge]``'s otherwise) and each pier."""
+
+Poisson = Annotated[float, Field(ge=0, lt=0.5)]
+
 
 class GirderSpec(_Table):
     """``[[bridge.girders]]``: one deck in the direction of travel, continuous over its interior
@@ -113,6 +133,11 @@ class GirderSpec(_Table):
     second_moment: Positive | None = None
     damping_ratio: Annotated[float, Field(ge=0, lt=1)] | None = None
     elements_per_span: Annotated[int, Field(ge=1)] | None = None
+    lateral_second_moment: Positive | None = None
+    torsion_constant: Positive | None = None
+    poisson_ratio: Poisson | None = None
+    shear_modulus: Positive | None = None
+    torsional_mass_per_length: Positive | None = None
 
 
 class PierSpec(_Table):
@@ -129,6 +154,17 @@ class PierSpec(_Table):
     """Rayleigh damping on the pier's first two sway modes; default ``[bridge] damping_ratio``."""
     bearing_stiffness_vertical: Positive | None = None
     bearing_stiffness_longitudinal: Positive | None = None
+    bearing_stiffness_lateral: Positive | None = None
+    """3D: the bearings' lateral springs (N/m); rigid when left out."""
+    lateral_second_moment: Positive | None = None
+    """3D: the second moment (m^4) for the pier's sway across the track; default ``second_moment``
+    (which is the one for its sway along the track)."""
+    torsion_constant: Positive | None = None
+    """3D: St-Venant constant (m^4) of the pier's twist about its axis; default the polar moment
+    ``second_moment + lateral_second_moment`` (exact for a circular section)."""
+    poisson_ratio: Poisson | None = None
+    shear_modulus: Positive | None = None
+    torsional_mass_per_length: Positive | None = None
 
 
 class BridgeSpec(_Table):
@@ -144,10 +180,25 @@ class BridgeSpec(_Table):
     damping_ratio: Annotated[float, Field(ge=0, lt=1)] = 0.02
     elements_per_span: Annotated[int, Field(ge=1)] = 16
     rail_height: float = 0.0
+    """The rail top above the deck's axis (m): its neutral axis in 2D, its shear centre in 3D."""
     track_form: Literal["ballasted", "direct"] = "ballasted"
     """EN 1990 A2.4.4.2.1 deck acceleration limit of ``svbi check``: 3.5 m/s² ballasted, 5 m/s² direct."""
     girders: list[GirderSpec] | None = None
     piers: list[PierSpec] | None = None
+    lateral_second_moment: Positive | None = None
+    """3D: second moment for lateral bending I_zz (m^4); required in a 3D scenario."""
+    torsion_constant: Positive | None = None
+    """3D: St-Venant torsion constant J (m^4); required in a 3D scenario."""
+    poisson_ratio: Poisson | None = None
+    """3D: Poisson's ratio of the shear modulus ``E / (2 (1 + nu))``; default 0.2."""
+    shear_modulus: Positive | None = None
+    """3D: the shear modulus G (Pa), in place of ``poisson_ratio``."""
+    torsional_mass_per_length: Positive | None = None
+    """3D: torsional mass moment of inertia per length (kg m); default ``mass_per_length (I_y +
+    I_z) / A`` (docs/three-d.md)."""
+    track_eccentricity: float | None = None
+    """3D: lateral offset of the track centreline from the deck's shear centre (m, positive left);
+    default 0."""
 
     @model_validator(mode="after")
     def _one_form(self) -> BridgeSpec:
@@ -291,9 +342,13 @@ class EarthquakeSpec(_Table):
 
     vertical: RecordName | list[RecordName] = "none"
     longitudinal: RecordName | list[RecordName] = "none"
+    lateral: RecordName | list[RecordName] | None = None
+    """3D: the transverse component (y, positive left of the train); ``"none"`` when left out."""
     scale: NonNegative = 1.0
     vertical_scale: NonNegative = 1.0
     longitudinal_scale: NonNegative = 1.0
+    lateral_scale: NonNegative | None = None
+    """3D: the lateral component's own factor; default 1."""
     target_pga: Positive | None = None
     arrival: float = 0.0
     apparent_velocity: Positive | None = None
@@ -303,7 +358,14 @@ class EarthquakeSpec(_Table):
     def sources(self, component: str) -> list[str]:
         """The record names of a component as a list (one entry when synchronous)."""
         value = getattr(self, component)
+        if value is None:  # the lateral component left out
+            return ["none"]
         return list(value) if isinstance(value, list) else [value]
+
+    @property
+    def components(self) -> tuple[str, ...]:
+        """The components given: vertical and longitudinal, and lateral when it is given."""
+        return ("vertical", "longitudinal") + (("lateral",) if self.lateral is not None else ())
 
 
 class ContactSpec(_Table):
@@ -317,6 +379,12 @@ class ContactSpec(_Table):
     rail_head_radius: Positive = 0.3
     youngs_modulus: Positive = 2.1e11
     poisson_ratio: Annotated[float, Field(ge=0, le=0.5)] = 0.3
+    conicity: Annotated[float, Field(gt=0, lt=1)] | None = None
+    """3D: equivalent conicity of the coned wheel treads; default the vehicle's ``conicity``
+    parameter, else :data:`CONICITY_DEFAULT`."""
+    flange_clearance: Positive | None = None
+    """3D: lateral play of a wheelset on each side before its flange touches the rail (m); default
+    the vehicle's ``flange_clearance`` parameter, else :data:`FLANGE_CLEARANCE_DEFAULT`."""
 
 
 class SolverSpec(_Table):
@@ -354,6 +422,12 @@ class Scenario(_Table):
 
     _source: str = PrivateAttr(default="")
     _base_dir: Path = PrivateAttr(default_factory=Path.cwd)
+    _dimensions: int = PrivateAttr(default=2)
+
+    @property
+    def dimensions(self) -> int:
+        """3 when ``train.vehicle`` is a 3D vehicle topology (a 3D scenario), else 2."""
+        return self._dimensions
 
     @property
     def source(self) -> str:
@@ -504,6 +578,7 @@ def validate_scenario(
         raise ScenarioError([_problem(err, where) for err in exc.errors()], source) from None
     scenario._source = source if source not in ("<dict>", "<string>") else ""
     scenario._base_dir = Path(base_dir) if base_dir is not None else Path.cwd()
+    scenario._dimensions = vehicle_dimensions(scenario.train.vehicle, scenario._base_dir)
     if check:
         problems = list(_semantic_problems(scenario))
         if problems:
@@ -609,6 +684,8 @@ def _semantic_problems(s: Scenario) -> Iterable[tuple[str, str]]:
     yield from bridge_problems
     if bridge_problems:
         return
+    if s.dimensions == 2:
+        yield from _keys_3d_in_2d(s)
     if trk.wavelength_min >= trk.wavelength_max:
         yield (
             "track.wavelength_min",
@@ -634,6 +711,9 @@ def _semantic_problems(s: Scenario) -> Iterable[tuple[str, str]]:
         yield from _earthquake_problems(s)
     if s.track.is_profile:
         yield from _profile_problems(s)
+    if s.dimensions == 3:
+        yield from _three_d_problems(s)
+        return
     try:
         topo = vehicle_topology(s)
     except TopologyError as exc:
@@ -661,6 +741,95 @@ def _semantic_problems(s: Scenario) -> Iterable[tuple[str, str]]:
     yield from _vehicle_problems(s, values)
 
 
+def _keys_3d_in_2d(s: Scenario) -> Iterable[tuple[str, str]]:
+    """A 3D key in a 2D scenario: refused, never ignored."""
+    why = (
+        f"a key of 3D scenarios, but train.vehicle {s.train.vehicle!r} is a 2D vehicle (3D keys need a "
+        "3D vehicle: manchester-3d, crh380a-3d or a topology file with dimensions = 3; docs/three-d.md)"
+    )
+    b = s.bridge
+    tables: list[tuple[str, BaseModel, tuple[str, ...]]] = [
+        ("bridge", b, (*SECTION_3D_FIELDS, "track_eccentricity")),
+        *((f"bridge.girders[{i}]", g, SECTION_3D_FIELDS) for i, g in enumerate(b.girders or [])),
+        *(
+            (f"bridge.piers[{i}]", p, (*SECTION_3D_FIELDS, "bearing_stiffness_lateral"))
+            for i, p in enumerate(b.piers or [])
+        ),
+        ("contact", s.contact, ("conicity", "flange_clearance")),
+    ]
+    for prefix, table, names in tables:
+        for name in names:
+            if getattr(table, name) is not None:
+                yield f"{prefix}.{name}", why
+    eq = s.earthquake
+    if eq is not None:
+        if eq.lateral is not None and eq.sources("lateral") != ["none"]:
+            yield (
+                "earthquake.lateral",
+                f"the transverse ground motion acts on 3D scenarios only: train.vehicle {s.train.vehicle!r} "
+                "is a 2D vehicle, whose model has no lateral motion (docs/three-d.md)",
+            )
+        if eq.lateral_scale is not None:
+            yield "earthquake.lateral_scale", why
+
+
+def _three_d_problems(s: Scenario) -> Iterable[tuple[str, str]]:
+    """The checks of a 3D scenario: its vehicle topology and parameters, the 3D section keys."""
+    from ..model.system3d import load_topology3d  # deferred: SymPy, for 3D scenarios only
+
+    t, b = s.train, s.bridge
+    if t.hslm is not None:
+        yield "train.hslm", f"an HSLM train is a 2D moving load; train.vehicle {t.vehicle!r} is a 3D vehicle"
+    try:
+        topo = load_topology3d(vehicle_ref(s))
+    except TopologyError as exc:
+        yield "train.vehicle", exc.problem if exc.key == "vehicle" else str(exc)
+        return
+    for name, value in t.parameters.items():
+        if name not in topo.parameters:
+            yield (
+                f"train.parameters.{name}",
+                f"{topo.name} has no parameter {name!r} (its parameters: "
+                f"{', '.join(sorted(topo.parameters))})",
+            )
+            continue
+        values = value if isinstance(value, list) else [value]
+        if isinstance(value, list) != isinstance(topo.parameters[name].value, tuple):
+            yield (
+                f"train.parameters.{name}",
+                "must be a list" if not isinstance(value, list) else "must be a number",
+            )
+        elif not all(math.isfinite(float(v)) for v in values):
+            yield f"train.parameters.{name}", f"must be finite (got {value!r})"
+        elif not topo.parameters[name].signed and not all(float(v) >= 0 for v in values):
+            yield f"train.parameters.{name}", f"must not be negative (got {value!r})"
+    size = list(size_problems(s, {}))
+    yield from size
+    why = f"required in a 3D scenario (train.vehicle {t.vehicle!r} is a 3D vehicle)"
+    what = {
+        "lateral_second_moment": "the second moment I_zz for lateral bending (m^4)",
+        "torsion_constant": "the St-Venant torsion constant J (m^4)",
+    }
+    for name, label in what.items():
+        if getattr(b, name) is not None:
+            continue
+        missing = [i for i, g in enumerate(b.girders or [None]) if g is None or getattr(g, name) is None]
+        if missing:
+            key = f"bridge.{name}"
+            yield key, f"{why}: {label}, of every span (or of each of [[bridge.girders]])"
+    tables: list[tuple[str, BaseModel]] = [
+        ("bridge", b),
+        *((f"bridge.girders[{i}]", g) for i, g in enumerate(b.girders or [])),
+        *((f"bridge.piers[{i}]", p) for i, p in enumerate(b.piers or [])),
+    ]
+    for prefix, table in tables:
+        if table.poisson_ratio is not None and table.shear_modulus is not None:
+            yield (
+                f"{prefix}.shear_modulus",
+                f"give {prefix}.poisson_ratio or {prefix}.shear_modulus, not both (G = E / (2 (1 + nu)))",
+            )
+
+
 def _profile_problems(s: Scenario) -> Iterable[tuple[str, str]]:
     """A measured profile must be an existing, well-formed file (its lines are checked on reading);
     whether it covers the wheels' path is checked with the run's extent (``limits.size_problems``)."""
@@ -685,7 +854,7 @@ def _earthquake_problems(s: Scenario) -> Iterable[tuple[str, str]]:
     eq = s.earthquake
     assert eq is not None
     lines = s.bridge.spans + 1
-    for comp in ("vertical", "longitudinal"):
+    for comp in eq.components:
         value = getattr(eq, comp)
         per_support = isinstance(value, list)
         if per_support and len(value) != lines:
@@ -716,7 +885,7 @@ def _earthquake_problems(s: Scenario) -> Iterable[tuple[str, str]]:
             "middle of the record, and the train starts in static equilibrium at t = 0",
         )
     elif s.solver.duration is not None and eq.arrival >= s.solver.duration:
-        names = ", ".join(n for c in ("vertical", "longitudinal") for n in eq.sources(c) if n != "none")
+        names = ", ".join(n for c in eq.components for n in eq.sources(c) if n != "none")
         yield (
             "earthquake.arrival",
             f"the record ({names}) would start at {eq.arrival:g} s, not before the end of the run "
@@ -725,7 +894,7 @@ def _earthquake_problems(s: Scenario) -> Iterable[tuple[str, str]]:
 
 
 def _first_list(eq: EarthquakeSpec) -> str:
-    return next(c for c in ("vertical", "longitudinal") if isinstance(getattr(eq, c), list))
+    return next(c for c in eq.components if isinstance(getattr(eq, c), list))
 
 
 def _parameter_key(topo: Any, key: str, overrides: Mapping[str, Any]) -> str:
@@ -769,7 +938,10 @@ def vehicle_topology(s: Scenario):  # noqa: ANN201 - Topology, imported lazily
 
 
 def time_step_warnings(s: Scenario) -> list[str]:
-    """Warn when the time step does not resolve the fastest vehicle mode on rigid track."""
+    """Warn when the time step does not resolve the fastest vehicle mode on rigid track (2D
+    vehicles; a 3D scenario is not run yet)."""
+    if s.dimensions == 3:
+        return []
     topo = vehicle_topology(s)
     if topo.kind == "moving-load":
         return []
