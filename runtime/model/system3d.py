@@ -12,7 +12,7 @@ runtime module besides the emitter path that imports SymPy and ``svbi.codegen``.
 from __future__ import annotations
 
 from collections.abc import Callable, Mapping
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from functools import cache
 from pathlib import Path
 from typing import Any
@@ -21,10 +21,14 @@ import numpy as np
 import sympy as sp
 
 from ...codegen import contact3d as c3
+from ...codegen import creep as creep2d
+from ...codegen import creep3d
 from ...codegen.beam import le as LE
 from ...codegen.beam import xi as XI
 from ...codegen.topology3d import Topology3D, load_topology3d
 from ...codegen.vehicle3d import derive_vehicle3d
+from .creep_law import CreepParameters
+from .kalker3d import kalker_coefficients
 from .span3d import Span3D
 
 ARGS = (
@@ -54,6 +58,10 @@ class Track3D:
     """Lateral offset ``e_t`` of the track centreline from the deck's shear centre (positive left)."""
     rail_height: float = 0.0
     """Height ``h_t`` of the rail top above the deck's shear centre."""
+    flange_clearance: float = 0.005
+    """Lateral flange clearance ``c_f`` per side of the centred wheelset (m). Default 5 mm: half of
+    the standard gauge less the back-to-back distance and two flange thicknesses of new wheels,
+    ``(1435 - (1360 + 2 x 32.5)) / 2`` mm (assumed: no 3D topology carries its own)."""
 
 
 @dataclass(frozen=True)
@@ -220,6 +228,146 @@ class ContactKernel3D:
         return self._call(self._res, args, (NZ,)).imag / h
 
 
+# --------------------------------------------------------------------------------------------------
+# Flange gaps and creep forces: the callables of the unilateral flange contact and of the creep law,
+# lambdified in this one place (emitted kernels of the flange gaps and creepages replace them).
+
+FLANGE_PARAMS = (*PARAMS, c3.clearance)
+CREEP_LAW_ARGS = (creep3d.f11, creep3d.f22, creep3d.f23, creep3d.normal_load, creep2d.friction)
+CREEP_MATERIAL = (*creep2d.PARAMETERS, creep3d.kalker_c22, creep3d.kalker_c23)
+CREEP_FORCES = (creep3d.creep_fx, creep3d.creep_fy, creep3d.creep_spin)
+
+
+@cache
+def _flange_creep_callables() -> dict[str, Callable[..., Any]]:
+    """Lambdified once per process: ``flange_gap``, ``flange_gradient``, ``flange_residual`` (the
+    discrete constraint of both flange gaps), ``creep`` (one per side: the saturated ``F_x``,
+    ``F_y`` and the spin moment of Kalker's law), ``kalker`` (``f11, f22, f23`` under a normal
+    load) and ``loads`` (the generalised creep loads of both contacts over ``z``)."""
+    z = [*c3.WHEELSET_DOFS, *c3.UE]
+    rough = (*c3.IRREGULARITIES, *c3.IRREGULARITY_SLOPES, *c3.IRREGULARITY_CURVATURES)
+    gaps = [c.flange_gap for c in c3.contacts()]
+    grads = [sp.diff(g, q) for g in gaps for q in z]
+    residuals = [gtt + C1 * gt + C0 * g for (gt, gtt), g in zip(c3.flange_gap_rates(), gaps, strict=True)]
+    args = (*ARGS, *FLANGE_PARAMS, *rough)
+
+    def fn(exprs: list[sp.Expr], extra: tuple[sp.Symbol, ...] = ()) -> Callable[..., Any]:
+        return sp.lambdify((*args, *extra), exprs, "numpy", cse=True)
+
+    out: dict[str, Callable[..., Any]] = {
+        "flange_gap": fn(gaps),
+        "flange_gradient": fn(grads),
+        "flange_residual": fn(residuals),
+    }
+    for force in creep3d.creep_forces():
+        out[f"creep_{force.side}"] = fn([force.fx, force.fy, force.spin_moment], CREEP_LAW_ARGS)
+    kalker = creep3d.kalker_coefficients()
+    out["kalker"] = sp.lambdify(
+        (creep3d.normal_load, *CREEP_MATERIAL), [kalker[k] for k in (creep3d.f11, creep3d.f22, creep3d.f23)]
+    )
+    loads = [e for ld in creep3d.creep_loads() for e in (*ld.wheelset, *ld.deck)]
+    out["loads"] = fn(loads, CREEP_FORCES)
+    return out
+
+
+class FlangeCreepKernel3D:
+    """Both flange gaps and both contacts' creep forces of one wheelset on a deck element, as
+    NumPy callables (the counterpart of :class:`ContactKernel3D` for the flange and the creep law).
+
+    ``flange_*``: as :class:`ContactKernel3D`'s ``gap``, ``gradient``, ``residual``,
+    ``residual_jacobian`` for ``g_F,s = c_f - s (y_w - y_r)``; ``creep``: the creep forces of both
+    contacts under their normal loads and their generalised loads on ``z``.
+    """
+
+    def __init__(
+        self,
+        wheelset: Wheelset,
+        track: Track3D,
+        element_length: float,
+        speed: float,
+        c1: float,
+        c0: float,
+        creep: CreepParameters | None = None,
+    ) -> None:
+        self._fn = _flange_creep_callables()
+        self._params = [
+            wheelset.radius,
+            wheelset.half_gauge,
+            track.conicity,
+            track.eccentricity,
+            track.rail_height,
+            speed,
+            element_length,
+            c1,
+            c0,
+            track.flange_clearance,
+            *[0.0] * 9,  # no irregularity
+        ]
+        self._material: list[float] | None = None
+        self.friction = 0.0
+        if creep is not None:
+            creep = replace(creep, wheel_radius=wheelset.radius)
+            named = creep.named_values()
+            m, n = creep.hertz
+            _, c22, c23 = kalker_coefficients(m / n, creep.poisson_ratio)
+            self._material = [*(named[p.name] for p in creep2d.PARAMETERS), c22, c23]
+            self.friction = creep.friction
+
+    def _call(self, name: str, args: list[Any], shape: tuple[int, ...], extra: tuple = ()) -> np.ndarray:
+        out = self._fn[name](*args, *self._params, *extra)
+        return np.array([np.broadcast_to(np.asarray(o), shape) for o in out])
+
+    _args = staticmethod(ContactKernel3D._args)
+
+    def flange_gap(self, z: np.ndarray, xi: float) -> np.ndarray:
+        """``[g_F,left, g_F,right]``."""
+        zero = np.zeros(NZ)
+        return self._call("flange_gap", self._args(z, zero, zero, xi), ())
+
+    def flange_gradient(self, z: np.ndarray, xi: float) -> np.ndarray:
+        """2 x 16 (the gap is linear in ``z``: no Hessian)."""
+        zero = np.zeros(NZ)
+        return self._call("flange_gradient", self._args(z, zero, zero, xi), ()).reshape(2, NZ)
+
+    def flange_residual(self, z: np.ndarray, zd: np.ndarray, zdd: np.ndarray, xi: float) -> np.ndarray:
+        """``[E_F,left, E_F,right]``, ``E = g'' + c1 g' + c0 g``."""
+        return self._call("flange_residual", self._args(z, zd, zdd, xi), ())
+
+    def flange_residual_jacobian(
+        self, z: np.ndarray, zd: np.ndarray, zdd: np.ndarray, xi: float, a1: float, a0: float
+    ) -> np.ndarray:
+        """2 x 16: the derivative of ``E_F`` along ``z_{n+1}`` with Newmark's rates."""
+        h = COMPLEX_STEP
+        eye = 1j * h * np.eye(NZ)
+        args = self._args(z[:, None] + eye, zd[:, None] + a1 * eye, zdd[:, None] + a0 * eye, xi)
+        return self._call("flange_residual", args, (NZ,)).imag / h
+
+    @property
+    def creeps(self) -> bool:
+        return self._material is not None
+
+    def creep(
+        self, z: np.ndarray, zd: np.ndarray, xi: float, normal: np.ndarray
+    ) -> tuple[np.ndarray, np.ndarray]:
+        """``(forces, load)``: each contact's ``[F_x, F_y, M_sp]`` (2 x 3, contact frame, on the
+        wheel; zero for a contact with ``N <= 0``) and their generalised load on ``z`` (16)."""
+        forces = np.zeros((2, 3))
+        if self._material is None:
+            return forces, np.zeros(NZ)
+        args = self._args(z, zd, np.zeros(NZ), xi)
+        for k, side in enumerate(("left", "right")):
+            if normal[k] <= 0.0:
+                continue
+            f11, f22, f23 = self._fn["kalker"](normal[k], *self._material)
+            law = (f11, f22, f23, normal[k], self.friction)
+            forces[k] = self._call(f"creep_{side}", args, (), law)
+        load = np.zeros(NZ)
+        for k in range(2):
+            per = self._call("loads", args, (), tuple(forces[k])).reshape(2, NZ)
+            load += per[k]
+        return forces, load
+
+
 @dataclass
 class System3D:
     """One 3D car on one simply supported 3D span, bilateral contact (docs/three-d.md)."""
@@ -234,6 +382,10 @@ class System3D:
     """A constant external load on the vehicle DOFs (N, N m), besides gravity."""
     bridge_damping: np.ndarray | None = None
     """The span's damping matrix (default none)."""
+    creep: CreepParameters | None = None
+    """Wheel-rail material and friction of the creep forces (Kalker with Shen-Hedrick-Elkins
+    saturation, :mod:`svbi.codegen.creep3d`; the wheel radius is each wheelset's own); None: no
+    creep."""
 
     def contact_location(self, t: float) -> list[tuple[int, float]]:
         """``(element, xi)`` under each wheelset at ``t``; a wheelset must be on the span."""
