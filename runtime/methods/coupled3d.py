@@ -381,7 +381,7 @@ class _Step3D:
 
     def step(self, n: int) -> State3D:
         """Advance from t_n to t_{n+1} = (n + 1) dt."""
-        st, asm, act = self.state, self.asm, self.active
+        st, act = self.state, self.active
         t, hist_V, hist_B, fV, fB = self._loads(n)
         loc = self.system.contact_location(t)
         (PtV, QtV), (PB, QB) = hist_V, hist_B
@@ -444,7 +444,7 @@ class _Step3D:
         flexibility ``G M^-1 G^T`` that stop the landing ones (relative normal velocity zero), then
         the force jump that makes the accelerations consistent (``g'' = 0`` for the landing ones,
         unchanged for the others), forces ``>= 0``. Returns the contacts let go."""
-        act, asm, f = self.active, self.asm, self.asm.free
+        act, f = self.active, self.asm.free
         rows = self._rows_at(loc, st.q, st.qd, st.qdd, st.u, st.ud, st.udd, hessian=False)
         GV, GB = self._directions(rows, loc)
         AV, AB = self.MV_inv @ GV.T, self.MB_inv @ GB.T
