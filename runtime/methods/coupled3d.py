@@ -54,6 +54,8 @@ NORMAL_CONTACT = ("unilateral", "bilateral")
 """The steps' normal contact: ``unilateral`` (lift-off and landing, the default) or ``bilateral``."""
 PER_WHEELSET = 4
 """Constraints per wheelset: normal left, normal right, flange left, flange right."""
+CREEP_STABILITY = 1.0
+"""Largest ``k dt`` of the explicit creep forces (``k`` a wheelset's creep damping rate), as in 2D."""
 STATIC_PASSES = 16
 """Flange contact states tried by :func:`static_state` before it gives up."""
 
@@ -318,10 +320,40 @@ class _Step3D:
             state.contact = np.tile([True, True, False, False], nW)
         self.active = ActiveSet(nC)
         self.active.in_contact[:] = state.contact
+        if system.creep is not None:
+            self._check_creep_stability()
         if state.creep is None:
             self._creep(state)
         self.iterations = 0
         self.passes = 0
+
+    def _check_creep_stability(self) -> None:
+        """Refuse a time step at which the explicit creep forces would be unstable. Lagged by one
+        step, the creep force of a wheelset is a damper of rate ``k`` (lateral ``2 f22 / (m v)``,
+        yaw ``2 f11 b^2 / (I_z v)`` under the state's wheel loads), and Newmark's average
+        acceleration with a one-step lag is stable for ``k dt < 2``: as in 2D (docs/method.md
+        section 3b), ``k dt`` must stay below :data:`CREEP_STABILITY`."""
+        sys_, st = self.system, self.state
+        veh = sys_.vehicle
+        if sys_.speed <= 0.0:
+            return
+        for w, ws in enumerate(veh.wheelsets):
+            load = max(float(np.mean(st.P[2 * w : 2 * w + 2])), 0.0)
+            if load <= 0.0:
+                continue
+            f11, f22, _ = self.pairs[w][1].coefficients(load)
+            y, psi = ws.dofs[0], ws.dofs[3]
+            rates = {
+                "lateral": 2 * f22 / (veh.M[y, y] * sys_.speed),
+                "yaw": 2 * f11 * ws.half_gauge**2 / (veh.M[psi, psi] * sys_.speed),
+            }
+            for what, k in rates.items():
+                if k * self.dt > CREEP_STABILITY:
+                    raise ValueError(
+                        f"the explicit creep forces of wheelset {ws.name!r} are unstable at dt = {self.dt:g} s "
+                        f"({what} creep damping rate {k:.4g} 1/s, k dt = {k * self.dt:.3g} > "
+                        f"{CREEP_STABILITY:g}): take dt <= {CREEP_STABILITY / k:.3g} s"
+                    )
 
     # ----------------------------------------------------------------------------------------------
     def _loads(self, n: int) -> tuple[float, tuple, tuple, np.ndarray, np.ndarray]:

@@ -342,6 +342,13 @@ class FlangeCreepKernel3D:
         args = self._args(z[:, None] + eye, zd[:, None] + a1 * eye, zdd[:, None] + a0 * eye, xi)
         return self._call("flange_residual", args, (NZ,)).imag / h
 
+    def coefficients(self, normal: float) -> tuple[float, float, float]:
+        """Kalker's ``f11, f22, f23`` under the normal load ``normal`` (> 0)."""
+        if self._material is None:
+            return 0.0, 0.0, 0.0
+        f11, f22, f23 = self._fn["kalker"](normal, *self._material)
+        return float(f11), float(f22), float(f23)
+
     @property
     def creeps(self) -> bool:
         return self._material is not None

@@ -191,28 +191,36 @@ def test_static_flange_holds_the_car(car):
 
 
 def test_flange_contact_in_a_run(car):
-    """The load set on at t = 0 on the car standing at gravity's equilibrium, rolling at 10 m/s with
-    creep: the wheelset strikes its flange (a plastic impact), stays on it and settles at the static
-    flange force."""
+    """The load set on at t = 0 on the car standing at gravity's equilibrium: the wheelset strikes
+    its flange (a plastic impact) and is held there, within round-off of the clearance, while the
+    car settles on its damped suspension towards the static state under the load."""
     span = simply_supported_span(SECTION, LB, 4)
     track = Track3D(conicity=LAM, eccentricity=E_T, rail_height=H_T, flange_clearance=CLEARANCE)
     system = System3D(car, span, track, speed=0.0, start=LB / 2)
     st = static_state(system)
     system.load = body_load(car, LATERAL)
     stepper = CoupledDynamic3D(system, st, DT)
-    gaps, forces = [], []
-    for n in range(1500):
+    gaps, forces, q = [], [], []
+    for n in range(STEPS_TO_REST):
         stepper.step(n)
         gaps.append(stepper.flange_gaps())
         forces.append(stepper.state.flange.copy())
-    gaps, forces = np.array(gaps), np.array(forces)
+        q.append(stepper.state.q.copy())
+    gaps, forces, q = np.array(gaps), np.array(forces), np.array(q)
     closed = forces[:, 0] > 0
-    assert closed.any() and (forces >= 0).all()
-    first = np.argmax(closed)
-    assert gaps[first:, 0].min() > -1e-12  # measured
-    assert np.abs(gaps[closed, 0]).max() < 1e-12
+    assert closed.any() and (forces >= 0).all() and (forces[:, 1] == 0).all()
+    # never beyond the clearance: the closing step's row is g = 0, the stabilised rows hold it
+    assert gaps[:, 0].min() > -1e-15  # measured -8.7e-19
+    assert np.abs(gaps[closed, 0]).max() < 1e-15
+    # coming to rest on the flange: towards the static state under the load (the wheelset within
+    # 1.0e-6 m of it over the last 0.1 s, measured, with the deck's sway; the body still sways by
+    # 1.5e-4 m)
     static = static_state(System3D(car, span, track, speed=0.0, start=LB / 2, load=body_load(car, LATERAL)))
-    assert forces[-1, 0] == pytest.approx(static.flange[0], rel=1e-3)
+    y_ws = car.index("y_ws")
+    assert np.abs(q[-100:, y_ws] - static.q[y_ws]).max() < 5e-4 * CLEARANCE
+
+
+STEPS_TO_REST = 800
 
 
 PULL_STEPS, FREE_STEPS = 40, 160
@@ -317,21 +325,22 @@ def test_light_wheelset_on_a_bouncing_deck():
 
 
 def test_localized_is_coupled_with_creep_flange_and_lift_off(car):
-    """The car rolling at 5 m/s with creep along an eccentric, raised track: a lateral load on its
-    body drives the wheelset against the flange, and an upward pull on the wheelset for 30 steps
-    lifts it off the rail; it lands. Both steppers from the same static state, the same loads."""
+    """The car rolling at 20 m/s with creep along an eccentric, raised track (dt = 1e-4 s: this
+    light wheelset's explicit yaw creep needs it): a lateral load on its body drives the wheelset
+    against a 0.05 mm flange clearance, and an upward pull on the wheelset for 40 steps lifts it off
+    the rail; it lands. Both steppers from the same static state, the same loads."""
     span = simply_supported_span(SECTION, LB, 4)
-    track = Track3D(conicity=LAM, eccentricity=E_T, rail_height=H_T, flange_clearance=0.002)
-    system = System3D(car, span, track, speed=5.0, start=3.0, creep=CreepParameters())
+    track = Track3D(conicity=LAM, eccentricity=E_T, rail_height=H_T, flange_clearance=5e-5)
+    system = System3D(car, span, track, speed=20.0, start=3.0, creep=CreepParameters())
     st0 = static_state(system)
     series = []
     for cls in (CoupledDynamic3D, LocalizedDynamic3D):
         st = State3D(**{k: (v.copy() if isinstance(v, np.ndarray) else v) for k, v in vars(st0).items()})
         system.load = body_load(car, lateral=6000.0)
-        stepper = cls(system, st, DT)
+        stepper = cls(system, st, 1e-4)
         rows, events = [], set()
-        for n in range(260):
-            system.load = body_load(car, 6000.0, 1.5 * weight(car) if 200 <= n < 230 else 0.0)
+        for n in range(200):
+            system.load = body_load(car, 6000.0, 1.5 * weight(car) if 100 <= n < 140 else 0.0)
             s = stepper.step(n)
             events.update(f"{k}{int(c)}" for k, c in enumerate(s.contact))
             rows.append(
@@ -343,8 +352,23 @@ def test_localized_is_coupled_with_creep_flange_and_lift_off(car):
     # the run has a flange contact, a lift-off and a landing
     assert {"00", "10", "21"} <= events
     coupled, localized = series
+    assert (coupled[-1, -12:] != 0).any()  # creep forces after landing
     peak = np.abs(coupled).max(axis=0)
-    assert (peak > 0).sum() > 15
     live = peak > 0
+    assert live.sum() > 15
     err = np.abs(localized - coupled).max(axis=0)[live] / peak[live]
     assert err.max() < 1e-10
+
+
+def test_explicit_creep_refuses_an_unstable_time_step(car):
+    """Lagged by one step, a wheelset's creep force is a damper of rate ``k``; ``k dt > 1`` is
+    refused with the largest admissible step (as in 2D). This wheelset's yaw: ``2 f11 b^2 /
+    (I_z v)``, about 1.5e4 1/s at 5 m/s."""
+    span = simply_supported_span(SECTION, LB, 4)
+    system = System3D(car, span, Track3D(conicity=LAM), speed=5.0, start=3.0, creep=CreepParameters())
+    st = static_state(system)
+    with pytest.raises(
+        ValueError, match=r"wheelset 'ws' are unstable at dt = 0.001 s \((lateral|yaw) .*take dt <="
+    ):
+        CoupledDynamic3D(system, st, DT)
+    LocalizedDynamic3D(system, st, 5e-5)  # k dt below 1
