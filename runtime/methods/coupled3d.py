@@ -350,7 +350,8 @@ class _Step3D:
             for what, k in rates.items():
                 if k * self.dt > CREEP_STABILITY:
                     raise ValueError(
-                        f"the explicit creep forces of wheelset {ws.name!r} are unstable at dt = {self.dt:g} s "
+                        f"the explicit creep forces of wheelset {ws.name!r} are unstable at "
+                        f"dt = {self.dt:g} s "
                         f"({what} creep damping rate {k:.4g} 1/s, k dt = {k * self.dt:.3g} > "
                         f"{CREEP_STABILITY:g}): take dt <= {CREEP_STABILITY / k:.3g} s"
                     )
