@@ -13,7 +13,6 @@ codegen/contact3d.py (``flange_gap_rates``).
 
 from __future__ import annotations
 
-import numpy as np
 import pytest
 import sympy as sp
 
