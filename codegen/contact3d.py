@@ -206,6 +206,18 @@ def gap_rates() -> tuple[tuple[sp.Expr, sp.Expr], tuple[sp.Expr, sp.Expr]]:
     return out[0], out[1]
 
 
+@cache
+def flange_gap_rates() -> tuple[tuple[sp.Expr, sp.Expr], tuple[sp.Expr, sp.Expr]]:
+    """``(g_t, g_tt)`` of the left and right flange gaps along the moving contact (as
+    :func:`gap_rates`; the gap is linear in the DOFs, its rates carry the convective terms of the
+    deck's shape functions and the alignment's slope and curvature)."""
+    out = []
+    for c in contacts():
+        g_t = time_derivative(c.flange_gap)
+        out.append((g_t, time_derivative(g_t)))
+    return out[0], out[1]
+
+
 def centred_state() -> dict[sp.Symbol, int]:
     """The nominal state: wheelset centred, deck undeformed, no irregularity."""
     state = dict.fromkeys(WHEELSET_DOFS, 0)

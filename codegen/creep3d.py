@@ -170,3 +170,52 @@ def creep_forces() -> tuple[CreepForce, CreepForce]:
         fy_sat = sp.Piecewise((sp.S.Zero, normal_load <= 0), (eps * fy, True))
         out.append(CreepForce(cr.side, fx, fy, mz, fx_sat, fy_sat, cr))
     return out[0], out[1]
+
+
+creep_fx, creep_fy, creep_spin = sp.symbols("F_cx F_cy M_csp", real=True)
+"""A contact's creep forces in its contact frame: along ``t_x``, along ``t_y`` (N) and the spin
+moment about the normal (N m), on the wheel."""
+
+
+@dataclass(frozen=True)
+class CreepLoads:
+    """Generalised forces of one contact's creep forces (:data:`creep_fx`, :data:`creep_fy`,
+    :data:`creep_spin` on the wheel; their opposites on the rail), by virtual work."""
+
+    side: str
+    wheelset: sp.Matrix
+    """4 x 1 over ``[y_w, z_w, phi_w, psi_w]``: the force's lateral and vertical components, and
+    the roll and yaw moments about the axle centre (the spin moment's components included)."""
+    deck: sp.Matrix
+    """12 x 1 over the element DOFs: the reaction at the rail point (moving with the deck as the
+    creepages' rail point: ``x = u - h theta - (e + s b) psi``, ``y``, ``z`` of
+    :func:`svbi.codegen.contact3d.rail_point`) and the spin moment's reaction on the deck's
+    twist, pitch (about ``-y``) and yaw."""
+
+
+@cache
+def creep_loads() -> tuple[CreepLoads, CreepLoads]:
+    """The generalised creep loads of both contacts on the wheelset and the deck element: the
+    virtual work ``f . dr_wheel + M_sp n . dtheta_wheel - f . dr_rail - M_sp n . dtheta_deck``."""
+    n = frame3d.shape_functions()
+    _, _, phi_d = c3.deck_section()
+    u_d = (n["u"] * c3.UE)[0, 0]
+    theta_d = (frame3d.d_dx(n["w"]) * c3.UE)[0, 0]
+    psi_d = (frame3d.d_dx(n["v"]) * c3.UE)[0, 0]
+    out = []
+    for cr, contact in zip(creepages(), c3.contacts(), strict=True):
+        f = creep_fx * cr.t_x + creep_fy * cr.t_y
+        moment = creep_spin * cr.normal
+        r = sp.Matrix(contact.position)
+        about_centre = r.cross(f) + moment
+        wheelset = sp.Matrix([f[1], f[2], about_centre[0], about_centre[2]])
+        y_rail, z_rail = contact.rail
+        x_rail = u_d - c3.h_rail * theta_d - (c3.ecc + contact.sign * c3.b) * psi_d
+        rail = sp.Matrix([x_rail, y_rail, z_rail])
+        turn = sp.Matrix([phi_d, -theta_d, psi_d])
+        work = -(f.T * rail)[0, 0] - (moment.T * turn)[0, 0]
+        # the rail point and the deck's rotations are linear in the element DOFs: the coefficient
+        # of each DOF in the virtual work is its generalised force
+        deck = sp.Matrix([sp.diff(work, u) for u in c3.UE])
+        out.append(CreepLoads(cr.side, wheelset, deck))
+    return out[0], out[1]

@@ -25,7 +25,7 @@ from __future__ import annotations
 import numpy as np
 
 from ..model.system3d import System3D
-from .coupled3d import NEWTON_ITERATIONS, Convergence, State3D, _Step3D
+from .coupled3d import NEWTON_ITERATIONS, PER_WHEELSET, Convergence, State3D, _Step3D
 
 
 class LocalizedDynamic3D(_Step3D):
@@ -34,66 +34,70 @@ class LocalizedDynamic3D(_Step3D):
     name = "localized-dynamic-3d"
 
     def __init__(
-        self, system: System3D, state: State3D, time_step: float, kappa: float = 1.0, zeta: float = 1.0
+        self,
+        system: System3D,
+        state: State3D,
+        time_step: float,
+        kappa: float = 1.0,
+        zeta: float = 1.0,
+        normal: str = "unilateral",
     ) -> None:
-        super().__init__(system, state, time_step, kappa, zeta)
+        super().__init__(system, state, time_step, kappa, zeta, normal)
         span, veh, nm, f = system.span, system.vehicle, self.nm, self.asm.free
         # the compliances, inverted once (small dense matrices, as the 2D stepper's vehicles)
         self.A_V = np.linalg.inv(nm.effective(veh.K, veh.C, veh.M))
         self.S_B = np.linalg.inv(nm.effective(span.K, self.CB, span.M)[np.ix_(f, f)])
 
-    def step(self, n: int) -> State3D:
-        """Advance from t_n to t_{n+1} = (n + 1) dt."""
-        sys_, st, asm = self.system, self.state, self.asm
+    def _solve(
+        self, t: float, loc: list, hist_V: tuple, hist_B: tuple, fV: np.ndarray, fB: np.ndarray
+    ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        st, asm, act = self.state, self.asm, self.active
         f = asm.free
         nm = self.nm
-        t, hist_V, hist_B, fV, fB = self._loads(n)
         (PtV, QtV), (PB, QB) = hist_V, hist_B
         # predictors: each subsystem alone, no contact force
         dq0 = self.A_V @ fV
         uf0 = self.S_B @ fB
-        loc = sys_.contact_location(t)
-        nP = 2 * asm.nW
+        nC = asm.nC
         dq = dq0.copy()
         u = np.zeros_like(st.u)
         u[f] = uf0
-        P = st.P.copy()
-        self.iterations = 0
+        lam = np.where(act.active, st.forces(), 0.0)
+        free = np.flatnonzero(~act.active)
         converged = Convergence()
         for _ in range(NEWTON_ITERATIONS):
             self.iterations += 1
             q = st.q + dq
             qd, qdd = nm.update_increment(dq, PtV, QtV)
             ud, udd = nm.update(u, PB, QB)
-            GV = np.zeros((nP, asm.nV))  # force directions
-            GB = np.zeros((nP, asm.nF))
-            JV = np.zeros((nP, asm.nV))  # constraint rows
-            JB = np.zeros((nP, asm.nF))
-            E = np.zeros(nP)
-            for w, (e, xi) in enumerate(loc):
-                k = self.kernels[w]
+            rows = self._rows_at(loc, q, qd, qdd, u, ud, udd, hessian=False)
+            GV, GB = self._directions(rows, loc)  # force directions
+            JV = np.zeros((nC, asm.nV))  # constraint rows
+            JB = np.zeros((nC, asm.nF))
+            E = np.zeros(nC)
+            for w, (e, _) in enumerate(loc):
                 cols = asm.columns(w, e)
-                z, zd, zdd = (asm.z(w, e, a, b) for a, b in ((q, u), (qd, ud), (qdd, udd)))
-                grad = k.gradient(z, xi)
-                jac = k.residual_jacobian(z, zd, zdd, xi, nm.a1, nm.a0)
-                E[2 * w : 2 * w + 2] = k.residual(z, zd, zdd, xi)
                 veh_cols, deck = cols[:4], cols[4:]
                 on = deck >= 0
-                r = slice(2 * w, 2 * w + 2)
-                GV[r, veh_cols] = grad[:, :4]
-                JV[r, veh_cols] = jac[:, :4]
-                GB[r, deck[on] - asm.oB] = grad[:, 4:][:, on]
-                JB[r, deck[on] - asm.oB] = jac[:, 4:][:, on]
+                for k in range(PER_WHEELSET):
+                    i = PER_WHEELSET * w + k
+                    jac, E[i] = rows[w].row(k, bool(act.landing[i]))
+                    JV[i, veh_cols] = jac[:4]
+                    JB[i, deck[on] - asm.oB] = jac[4:][on]
             AV = self.A_V @ GV.T  # vehicle response to unit contact forces
             SB = self.S_B @ GB.T  # span response
             interface = JV @ AV + JB @ SB
             rhs = -E + JV @ (dq - dq0) + JB @ (u[f] - uf0)
-            P_new = np.linalg.solve(interface, rhs)
-            dq_new = dq0 + AV @ P_new
-            uf_new = uf0 + SB @ P_new
+            # a contact out of the active set carries no force
+            interface[free] = 0.0
+            interface[free, free] = 1.0
+            rhs[free] = 0.0
+            lam_new = np.linalg.solve(interface, rhs)
+            dq_new = dq0 + AV @ lam_new
+            uf_new = uf0 + SB @ lam_new
             change = max(np.abs(dq_new - dq).max(), np.abs(uf_new - u[f]).max())
-            dq, P = dq_new, P_new
+            dq, lam = dq_new, lam_new
             u[f] = uf_new
             if converged(change, max(np.abs(st.q + dq).max(), np.abs(u).max())):
                 break
-        return self._commit(t, dq, u, P, hist_V, hist_B)
+        return dq, u, lam

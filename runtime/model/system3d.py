@@ -14,8 +14,9 @@ the cache of the 2D topology files), which takes SymPy at that first set-up only
 from __future__ import annotations
 
 import types
-from collections.abc import Mapping
-from dataclasses import dataclass, field
+from collections.abc import Callable, Mapping
+from dataclasses import dataclass, field, replace
+from functools import cache
 from pathlib import Path
 from typing import Any
 
@@ -23,6 +24,8 @@ import numpy as np
 
 from ...codegen.plain_types import TopologyError, builtin_topologies_3d
 from ..toolchain import python_module_3d
+from .creep_law import CreepParameters
+from .kalker3d import kalker_coefficients
 from .kernels import CONTACT3D, load, load_path
 from .span3d import Deck3D
 
@@ -43,6 +46,10 @@ class Track3D:
     """Lateral offset ``e_t`` of the track centreline from the deck's shear centre (positive left)."""
     rail_height: float = 0.0
     """Height ``h_t`` of the rail top above the deck's shear centre."""
+    flange_clearance: float = 0.005
+    """Lateral flange clearance ``c_f`` per side of the centred wheelset (m). Default 5 mm: half of
+    the standard gauge less the back-to-back distance and two flange thicknesses of new wheels,
+    ``(1435 - (1360 + 2 x 32.5)) / 2`` mm (assumed: no 3D topology carries its own)."""
 
 
 @dataclass(frozen=True)
@@ -298,6 +305,164 @@ class ContactKernel3D:
         return np.asarray(self._call("creepage_rate_gradients", z, zd, None, xi)).reshape(2, 3, NZ)
 
 
+# --------------------------------------------------------------------------------------------------
+# Creep forces: the callables of the creep law (Kalker's coefficients under a normal load, the
+# saturated forces of both contacts, their generalised loads), lambdified in this one place, the
+# SymPy import deferred to the first use. The flange gaps are the generated kernels of
+# ContactKernel3D.
+
+
+@cache
+def _creep_callables() -> dict[str, Callable[..., Any]]:
+    """Lambdified once per process: ``creep_left``/``creep_right`` (the saturated ``F_x``, ``F_y``
+    and the spin moment of Kalker's law), ``kalker`` (``f11, f22, f23`` under a normal load) and
+    ``loads`` (the generalised creep loads of both contacts over ``z``)."""
+    import sympy as sp  # noqa: PLC0415 - the creep law's expressions, until they are emitted
+
+    from ...codegen import contact3d as c3  # noqa: PLC0415
+    from ...codegen import creep as creep2d  # noqa: PLC0415
+    from ...codegen import creep3d  # noqa: PLC0415
+    from ...codegen.beam import le as LE  # noqa: PLC0415
+    from ...codegen.beam import xi as XI  # noqa: PLC0415
+
+    c1, c0 = sp.symbols("c1 c0", real=True)
+    state = (
+        *c3.WHEELSET_DOFS,
+        *c3.WHEELSET_RATES,
+        *c3.WHEELSET_ACCELERATIONS,
+        *c3.UE,
+        *c3.UE_T,
+        *c3.UE_TT,
+        XI,
+    )
+    params = (c3.r0, c3.b, c3.lam, c3.ecc, c3.h_rail, c3.v, LE, c1, c0, c3.clearance)
+    rough = (*c3.IRREGULARITIES, *c3.IRREGULARITY_SLOPES, *c3.IRREGULARITY_CURVATURES)
+    args = (*state, *params, *rough)
+    law_args = (creep3d.f11, creep3d.f22, creep3d.f23, creep3d.normal_load, creep2d.friction)
+    material = (*creep2d.PARAMETERS, creep3d.kalker_c22, creep3d.kalker_c23)
+    forces = (creep3d.creep_fx, creep3d.creep_fy, creep3d.creep_spin)
+
+    def fn(exprs: list[Any], extra: tuple[Any, ...] = ()) -> Callable[..., Any]:
+        return sp.lambdify((*args, *extra), exprs, "numpy", cse=True)
+
+    out: dict[str, Callable[..., Any]] = {}
+    for force in creep3d.creep_forces():
+        out[f"creep_{force.side}"] = fn([force.fx, force.fy, force.spin_moment], law_args)
+    kalker = creep3d.kalker_coefficients()
+    out["kalker"] = sp.lambdify(
+        (creep3d.normal_load, *material), [kalker[k] for k in (creep3d.f11, creep3d.f22, creep3d.f23)]
+    )
+    loads = [e for ld in creep3d.creep_loads() for e in (*ld.wheelset, *ld.deck)]
+    out["loads"] = fn(loads, forces)
+    out["material_names"] = tuple(p.name for p in creep2d.PARAMETERS)  # type: ignore[assignment]
+    return out
+
+
+class FlangeCreepKernel3D:
+    """Both flange gaps and both contacts' creep forces of one wheelset on a deck element, as
+    NumPy callables (the counterpart of :class:`ContactKernel3D` for the flange and the creep law).
+
+    ``flange_*``: as :class:`ContactKernel3D`'s ``gap``, ``gradient``, ``residual``,
+    ``residual_jacobian`` for ``g_F,s = c_f - s (y_w - y_r)``; ``creep``: the creep forces of both
+    contacts under their normal loads and their generalised loads on ``z``.
+    """
+
+    def __init__(
+        self,
+        wheelset: Wheelset,
+        track: Track3D,
+        element_length: float,
+        speed: float,
+        c1: float,
+        c0: float,
+        creep: CreepParameters | None = None,
+    ) -> None:
+        self._contact = ContactKernel3D(
+            wheelset, track, element_length, speed, c1, c0, flange_clearance=track.flange_clearance
+        )
+        self._params = [
+            wheelset.radius,
+            wheelset.half_gauge,
+            track.conicity,
+            track.eccentricity,
+            track.rail_height,
+            speed,
+            element_length,
+            c1,
+            c0,
+            track.flange_clearance,
+            *[0.0] * 9,  # no irregularity
+        ]
+        self._material: list[float] | None = None
+        self.friction = 0.0
+        if creep is not None:
+            self._fn = _creep_callables()
+            creep = replace(creep, wheel_radius=wheelset.radius)
+            named = creep.named_values()
+            m, n = creep.hertz
+            _, c22, c23 = kalker_coefficients(m / n, creep.poisson_ratio)
+            self._material = [*(named[name] for name in self._fn["material_names"]), c22, c23]
+            self.friction = creep.friction
+
+    def _call(self, name: str, args: list[Any], shape: tuple[int, ...], extra: tuple = ()) -> np.ndarray:
+        out = self._fn[name](*args, *self._params, *extra)
+        return np.array([np.broadcast_to(np.asarray(o), shape) for o in out])
+
+    @staticmethod
+    def _args(z: np.ndarray, zd: np.ndarray, zdd: np.ndarray, xi: Any) -> list[Any]:
+        return [*z[:4], *zd[:4], *zdd[:4], *z[4:], *zd[4:], *zdd[4:], xi]
+
+    def flange_gap(self, z: np.ndarray, xi: float) -> np.ndarray:
+        """``[g_F,left, g_F,right]``."""
+        return self._contact.flange_gap(z, xi)
+
+    def flange_gradient(self, z: np.ndarray, xi: float) -> np.ndarray:
+        """2 x 16 (the gap is linear in ``z``: no Hessian)."""
+        return self._contact.flange_gradient(z, xi)
+
+    def flange_residual(self, z: np.ndarray, zd: np.ndarray, zdd: np.ndarray, xi: float) -> np.ndarray:
+        """``[E_F,left, E_F,right]``, ``E = g'' + c1 g' + c0 g``."""
+        return self._contact.flange_residual(z, zd, zdd, xi)
+
+    def flange_residual_jacobian(
+        self, z: np.ndarray, zd: np.ndarray, zdd: np.ndarray, xi: float, a1: float, a0: float
+    ) -> np.ndarray:
+        """2 x 16: the derivative of ``E_F`` along ``z_{n+1}`` with Newmark's rates."""
+        return self._contact.flange_residual_jacobian(z, zd, zdd, xi, a1, a0)
+
+    def coefficients(self, normal: float) -> tuple[float, float, float]:
+        """Kalker's ``f11, f22, f23`` under the normal load ``normal`` (> 0)."""
+        if self._material is None:
+            return 0.0, 0.0, 0.0
+        f11, f22, f23 = self._fn["kalker"](normal, *self._material)
+        return float(f11), float(f22), float(f23)
+
+    @property
+    def creeps(self) -> bool:
+        return self._material is not None
+
+    def creep(
+        self, z: np.ndarray, zd: np.ndarray, xi: float, normal: np.ndarray
+    ) -> tuple[np.ndarray, np.ndarray]:
+        """``(forces, load)``: each contact's ``[F_x, F_y, M_sp]`` (2 x 3, contact frame, on the
+        wheel; zero for a contact with ``N <= 0``) and their generalised load on ``z`` (16)."""
+        forces = np.zeros((2, 3))
+        if self._material is None:
+            return forces, np.zeros(NZ)
+        args = self._args(z, zd, np.zeros(NZ), xi)
+        for k, side in enumerate(("left", "right")):
+            if normal[k] <= 0.0:
+                continue
+            f11, f22, f23 = self._fn["kalker"](normal[k], *self._material)
+            law = (f11, f22, f23, normal[k], self.friction)
+            forces[k] = self._call(f"creep_{side}", args, (), law)
+        load = np.zeros(NZ)
+        for k in range(2):
+            per = self._call("loads", args, (), tuple(forces[k])).reshape(2, NZ)
+            load += per[k]
+        return forces, load
+
+
 @dataclass
 class System3D:
     """One 3D car on one simply supported 3D span, bilateral contact (docs/three-d.md)."""
@@ -314,6 +479,10 @@ class System3D:
     """A constant external load on the vehicle DOFs (N, N m), besides gravity."""
     bridge_damping: np.ndarray | None = None
     """The span's damping matrix (default none)."""
+    creep: CreepParameters | None = None
+    """Wheel-rail material and friction of the creep forces (Kalker with Shen-Hedrick-Elkins
+    saturation, :mod:`svbi.codegen.creep3d`; the wheel radius is each wheelset's own); None: no
+    creep."""
 
     def __post_init__(self) -> None:
         # the contact kernels take one element length (``span.element_length`` raises for a deck
