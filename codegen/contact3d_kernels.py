@@ -198,8 +198,10 @@ def kalker_coefficients() -> list[sp.Expr]:
 @cache
 def creep_law() -> list[sp.Expr]:
     """The saturated ``[F_x, F_y]`` and the spin moment of one contact in its creepages
-    (:func:`svbi.codegen.creep3d.saturated_law`), Kalker's coefficients under its load."""
+    (:func:`svbi.codegen.creep3d.saturated_law`), Kalker's coefficients under its load; all three
+    zero for a contact out of load (``N <= 0``)."""
     _, _, mz, fx, fy = creep3d.saturated_law(*CREEPAGE)
+    mz = sp.Piecewise((sp.S.Zero, creep3d.normal_load <= 0), (mz, True))
     f = dict(zip((creep3d.f11, creep3d.f22, creep3d.f23), kalker_coefficients(), strict=True))
     return [e.xreplace(f) for e in (fx, fy, mz)]
 
@@ -306,8 +308,8 @@ LAW_GROUPS: list[Group] = [
     ),
     Group(
         "creep_forces",
-        "Saturated creep forces [F_x, F_y] (Kalker, Shen-Hedrick-Elkins; zero for N <= 0) and the "
-        "unsaturated spin moment M_sp of one contact, on the wheel in its contact frame",
+        "Saturated creep forces [F_x, F_y] (Kalker, Shen-Hedrick-Elkins) and the unsaturated spin "
+        "moment M_sp of one contact, on the wheel in its contact frame (all zero for N <= 0)",
         lambda: [("F", sp.Matrix(creep_law()))],
         LAW_INPUTS,
         LAW_SAMPLE,
