@@ -287,7 +287,7 @@ def track_geometry_3d(scenario: Scenario) -> TrackGeometry3D:
     """``[contact]`` conicity and flange clearance (given, else the vehicle's parameters of those
     names, else :data:`CONICITY_DEFAULT` and :data:`FLANGE_CLEARANCE_DEFAULT`), ``[bridge]``
     track eccentricity (default 0) and rail height."""
-    from ..model.system3d import load_topology3d  # deferred: SymPy, for 3D scenarios only
+    from ..toolchain import load_topology3d  # SymPy on call, for 3D scenarios only
 
     params = load_topology3d(vehicle_ref(scenario)).parameters
     given = scenario.train.parameters

@@ -775,7 +775,7 @@ def _keys_3d_in_2d(s: Scenario) -> Iterable[tuple[str, str]]:
 
 def _three_d_problems(s: Scenario) -> Iterable[tuple[str, str]]:
     """The checks of a 3D scenario: its vehicle topology and parameters, the 3D section keys."""
-    from ..model.system3d import load_topology3d  # deferred: SymPy, for 3D scenarios only
+    from ..toolchain import load_topology3d  # SymPy on call, for 3D scenarios only
 
     t, b = s.train, s.bridge
     if t.hslm is not None:
