@@ -545,7 +545,10 @@ def simulate3d(
         for n in range(run.steps):
             st = stepper.step(n)
             if not (np.isfinite(st.q).all() and np.isfinite(st.u).all() and np.isfinite(st.P).all()):
-                message = f"the 3D step diverged at t = {st.t:.6g} s (step {n + 1} of {run.steps}): non-finite state"
+                message = (
+                    f"the 3D step diverged at t = {st.t:.6g} s (step {n + 1} of {run.steps}): "
+                    "non-finite state"
+                )
                 break
             recorder.record(st, stepper.gaps)
             if bar is not None and (n + 1) % every == 0:
