@@ -312,6 +312,8 @@ class _Recorder3D:
         self.lam = math.atan(sys_.track.conicity)
         self.h_t = sys_.track.rail_height
         self.ws = veh.wheelsets
+        self.start = sys_.start
+        self.offsets = np.array([w.offset for w in veh.wheelsets])
         nw = len(self.ws)
         c, a = run.cars, run.per_car
         self.steps = 0
@@ -335,6 +337,7 @@ class _Recorder3D:
             "carbody_az": np.zeros((rows, c)),
             "carbody_pitch": np.zeros((rows, c)),
             "normal_gap": np.zeros((rows, nw * 2)),
+            "wheelset_position": np.zeros((rows, nw)),
             "pier_top_ux": np.zeros((rows, len(self.pier_u))),
         }
         self.shape = (c, a)
@@ -378,6 +381,7 @@ class _Recorder3D:
                 if "theta" in body:
                     d["carbody_pitch"][k, c] = st.q[body["theta"]] - self.q_rigid[body["theta"]]
             d["normal_gap"][k] = gaps()
+            d["wheelset_position"][k] = self.start + sys_.speed * st.t - self.offsets
             if len(self.pier_u):
                 d["pier_top_ux"][k] = st.u[self.pier_u]
             self.count += 1
@@ -482,6 +486,11 @@ class _Recorder3D:
                     "m",
                     "normal gap between the wheel's cone and its rail (held at 0 by the contact constraint)",
                 ),
+            ),
+            "wheelset_position": (
+                ("time", "car", "wheel"),
+                d["wheelset_position"].reshape(k, c, a),
+                at("m", "position of the wheelset along the deck, from the first abutment"),
             ),
         }
         coords: dict[str, Any] = {"end": ("end", np.array(["left", "right"], dtype=object))}
