@@ -83,7 +83,7 @@ def run_extent(
 
 def build_model(scenario: Scenario, hold_train: bool = False) -> Model:
     """Numbers for everything: bridge, train, excitations and solver settings."""
-    if scenario.dimensions == 3:  # checked and `svbi modes`, never a run that is not one
+    if scenario.dimensions == 3:  # the 3D run builds its own model (run/simulate3d.py)
         message = NOT_RUN_3D.format(vehicle=scenario.train.vehicle, file=scenario.source or "FILE")
         raise ScenarioError([Problem("train.vehicle", message, scenario.source)], scenario.source)
     refused = scenario.bridge.long_form_problems()
@@ -168,7 +168,7 @@ def _ground(scenario: Scenario, duration: float) -> Ground:
 
 
 # --------------------------------------------------------------------------------------------------
-# 3D scenarios (docs/three-d.md): their sections and track geometry; not run yet
+# 3D scenarios (docs/three-d.md): their sections and track geometry (run/simulate3d.py builds the run)
 
 
 def _shear(table: Any, fallback: Any, youngs_modulus: float) -> tuple[float, float | None]:

@@ -939,7 +939,7 @@ def vehicle_topology(s: Scenario):  # noqa: ANN201 - Topology, imported lazily
 
 def time_step_warnings(s: Scenario) -> list[str]:
     """Warn when the time step does not resolve the fastest vehicle mode on rigid track (2D
-    vehicles; a 3D scenario is not run yet)."""
+    vehicles; the 3D run does not check its time step yet)."""
     if s.dimensions == 3:
         return []
     topo = vehicle_topology(s)
