@@ -14,13 +14,19 @@ are recorded every ``output_every`` steps and given to
 :func:`~svbi.runtime.run.results3d.dataset3d` as its ``base``.
 
 What the 3D step cannot do yet is refused before anything is built, in one line naming the key
-(:class:`NotRun3D`): an earthquake, rail irregularities, ``coupled-classic``, unilateral contact, a
-braking or accelerating train, ``train.initial = "rigid-track"``, a wheelset off the deck at any
+(:class:`NotRun3D`): an earthquake, ``coupled-classic``, unilateral contact, a braking or
+accelerating train, ``train.initial = "rigid-track"``, a wheelset off the deck at any
 time of the run (no approach track in 3D), spans whose elements differ in length. A
 ``solver.backend`` other than ``numpy`` runs on NumPy with a
 :class:`~svbi.runtime.backends.base.BackendFallback` warning; ``contact.creep = true`` runs without
 creep forces (the 3D step has none yet) with a :class:`NoCreep3D` warning, and the creep and flange
 forces of the results are zero.
+
+Rail irregularities (``[track]``) are set on the step's contact kernels (their ``irregularity``
+argument) under each wheelset at t_{n+1} before each step: a German spectrum gives the vertical
+profile (the 2D run's table), the alignment and the cross-level; a measured profile its vertical
+column. The static state at t = 0 is on level track (a spectral profile's onset ramp starts at the
+leading wheelset, so every wheel stands on level rail then).
 """
 
 from __future__ import annotations
@@ -35,12 +41,27 @@ import numpy as np
 
 from ... import __version__
 from ..backends.base import BackendFallback
+from ..excitation.irregularity import (
+    GermanSpectrum,
+    Irregularity,
+    OnsetRamp,
+    SpectralIrregularity,
+    measured_profile_3d,
+)
 from ..methods.coupled3d import CoupledDynamic3D, State3D, static_state
 from ..methods.localized3d import LocalizedDynamic3D
 from ..model.bridge3d import Bridge3D
 from ..model.system3d import System3D, Track3D, Vehicle3DNumeric, vehicle3d
 from ..model.train3d import train3d
-from ..scenario.build import TrackGeometry3D, bridge_from_scenario, piers_3d, section3d, track_geometry_3d
+from ..scenario.build import (
+    IRREGULARITY_TABLE_DIVISIONS,
+    TrackGeometry3D,
+    bridge_from_scenario,
+    irregularity_table,
+    piers_3d,
+    section3d,
+    track_geometry_3d,
+)
 from ..scenario.limits import vehicle_ref
 from ..scenario.schema import Scenario
 from ..toolchain import load_topology3d
@@ -57,6 +78,10 @@ CONTACT_MODEL = (
     "the 3D step yet: zero in the results)"
 )
 """The ``contact_model`` attribute of a 3D run's results."""
+COMPONENTS = ("vertical", "alignment", "cross-level")
+"""The irregularity components, in the order of the contact kernels' ``[r_v, r_a, r_c]``."""
+RAMP_LENGTH = 20.0
+"""m: the onset ramp of a spectral irregularity, from the leading axle at t = 0 (as in 2D)."""
 
 
 class NotRun3D(ValueError):
@@ -89,6 +114,22 @@ class Run3D:
     steps: int
     carbody: list[dict[str, int]]
     """Per car: the vehicle index of its car body's ``y``, ``z``, ``phi``, ``theta`` (those it has)."""
+    irregularity: dict[str, Irregularity]
+    """The rail's irregularities by component (``vertical``, ``alignment``, ``cross-level``: those
+    the track has; empty without)."""
+
+    def irregularity_at(self, t: float) -> np.ndarray:
+        """``(wheelsets, 9)``: ``[r_v, r_a, r_c]``, their slopes and curvatures along x under each
+        wheelset at ``t`` (the contact kernels' irregularity argument)."""
+        sys_ = self.system
+        x = sys_.start + sys_.speed * t - np.array([w.offset for w in sys_.vehicle.wheelsets])
+        out = np.zeros((x.size, 9))
+        for j, name in enumerate(COMPONENTS):
+            if name in self.irregularity:
+                r = self.irregularity[name].evaluate(x)
+                for d in range(3):
+                    out[:, 3 * d + j] = r[d]
+        return out
 
 
 def refuse(scenario: Scenario) -> None:
@@ -104,11 +145,6 @@ def refuse(scenario: Scenario) -> None:
             "earthquake",
             "support motion is not in the 3D step yet: a 3D scenario runs without [earthquake] "
             "(remove the table or set its components to 'none')",
-        )
-    if scenario.track.irregularity != "none":
-        raise no(
-            "track.irregularity",
-            "rail irregularities are not in the 3D run yet: set track.irregularity = 'none'",
         )
     if ss.method not in STEPS_3D:
         raise no(
@@ -233,7 +269,42 @@ def build_run3d(scenario: Scenario, hold_train: bool = False) -> Run3D:
     g = track_geometry_3d(scenario)
     track = Track3D(conicity=g.conicity, eccentricity=g.eccentricity, rail_height=g.rail_height)
     system = System3D(train, bridge, track, speed=speed, start=start, bridge_damping=bridge.C)
-    return Run3D(bridge, system, g, ts.cars, per_car, duration, steps, _carbody(train, ts.cars))
+    irregularity = irregularities_3d(scenario, speed, duration, steps * ss.time_step)
+    return Run3D(bridge, system, g, ts.cars, per_car, duration, steps, _carbody(train, ts.cars), irregularity)
+
+
+def irregularities_3d(
+    scenario: Scenario, speed: float, duration: float, end_time: float
+) -> dict[str, Irregularity]:
+    """The rail's irregularities of ``[track]`` by component. A German spectrum gives all three
+    (the vertical profile the 2D run's own table, the alignment and cross-level their spectra of the
+    same seed, each with the 2D run's onset ramp from ``train.start_position`` and its table
+    spacing); a measured profile file its vertical column (2D profile files carry no other)."""
+    spec = scenario.track
+    if spec.irregularity == "none":
+        return {}
+    if spec.is_profile:
+        return dict(measured_profile_3d(scenario.resolve_path(spec.irregularity)))
+    x0 = float(scenario.train.start_position)
+    travel = max(speed * duration, 1.0)
+    dx = spec.wavelength_min / IRREGULARITY_TABLE_DIVISIONS
+    x1 = x0 + max(speed * end_time, 1.0) + 4 * dx
+    band = (spec.wavelength_min, spec.wavelength_max)
+    out: dict[str, Irregularity] = {
+        "vertical": irregularity_table(spec.irregularity, spec.seed, travel, *band, x0, x1, dx)
+    }
+    level = "low" if spec.irregularity == "german-low" else "high"
+    for name in COMPONENTS[1:]:
+        exact = SpectralIrregularity(
+            GermanSpectrum(level, name),  # type: ignore[arg-type]
+            seed=spec.seed,
+            length=travel,
+            wavelength_min=band[0],
+            wavelength_max=band[1],
+            ramp=OnsetRamp(start=x0, length=RAMP_LENGTH),
+        )
+        out[name] = exact.tabulate(x0, x1, dx)
+    return out
 
 
 def rigid_track_statics(vehicle: Vehicle3DNumeric) -> tuple[np.ndarray, np.ndarray]:
@@ -342,8 +413,9 @@ class _Recorder3D:
         }
         self.shape = (c, a)
 
-    def record(self, st: State3D, gaps: Any) -> None:
-        """Row ``self.steps`` of the histories from the state; ``gaps`` (a callable) at outputs."""
+    def record(self, st: State3D, gaps: Any, irregularity: np.ndarray) -> None:
+        """Row ``self.steps`` of the histories from the state; ``gaps`` (a callable) at outputs;
+        ``irregularity`` (wheelsets x 9) under the wheelsets at the state's time."""
         i = self.steps
         sys_, run = self.run.system, self.run
         b = run.bridge
@@ -355,9 +427,10 @@ class _Recorder3D:
             _, rphi = rows["phi"]
             ue = st.u[dofs]
             phi_d = float(rphi @ ue)
-            y_r = float(rv @ ue) - self.h_t * phi_d
+            y_r = float(rv @ ue) - self.h_t * phi_d + irregularity[w, 1]  # the track centreline
+            phi_t = phi_d + irregularity[w, 2]  # the track plane's roll: the deck's and the cross-level
             self.lateral[i, w] = st.q[ws.dofs[0]] - y_r
-            self.angle[i, 2 * w : 2 * w + 2] = self.lam + SIDE_SIGN * (st.q[ws.dofs[2]] - phi_d)
+            self.angle[i, 2 * w : 2 * w + 2] = self.lam + SIDE_SIGN * (st.q[ws.dofs[2]] - phi_t)
         for k, body in enumerate(run.carbody):
             if "y" in body:
                 self.ay[i, k] = st.qdd[body["y"]]
@@ -545,13 +618,20 @@ def simulate3d(
     stepper = STEPS_3D[ss.method](system, state, ss.time_step, ss.constraint_kappa, ss.constraint_zeta)
     every = ss.output_every
     recorder = _Recorder3D(run, state, run.steps + 1, every)
-    recorder.record(stepper.state, stepper.gaps)
+    level = run.irregularity_at(0.0)
+    for kernel, r in zip(stepper.kernels, level, strict=True):
+        kernel.irregularity = r  # the kernels' irregularity argument (zero when the track has none)
+    recorder.record(stepper.state, stepper.gaps, level)
     bar = _Progress(run.steps) if progress else None
     message = ""
     interrupted: KeyboardInterrupt | None = None
     t_loop = time.perf_counter()
     try:
         for n in range(run.steps):
+            if run.irregularity:  # under each wheelset at t_{n+1}, where the step imposes its gaps
+                level = run.irregularity_at((n + 1) * ss.time_step)
+                for kernel, r in zip(stepper.kernels, level, strict=True):
+                    kernel.irregularity = r
             st = stepper.step(n)
             if not (np.isfinite(st.q).all() and np.isfinite(st.u).all() and np.isfinite(st.P).all()):
                 message = (
@@ -559,7 +639,7 @@ def simulate3d(
                     "non-finite state"
                 )
                 break
-            recorder.record(st, stepper.gaps)
+            recorder.record(st, stepper.gaps, level)
             if bar is not None and (n + 1) % every == 0:
                 bar.update(every)
     except np.linalg.LinAlgError as exc:

@@ -162,3 +162,46 @@ def test_static_wheel_loads_carry_the_car() -> None:
     weight = (32000.0 + 2 * 2615.0 + 4 * 1813.0) * G
     assert q0.sum() == pytest.approx(weight, rel=1e-12)
     assert np.allclose(q0, q0[0], rtol=1e-12)  # a symmetric car, its pitch balanced: every wheel alike
+
+
+def test_a_measured_vertical_profile_is_the_2d_runs(tmp_path, topology: str, run2d) -> None:
+    """The rail's vertical profile under the wheelset (a measured profile file: a 1 mm cosine dip
+    4 m to 14 m along the span, level at the start) enters the 3D contact as the 2D run's: the midspan
+    deflection and the wheel forces are the 2D run's with the same file to round-off, and the dip
+    shows in them (the run differs from one on level track)."""
+    xs = np.linspace(-5.0, 40.0, 451)
+    dip = np.where((xs > 4.0) & (xs < 14.0), -0.5e-3 * (1 - np.cos(2 * np.pi * (xs - 4.0) / 10.0)), 0.0)
+    profile = tmp_path / "dip.txt"
+    profile.write_text("".join(f"{x:.6f} {r:.12e}\n" for x, r in zip(xs, dip, strict=True)), encoding="utf-8")
+    track = dict(irregularity=str(profile))
+    two = validate_scenario(
+        {
+            "bridge": bridge(),
+            "train": dict(
+                vehicle="sprung-mass",
+                speed=V,
+                parameters=dict(sprung_mass=5750.0, stiffness=1.595e6, wheel_mass=500.0, damping=0.0),
+            ),
+            "track": track,
+            "contact": dict(creep=False),
+            "solver": solver("coupled-dynamic"),
+        }
+    )
+    three = validate_scenario(
+        {
+            "bridge": bridge() | dict(lateral_second_moment=10.0, torsion_constant=5.0),
+            "train": dict(vehicle=topology, speed=V),
+            "track": track,
+            "contact": dict(creep=False, normal="bilateral", conicity=LAM),
+            "solver": solver("localized-dynamic"),
+        }
+    )
+    r2, r3 = svbi.simulate(two), svbi.simulate(three)
+    w2, w3 = r2.midspan_uz.values[:, 0], r3.midspan_uz.values[:, 0]
+    p2 = r2.contact_force.values.reshape(STEPS + 1, -1)[:, 0]
+    q3 = r3.contact_force.transpose("time", "car", "wheel", "side").values[:, 0, 0, :].sum(axis=1)
+    peak = np.abs(w2).max()
+    assert np.abs(w3 - w2).max() < 1e-11 * peak
+    assert np.abs(q3 - p2).max() < 1e-11 * p2.max()
+    level = run2d.contact_force.values.reshape(STEPS + 1, -1)[:, 0]  # the same run on level track
+    assert np.abs(q3 - level).max() > 0.01 * level.max()  # the dip shows (measured 3 %)
