@@ -560,6 +560,12 @@ class _Recorder3D:
                     "normal gap between the wheel's cone and its rail (held at 0 by the contact constraint)",
                 ),
             ),
+            "ground_uz": (
+                ("time",),
+                np.zeros(k),
+                at("m", "vertical ground displacement (at rest: no earthquake)"),
+            ),
+            "ground_ux": (("time",), np.zeros(k), at("m", "longitudinal ground displacement (at rest)")),
             "wheelset_position": (
                 ("time", "car", "wheel"),
                 d["wheelset_position"].reshape(k, c, a),

@@ -1,6 +1,6 @@
 """`svbi run` of a 3D scenario: the results file (the names and dimensions docs/scenario.md lists for a
-3D run), `svbi metrics` and `svbi check` of it, the backend fallback, and the one-line refusals (exit
-status 2, nothing written) of what the 3D run cannot do yet."""
+3D run), `svbi metrics`, `svbi check` and `svbi plot` of it, the backend fallback, and the one-line
+refusals (exit status 2, nothing written) of what the 3D run cannot do yet."""
 
 from __future__ import annotations
 
@@ -205,3 +205,12 @@ def test_what_the_3d_run_cannot_do_is_one_line_and_exit_2(
     assert len(lines) == 1, result.output
     assert lines[0].startswith(f"error: {scenario}: {key}"), lines[0]
     assert "Traceback" not in result.output and not out.exists()
+
+
+def test_plot_draws_the_3d_results(results, tmp_path: Path) -> None:
+    out, _ = results
+    figures = tmp_path / "figures"
+    result = runner.invoke(app, ["plot", str(out), "-o", str(figures)])
+    assert result.exit_code == 0, result.output
+    assert (figures / "lateral_running_safety.png").is_file()
+    assert (figures / "fig4a_midspan_uz.png").is_file()
