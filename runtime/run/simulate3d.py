@@ -270,6 +270,12 @@ def build_run3d(scenario: Scenario, hold_train: bool = False) -> Run3D:
     track = Track3D(conicity=g.conicity, eccentricity=g.eccentricity, rail_height=g.rail_height)
     system = System3D(train, bridge, track, speed=speed, start=start, bridge_damping=bridge.C)
     irregularity = irregularities_3d(scenario, speed, duration, steps * ss.time_step)
+    path = np.array([start - rear, start + speed * steps * ss.time_step - front])
+    for profile in irregularity.values():  # a measured profile must cover the wheelsets' path
+        try:
+            profile.evaluate(path)
+        except ValueError as exc:
+            raise NotRun3D("track.irregularity", str(exc), where) from None
     return Run3D(bridge, system, g, ts.cars, per_car, duration, steps, _carbody(train, ts.cars), irregularity)
 
 

@@ -214,3 +214,16 @@ def test_plot_draws_the_3d_results(results, tmp_path: Path) -> None:
     assert result.exit_code == 0, result.output
     assert (figures / "lateral_running_safety.png").is_file()
     assert (figures / "fig4a_midspan_uz.png").is_file()
+
+
+def test_a_measured_profile_that_does_not_cover_the_run_is_one_line(tmp_path: Path) -> None:
+    profile = tmp_path / "short.txt"
+    profile.write_text("".join(f"{x:.1f} 0.0\n" for x in range(0, 30)), encoding="utf-8")
+    scenario = write(tmp_path)
+    out = tmp_path / "out.nc"
+    sets = ["--set", f"track.irregularity={profile.name}", "--set", "train.start_position=25.0"]
+    result = runner.invoke(app, ["run", str(scenario), "-o", str(out), *sets])
+    assert result.exit_code == 2, result.output
+    lines = result.output.strip().splitlines()
+    assert len(lines) == 1 and "track.irregularity" in lines[0] and "outside the profile's range" in lines[0]
+    assert not out.exists()
