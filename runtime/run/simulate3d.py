@@ -14,13 +14,13 @@ are recorded every ``output_every`` steps and given to
 :func:`~svbi.runtime.run.results3d.dataset3d` as its ``base``.
 
 What the 3D step cannot do yet is refused before anything is built, in one line naming the key
-(:class:`NotRun3D`): an earthquake, ``coupled-classic``, unilateral contact, a braking or
-accelerating train, ``train.initial = "rigid-track"``, a wheelset off the deck at any
-time of the run (no approach track in 3D), spans whose elements differ in length. A
-``solver.backend`` other than ``numpy`` runs on NumPy with a
-:class:`~svbi.runtime.backends.base.BackendFallback` warning; ``contact.creep = true`` runs without
-creep forces (the 3D step has none yet) with a :class:`NoCreep3D` warning, and the creep and flange
-forces of the results are zero.
+(:class:`NotRun3D`): an earthquake, ``coupled-classic``, a braking or accelerating train,
+``train.initial = "rigid-track"``, a wheelset off the deck at any time of the run (no approach
+track in 3D), spans whose elements differ in length. A ``solver.backend`` other than ``numpy`` runs
+on NumPy with a :class:`~svbi.runtime.backends.base.BackendFallback` warning. The contact is the
+step's: ``contact.normal`` unilateral (lift-off and landing, the default) or bilateral, flange
+contact at ``contact.flange_clearance``, and with ``contact.creep`` Kalker's creep forces with
+Shen-Hedrick-Elkins saturation (``[contact]``'s material and friction, as in 2D).
 
 Rail irregularities (``[track]``) are set on the step's contact kernels (their ``irregularity``
 argument) under each wheelset at t_{n+1} before each step: a German spectrum gives the vertical
@@ -57,6 +57,7 @@ from ..scenario.build import (
     IRREGULARITY_TABLE_DIVISIONS,
     TrackGeometry3D,
     bridge_from_scenario,
+    creep_parameters,
     irregularity_table,
     piers_3d,
     section3d,
@@ -73,10 +74,8 @@ if TYPE_CHECKING:
 
 STEPS_3D = {"localized-dynamic": LocalizedDynamic3D, "coupled-dynamic": CoupledDynamic3D}
 """The 3D step of each ``solver.method`` that has one."""
-CONTACT_MODEL = (
-    "bilateral normal contact of coned wheels on knife-edge rails; no creep or flange forces (not in "
-    "the 3D step yet: zero in the results)"
-)
+CONTACT_MODEL = "coned wheels on knife-edge rails: {normal} normal contact, flange contact, {creep}"
+"""The results' ``contact_model`` attribute (filled in per run)."""
 """The ``contact_model`` attribute of a 3D run's results."""
 COMPONENTS = ("vertical", "alignment", "cross-level")
 """The irregularity components, in the order of the contact kernels' ``[r_v, r_a, r_c]``."""
@@ -90,10 +89,6 @@ class NotRun3D(ValueError):
     def __init__(self, key: str, message: str, where: str = "") -> None:
         self.key = key
         super().__init__(": ".join(p for p in (where, key, message) if p))
-
-
-class NoCreep3D(UserWarning):
-    """``contact.creep = true`` in a 3D run: the 3D step has no creep forces yet."""
 
 
 # --------------------------------------------------------------------------------------------------
@@ -150,12 +145,6 @@ def refuse(scenario: Scenario) -> None:
         raise no(
             "solver.method",
             f"{ss.method!r} has no 3D step: use 'localized-dynamic' or 'coupled-dynamic'",
-        )
-    if scenario.contact.normal != "bilateral":
-        raise no(
-            "contact.normal",
-            f"{scenario.contact.normal!r}: the 3D step holds the wheels on their rails (loss of contact "
-            "is not in it yet): set contact.normal = 'bilateral'",
         )
     if t.acceleration != 0.0:
         raise no("train.acceleration", "the 3D step runs trains at constant speed: remove it (or set 0)")
@@ -267,8 +256,21 @@ def build_run3d(scenario: Scenario, hold_train: bool = False) -> Run3D:
             where,
         )
     g = track_geometry_3d(scenario)
-    track = Track3D(conicity=g.conicity, eccentricity=g.eccentricity, rail_height=g.rail_height)
-    system = System3D(train, bridge, track, speed=speed, start=start, bridge_damping=bridge.C)
+    track = Track3D(
+        conicity=g.conicity,
+        eccentricity=g.eccentricity,
+        rail_height=g.rail_height,
+        flange_clearance=g.flange_clearance,
+    )
+    system = System3D(
+        train,
+        bridge,
+        track,
+        speed=speed,
+        start=start,
+        bridge_damping=bridge.C,
+        creep=creep_parameters(scenario),
+    )
     irregularity = irregularities_3d(scenario, speed, duration, steps * ss.time_step)
     path = np.array([start - rear, start + speed * steps * ss.time_step - front])
     for profile in irregularity.values():  # a measured profile must cover the wheelsets' path
@@ -396,6 +398,11 @@ class _Recorder3D:
         self.steps = 0
         self.time = np.zeros(capacity)
         self.normal = np.zeros((capacity, nw * 2))
+        self.flange = np.zeros((capacity, nw * 2))
+        self.fx = np.zeros((capacity, nw * 2))
+        self.fy = np.zeros((capacity, nw * 2))
+        self.tread = np.ones((capacity, nw * 2), dtype=bool)
+        self.flange_closed = np.zeros((capacity, nw * 2), dtype=bool)
         self.angle = np.zeros((capacity, nw * 2))
         self.lateral = np.zeros((capacity, nw))
         self.ay = np.zeros((capacity, c))
@@ -427,6 +434,15 @@ class _Recorder3D:
         b = run.bridge
         self.time[i] = st.t
         self.normal[i] = st.P
+        if st.flange is not None:
+            self.flange[i] = st.flange
+        if st.creep is not None:
+            self.fx[i] = st.creep[:, :, 0].reshape(-1)
+            self.fy[i] = st.creep[:, :, 1].reshape(-1)
+        if st.contact is not None:  # 4 per wheelset: normal left, right, flange left, right
+            closed = np.asarray(st.contact, dtype=bool).reshape(-1, 4)
+            self.tread[i] = closed[:, :2].reshape(-1)
+            self.flange_closed[i] = closed[:, 2:].reshape(-1)
         for w, (ws, (e, xi)) in enumerate(zip(self.ws, sys_.contact_location(st.t), strict=True)):
             rows = deck_rows(b, e, xi)
             dofs, rv = rows["v"]
@@ -470,7 +486,6 @@ class _Recorder3D:
         n = self.steps
         c, a = self.shape
         wheel = (n, c, a, 2)
-        zero = np.zeros(wheel)
         t = self.time[:n]
         pier = self.pier_uy[:n] if len(self.pier_v) else None
         return Histories3D(
@@ -478,10 +493,11 @@ class _Recorder3D:
             distance=speed * t,
             normal_force=self.normal[:n].reshape(wheel),
             contact_angle=self.angle[:n].reshape(wheel),
-            creep_longitudinal=zero,
-            creep_lateral=zero,
-            flange_force=zero,
-            flange_contact=np.zeros(wheel, dtype=bool),
+            creep_longitudinal=self.fx[:n].reshape(wheel),
+            creep_lateral=self.fy[:n].reshape(wheel),
+            flange_force=self.flange[:n].reshape(wheel),
+            flange_contact=self.flange_closed[:n].reshape(wheel),
+            in_contact=self.tread[:n].reshape(wheel),
             wheel_rail_lateral=self.lateral[:n].reshape(wheel[:3]),
             static_wheel_load=self.static_wheel_load,
             carbody_ay=self.ay[:n],
@@ -618,16 +634,11 @@ def simulate3d(
             BackendFallback,
             stacklevel=2,
         )
-    if scenario.contact.creep:
-        warnings.warn(
-            "contact.creep = true: the 3D step has no creep forces yet; this run has none (set "
-            "contact.creep = false to say so)",
-            NoCreep3D,
-            stacklevel=2,
-        )
     system = run.system
     state = static_state(system)
-    stepper = STEPS_3D[ss.method](system, state, ss.time_step, ss.constraint_kappa, ss.constraint_zeta)
+    stepper = STEPS_3D[ss.method](
+        system, state, ss.time_step, ss.constraint_kappa, ss.constraint_zeta, normal=scenario.contact.normal
+    )
     every = ss.output_every
     recorder = _Recorder3D(run, state, run.steps + 1, every)
     level = run.irregularity_at(0.0)
@@ -681,7 +692,12 @@ def simulate3d(
         "output_every": every,
         "constraint_kappa": ss.constraint_kappa,
         "constraint_zeta": ss.constraint_zeta,
-        "contact_model": CONTACT_MODEL,
+        "contact_model": CONTACT_MODEL.format(
+            normal=scenario.contact.normal,
+            creep="Kalker creep with Shen-Hedrick-Elkins saturation"
+            if scenario.contact.creep
+            else "no creep",
+        ),
         "conicity": run.geometry.conicity,
         "flange_clearance": run.geometry.flange_clearance,
         "setup_time_s": t_loop - t_start,

@@ -111,10 +111,10 @@ def build_model(scenario: Scenario, hold_train: bool = False) -> Model:
         check_start = getattr(ground, "check_start", None)
         if check_start is not None:
             check_start(train.positions(0.0))
-    return Model(bridge, train, settings, irregularity, ground, creep=_creep(scenario))
+    return Model(bridge, train, settings, irregularity, ground, creep=creep_parameters(scenario))
 
 
-def _creep(scenario: Scenario) -> CreepParameters | None:
+def creep_parameters(scenario: Scenario) -> CreepParameters | None:
     """Creep-law parameters of ``[contact]`` (None when creep is off); the wheel radius comes from
     the vehicle topology (``runtime.wheel_creep``)."""
     c = scenario.contact
