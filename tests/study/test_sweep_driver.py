@@ -221,7 +221,8 @@ def test_sigterm_stops_the_sweep_and_no_part_is_written_after(tmp_path, cluster)
 
 def test_ctrl_c_stops_a_local_sweep_without_worker_tracebacks(tmp_path):
     write(tmp_path, "base.toml", HSLM)
-    speeds = ", ".join(f"{v:.1f}" for v in np.linspace(150.0, 300.0, 10))
+    # 30 runs, interrupted after 3: on a loaded machine 10 could all finish before the signal lands
+    speeds = ", ".join(f"{v:.1f}" for v in np.linspace(150.0, 300.0, 30))
     study = write(tmp_path, "s.toml", f'scenario = "base.toml"\n[axes]\n"train.speed_kmh" = [{speeds}]\n')
     out = tmp_path / "out.nc"
     driver = subprocess.Popen(
@@ -231,6 +232,7 @@ def test_ctrl_c_stops_a_local_sweep_without_worker_tracebacks(tmp_path):
         start_new_session=True,
     )
     _wait_for_parts(out, 3, driver)
+    assert driver.poll() is None, "the sweep finished before the interrupt: give it more runs"
     os.killpg(driver.pid, signal.SIGINT)  # a terminal's Ctrl-C: the whole process group
     _, err = driver.communicate(timeout=60)
     text = err.decode()
