@@ -483,7 +483,9 @@ class _Step3D:
         ground = self.system.ground_under(t)
         out = []
         for w, (e, xi) in enumerate(loc):
-            z, zd, zdd = (asm.z(w, e, a, b, g) for a, b, g in zip((q, qd, qdd), (u, ud, udd), ground))
+            z, zd, zdd = (
+                asm.z(w, e, a, b, g) for a, b, g in zip((q, qd, qdd), (u, ud, udd), ground, strict=True)
+            )
             out.append(_rows(self.pairs[w], z, zd, zdd, xi, nm.a1, nm.a0, hessian))
         return out
 
@@ -545,7 +547,8 @@ class _Step3D:
         ground = self.system.ground_under(st.t)
         for w, (e, xi) in enumerate(loc):
             z, zd, zdd = (
-                asm.z(w, e, a, b, g) for a, b, g in zip((st.q, st.qd, st.qdd), (st.u, st.ud, st.udd), ground)
+                asm.z(w, e, a, b, g)
+                for a, b, g in zip((st.q, st.qd, st.qdd), (st.u, st.ud, st.udd), ground, strict=True)
             )
             r = slice(PER_WHEELSET * w, PER_WHEELSET * (w + 1))
             k0, f0 = self.rates_tt[w]
