@@ -115,7 +115,7 @@ def run2d(spans, start, steps, damping=0.0, ground=None):
 QUAKES = {
     "no-earthquake": None,
     "synchronous": dict(
-        vertical=bump(0.02, 2 * np.pi * 3.0, t0=0.05), longitudinal=bump(-0.03, 2 * np.pi * 2.0, t0=0.05)
+        vertical=bump(0.005, 2 * np.pi * 2.0, t0=0.05), longitudinal=bump(-0.03, 2 * np.pi * 2.0, t0=0.05)
     ),
     "wave-300m/s": dict(
         vertical=bump(0.02, 2 * np.pi * 3.0, t0=0.05, c=300.0),
@@ -193,7 +193,7 @@ def test_lateral_relative_response_of_a_span_is_the_modal_solution() -> None:
     ``omega_n = (n pi/L)^2 sqrt(E I_z/mu)``), integrated by ``solve_ivp``. Tolerance 2e-3 of the
     peak: Newmark's period error ``(omega dt)^2/12`` on the first mode (5e-5 at dt = 1e-3 s) and the
     higher modes' (3rd: 4e-3 on its 1/30 share), the discretisation's 1e-6."""
-    Iz, dt, steps = 0.05, 1e-3, 1000
+    Iz, dt, steps = 0.05, 1e-3, 500
     motion = bump(0.01, 2 * np.pi * 2.0)
     ground = FunctionGround(lateral=motion)
     b = bridge(1, 0.0, elements=16, lateral=Iz)
@@ -214,8 +214,8 @@ def test_lateral_relative_response_of_a_span_is_the_modal_solution() -> None:
             (0.0, t[-1]),
             [0.0, 0.0],
             t_eval=t,
-            rtol=1e-11,
-            atol=1e-14,
+            rtol=1e-10,
+            atol=1e-13,
         )
         return 4 / (n * np.pi) * np.sin(n * np.pi / 2) * sol.y[0]
 
