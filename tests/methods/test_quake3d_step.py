@@ -55,6 +55,22 @@ def bump(amplitude: float, omega: float, t0: float = 0.0, c: float | None = None
     return f
 
 
+def support_targets(ground, b: Bridge3D, t: float, dt: float) -> np.ndarray:
+    """The supports' Newmark-consistent targets (docs/method.md, "Support targets"), written here:
+    ``h = q - dt^2/4 q''`` of each support's component at its line, at ``t - dt``, ``t``, ``t + dt``,
+    then ``(h0 + 2 h1 + h2) / 4``; held rotations 0."""
+    x = np.array([s.x for s in b.supports])
+
+    def h(tk):
+        (vz, _, az), (vx, _, ax) = ground.motion(tk, x)
+        vy, _, ay = ground.lateral(tk, x)
+        q = {"x": vx - dt * dt / 4 * ax, "y": vy - dt * dt / 4 * ay, "z": vz - dt * dt / 4 * az}
+        return np.array([q[s.direction][i] if s.direction in q else 0.0 for i, s in enumerate(b.supports)])
+
+    h0, h1, h2 = (h(t + k * dt) for k in (-1, 0, 1))
+    return 0.25 * (h0 + 2 * h1 + h2)
+
+
 def car():
     return vehicle3d(parse_topology3d(SPRUNG_WHEELSET_3D))
 
@@ -72,8 +88,12 @@ def run3d(spans, start, steps, damping=0.0, ground=None, method=CoupledDynamic3D
     stepper = method(system, static_state(system), DT)
     mids = [b.midspan_node(s) for s in range(spans)]
     w, u, P, where = [], [], [], []
+    stepper.support_error = 0.0
     for n in range(steps):
         st = stepper.step(n)
+        if ground is not None:
+            off = np.abs(st.u[b.support_dofs] - support_targets(ground, b, st.t, DT)).max()
+            stepper.support_error = max(stepper.support_error, off)
         w.append([st.u[b.dof(m, "w")] for m in mids])
         u.append([st.u[b.dof(m, "u")] for m in mids])
         P.append(st.P.copy())
@@ -135,7 +155,7 @@ def test_crossing_from_the_approach_track_is_the_2d_run(quake) -> None:
     if spec is not None:
         g3 = FunctionGround(**spec)
         g2 = FunctionGround(**spec)
-    w3, u3, P3, where, _ = run3d(spans, start, steps, damping=0.02, ground=g3)
+    w3, u3, P3, where, stepper = run3d(spans, start, steps, damping=0.02, ground=g3)
     r2 = run2d(spans, start, steps, damping=0.02, ground=g2)
     w2 = np.asarray(r2.midspan_uz.values)[1:].reshape(steps, spans)
     u2 = np.asarray(r2.midspan_ux.values)[1:].reshape(steps, spans)
@@ -147,6 +167,12 @@ def test_crossing_from_the_approach_track_is_the_2d_run(quake) -> None:
     if spec is not None:
         assert np.abs(u2).max() > 1e-3
         assert np.abs(u3 - u2).max() < 1e-11 * np.abs(u2).max()
+        # the supports on their targets: the 2D support gaps at round-off, the 3D supports exactly
+        qmax = float(np.abs(r2.ground_uz).max())
+        assert qmax > 1e-3
+        assert float(np.abs(r2.gap_support).max()) < 1e-13 * qmax
+        largest = max(qmax, float(np.abs(r2.ground_ux).max()))
+        assert stepper.support_error < 1e-15 * largest
     assert np.abs(P3[:, 0] - P3[:, 1]).max() < 1e-11 * P2.max()
     assert np.abs(COS * (P3[:, 0] + P3[:, 1]) - P2).max() < 1e-11 * P2.max()
 
@@ -258,3 +284,12 @@ def test_localized_is_coupled_with_a_travelling_wave_and_a_crossing() -> None:
     peak = np.abs(a).max(axis=0)
     moving = peak > 1e-12
     assert (np.abs(a - b_)[:, moving].max(axis=0) < 1e-10 * peak[moving]).all()
+
+
+def test_a_ground_motion_needs_a_bridge_deck() -> None:
+    """A Span3D carries no support lines: a ground motion on it is refused at set-up."""
+    from svbi.runtime.model.span3d import Section3D, simply_supported_span
+
+    span = simply_supported_span(Section3D(E=E, A=1.0, I_y=Iy, I_z=10.0, J=5.0, mass_per_length=MU), L, 4)
+    with pytest.raises(ValueError, match="a ground motion needs a deck with supports on the ground"):
+        System3D(car(), span, ground=FunctionGround(lateral=bump(0.01, 1.0)))
