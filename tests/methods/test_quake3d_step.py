@@ -173,8 +173,12 @@ def test_crossing_from_the_approach_track_is_the_2d_run(quake) -> None:
         assert float(np.abs(r2.gap_support).max()) < 1e-13 * qmax
         largest = max(qmax, float(np.abs(r2.ground_ux).max()))
         assert stepper.support_error < 1e-15 * largest
-    assert np.abs(P3[:, 0] - P3[:, 1]).max() < 1e-11 * P2.max()
-    assert np.abs(COS * (P3[:, 0] + P3[:, 1]) - P2).max() < 1e-11 * P2.max()
+    # the forces: 1e-11 of the peak at rest (measured 1.3e-13), 1e-10 under the earthquake (measured
+    # 1.9e-12 synchronous, 9.1e-12 for the wave): they are a0-scaled differences of displacements
+    # that now carry the ground's 0.12 m, a hundred times the deflection
+    tol = 1e-11 if spec is None else 1e-10
+    assert np.abs(P3[:, 0] - P3[:, 1]).max() < tol * P2.max()
+    assert np.abs(COS * (P3[:, 0] + P3[:, 1]) - P2).max() < tol * P2.max()
 
 
 def test_the_system_translates_with_a_ground_at_constant_velocity() -> None:
