@@ -4,9 +4,10 @@ The expressions are those of :mod:`svbi.codegen.contact3d` (normal and flange ga
 two contacts on a deck element) and :mod:`svbi.codegen.creep3d` (creepages); this module only
 arranges them into named groups, each emitted as one function of ``generated/contact3d/``
 (``svbi generate --all``), so the runtime evaluates them without SymPy. Adding a group is one entry
-in :data:`GROUPS` and a regeneration.
+in :data:`GROUPS` (or :data:`LAW_GROUPS`) and a regeneration.
 
-Every group takes the same arguments, in this order (the ABI of the generated functions):
+Every group of :data:`GROUPS` takes the same arguments, in this order (the ABI of the generated
+functions):
 
 * ``q_w`` ``[y_w, z_w, phi_w, psi_w]``: the wheelset's lateral, vertical, roll and yaw;
 * ``q_w_t``, ``q_w_tt``: their rates and accelerations;
@@ -25,6 +26,16 @@ Every group takes the same arguments, in this order (the ABI of the generated fu
 A group leaves unused arguments unused. ``z = [q_w, u_e]`` (16) is the contact's own unknowns; "left"
 is side ``s = +1``, "right" ``s = -1``. Gradients, Hessians and Jacobians are derived symbolically
 (no finite or complex step at run time).
+
+The creep law of one contact (:data:`LAW_GROUPS`, :mod:`svbi.codegen.creep3d`) takes its own
+arguments (:data:`LAW_INPUTS`):
+
+* ``creepage`` ``[xi_x, xi_y, xi_sp]``: the contact's creepages (what the ``creepages`` group
+  returns for one side);
+* ``N``: its normal load (N, positive in compression);
+* ``creep`` ``[E_wr, nu_wr, R_wheel, R_rail, hertz_m, hertz_n, kalker_c11, mu_f, kalker_c22,
+  kalker_c23]``: the material, the radii, the Hertz coefficients, Kalker's ``C11``, the friction,
+  Kalker's ``C22`` and ``C23`` (:data:`svbi.codegen.creep.PARAMETERS`, then the two 3D ones).
 """
 
 from __future__ import annotations
@@ -36,11 +47,11 @@ from functools import cache
 import sympy as sp
 
 from svbi.codegen import contact3d as c3
-from svbi.codegen import creep3d
+from svbi.codegen import creep, creep3d
 from svbi.codegen.beam import le, xi
 from svbi.codegen.kernels import CONTACT3D, KernelSpec, ModelSpec, column
 
-__all__ = ["CONTACT3D", "GROUPS", "INPUTS", "contact3d_model_spec"]
+__all__ = ["CONTACT3D", "GROUPS", "INPUTS", "LAW_GROUPS", "LAW_INPUTS", "contact3d_model_spec"]
 
 c1, c0, a1, a0 = sp.symbols("c1 c0 a1 a0", real=True)
 """Stabilisation coefficients of the discrete constraints and Newmark's rate coefficients."""
@@ -137,6 +148,64 @@ def creepages() -> list[sp.Expr]:
     return [e for cr in creep3d.creepages() for e in (cr.xi_x, cr.xi_y, cr.xi_sp)]
 
 
+@cache
+def creep_load_directions() -> list[sp.Matrix]:
+    """Per side, the 16 x 3 derivative of the generalised creep loads on ``z`` (wheelset, then
+    element) over the contact's ``[F_x, F_y, M_sp]`` (:func:`svbi.codegen.creep3d.creep_loads`:
+    linear in them, so the load is this matrix times the forces)."""
+    forces = (creep3d.creep_fx, creep3d.creep_fy, creep3d.creep_spin)
+    return [_jacobian([*ld.wheelset, *ld.deck], forces) for ld in creep3d.creep_loads()]
+
+
+CREEPAGE = (creep3d.creepage_x, creep3d.creepage_y, creep3d.creepage_spin)
+"""One contact's ``[xi_x, xi_y, xi_sp]``."""
+MATERIAL = (*creep.PARAMETERS, creep3d.kalker_c22, creep3d.kalker_c23)
+"""``[E_wr, nu_wr, R_wheel, R_rail, hertz_m, hertz_n, kalker_c11, mu_f, kalker_c22, kalker_c23]``."""
+
+LAW_INPUTS: list[tuple[str, sp.ImmutableMatrix]] = [
+    ("creepage", column(CREEPAGE)),
+    ("N", column([creep3d.normal_load])),
+    ("creep", column(MATERIAL)),
+]
+"""Arguments of every creep-law group, in ABI order (see the module docstring)."""
+
+LAW_SAMPLE: dict[str, float] = {
+    "xi_cx": 1e-3,
+    "xi_cy": -2e-3,
+    "xi_csp": 0.05,
+    "N_c": 8e4,
+    "E_wr": 2.1e11,
+    "nu_wr": 0.28,
+    "R_wheel": 0.46,
+    "R_rail": 0.3,
+    "hertz_m": 1.2,
+    "hertz_n": 0.85,
+    "kalker_c11": 4.1,
+    "mu_f": 0.3,
+    "kalker_c22": 3.6,
+    "kalker_c23": 1.5,
+}
+"""A typical contact (a wheel load of 80 kN, below saturation)."""
+
+
+@cache
+def kalker_coefficients() -> list[sp.Expr]:
+    """``[f11, f22, f23]`` under the normal load (:func:`svbi.codegen.creep3d.kalker_coefficients`)."""
+    f = creep3d.kalker_coefficients()
+    return [f[creep3d.f11], f[creep3d.f22], f[creep3d.f23]]
+
+
+@cache
+def creep_law() -> list[sp.Expr]:
+    """The saturated ``[F_x, F_y]`` and the spin moment of one contact in its creepages
+    (:func:`svbi.codegen.creep3d.saturated_law`), Kalker's coefficients under its load; all three
+    zero for a contact out of load (``N <= 0``)."""
+    _, _, mz, fx, fy = creep3d.saturated_law(*CREEPAGE)
+    mz = sp.Piecewise((sp.S.Zero, creep3d.normal_load <= 0), (mz, True))
+    f = dict(zip((creep3d.f11, creep3d.f22, creep3d.f23), kalker_coefficients(), strict=True))
+    return [e.xreplace(f) for e in (fx, fy, mz)]
+
+
 def _hessians(exprs: list[sp.Expr], names: tuple[str, str]) -> list[tuple[str, sp.Matrix]]:
     out = []
     for name, e in zip(names, exprs, strict=True):
@@ -152,6 +221,10 @@ class Group:
     name: str
     doc: str
     outputs: Callable[[], list[tuple[str, sp.Matrix]]]
+    inputs: list[tuple[str, sp.ImmutableMatrix]] | None = None
+    """Its arguments; None: :data:`INPUTS`."""
+    sample: dict[str, float] | None = None
+    """A typical point of its arguments; None: :data:`SAMPLE`."""
 
 
 GROUPS: list[Group] = [
@@ -216,17 +289,45 @@ GROUPS: list[Group] = [
         "generalized-force direction of the matching creep force (the slip velocity is linear in z')",
         lambda: [("dxi_dzt", _jacobian(creepages(), Z_T))],
     ),
+    Group(
+        "creep_load_directions",
+        "Generalised loads on z of a unit [F_x, F_y, M_sp] of the left contact, then the right "
+        "(16x3 each, by virtual work: the load is this matrix times the contact's forces)",
+        lambda: [(f"B_{side}", m) for (side, _), m in zip(c3.SIDES, creep_load_directions(), strict=True)],
+    ),
 ]
-"""The groups, in emission order."""
+"""The groups over the state (:data:`INPUTS`), in emission order."""
+
+LAW_GROUPS: list[Group] = [
+    Group(
+        "kalker_coefficients",
+        "Kalker's [f11, f22, f23] under the normal load N (N, N, N m; the creepages unused)",
+        lambda: [("f", sp.Matrix(kalker_coefficients()))],
+        LAW_INPUTS,
+        LAW_SAMPLE,
+    ),
+    Group(
+        "creep_forces",
+        "Saturated creep forces [F_x, F_y] (Kalker, Shen-Hedrick-Elkins) and the unsaturated spin "
+        "moment M_sp of one contact, on the wheel in its contact frame (all zero for N <= 0)",
+        lambda: [("F", sp.Matrix(creep_law()))],
+        LAW_INPUTS,
+        LAW_SAMPLE,
+    ),
+]
+"""The creep law of one contact (:data:`LAW_INPUTS`), emitted after :data:`GROUPS`."""
 
 
 @cache
 def contact3d_model_spec() -> ModelSpec:
     """The kernels of the 3D contact (model ``contact3d``), one per :data:`GROUPS` entry."""
-    kernels = [KernelSpec(g.name, g.doc, INPUTS, g.outputs(), SAMPLE) for g in GROUPS]
+    kernels = [
+        KernelSpec(g.name, g.doc, g.inputs or INPUTS, g.outputs(), g.sample or SAMPLE)
+        for g in (*GROUPS, *LAW_GROUPS)
+    ]
     return ModelSpec(
         name=CONTACT3D,
-        doc="3D wheel-rail contact of one wheelset on a deck element: gaps, constraints, creepages.",
+        doc="3D wheel-rail contact of one wheelset on a deck element: gaps, constraints, creep.",
         kernels=kernels,
         parameters=[(s.name, SAMPLE[s.name]) for s in GEOMETRY],
         sizes={"n_z": len(Z), "n_sides": 2},
@@ -240,5 +341,6 @@ def contact3d_data() -> dict[str, object]:
         "geometry_names": tuple(s.name for s in GEOMETRY),
         "irregularity_names": tuple(s.name for s in IRREGULARITY),
         "coefficient_names": tuple(s.name for s in COEFFICIENTS),
+        "creep_names": tuple(s.name for s in MATERIAL),
         "sides": tuple(side for side, _ in c3.SIDES),
     }

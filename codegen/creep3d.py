@@ -1,6 +1,7 @@
 """3D creep forces of a wheelset's two contacts: creepages, Kalker's linear law, saturation.
 
-A building block of the 3D model (docs/three-d.md), not yet used by runs. The contact geometry is
+A building block of the 3D model (docs/three-d.md); the 3D time step evaluates it through the
+generated kernels of :mod:`svbi.codegen.contact3d_kernels` (``generated/contact3d/``). The contact geometry is
 :mod:`svbi.codegen.contact3d`'s (coned treads on knife-edge rails on a deck element); axes, signs
 and DOF symbols are its own.
 
@@ -156,18 +157,32 @@ def linear_law(xi_x: sp.Expr, xi_y: sp.Expr, xi_sp: sp.Expr) -> tuple[sp.Expr, s
     return -f11 * xi_x, -f22 * xi_y - f23 * xi_sp, f23 * xi_y
 
 
+creepage_x, creepage_y, creepage_spin = sp.symbols("xi_cx xi_cy xi_csp", real=True)
+"""A contact's creepages as plain symbols (longitudinal, lateral, spin in 1/m): the arguments of
+the law on its own (:func:`saturated_law`, the generated ``creep_forces``)."""
+
+
+def saturated_law(
+    xi_x: sp.Expr, xi_y: sp.Expr, xi_sp: sp.Expr
+) -> tuple[sp.Expr, sp.Expr, sp.Expr, sp.Expr, sp.Expr]:
+    """``(F_x, F_y, M_sp)`` of Kalker's linear law and the saturated ``(F_x, F_y)`` (zero for
+    ``N <= 0``) in the creepages, ``f11, f22, f23``, :data:`normal_load` and the friction."""
+    beta = sp.Symbol("beta", nonnegative=True)
+    fx, fy, mz = linear_law(xi_x, xi_y, xi_sp)
+    resultant = sp.sqrt(fx**2 + fy**2)
+    eps = creep.she_factor(beta).subs(beta, resultant / (creep.friction * normal_load))
+    fx_sat = sp.Piecewise((sp.S.Zero, normal_load <= 0), (eps * fx, True))
+    fy_sat = sp.Piecewise((sp.S.Zero, normal_load <= 0), (eps * fy, True))
+    return fx, fy, mz, fx_sat, fy_sat
+
+
 @cache
 def creep_forces() -> tuple[CreepForce, CreepForce]:
     """Both contacts' creep forces as functions of the state, the rates and ``N`` (one symbol,
-    :data:`normal_load`, for each contact's own load)."""
-    beta = sp.Symbol("beta", nonnegative=True)
+    :data:`normal_load`, for each contact's own load): :func:`saturated_law` at the creepages."""
     out = []
     for cr in creepages():
-        fx, fy, mz = linear_law(cr.xi_x, cr.xi_y, cr.xi_sp)
-        resultant = sp.sqrt(fx**2 + fy**2)
-        eps = creep.she_factor(beta).subs(beta, resultant / (creep.friction * normal_load))
-        fx_sat = sp.Piecewise((sp.S.Zero, normal_load <= 0), (eps * fx, True))
-        fy_sat = sp.Piecewise((sp.S.Zero, normal_load <= 0), (eps * fy, True))
+        fx, fy, mz, fx_sat, fy_sat = saturated_law(cr.xi_x, cr.xi_y, cr.xi_sp)
         out.append(CreepForce(cr.side, fx, fy, mz, fx_sat, fy_sat, cr))
     return out[0], out[1]
 

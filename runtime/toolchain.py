@@ -767,3 +767,12 @@ def python_module_3d(
     tmp.write_bytes(rendered)
     os.replace(tmp, final)
     return final
+
+
+def load_topology3d(name_or_path: str | os.PathLike[str]) -> Any:
+    """The parsed 3D topology (:class:`svbi.codegen.topology3d.Topology3D`) of a built-in 3D
+    vehicle's name or a 3D topology file: its parameters, for the checks and defaults of a 3D
+    scenario. Deferred: the parser brings SymPy (its expressions), so only 3D scenarios pay for it."""
+    from ..codegen.topology3d import load_topology3d as load
+
+    return load(name_or_path)

@@ -28,7 +28,6 @@ from ..run.output import (
 from ..run.results import write_netcdf
 from ..run.results3d import summary_lines
 from ..run.simulate import SimulationIncomplete, simulate
-from ..scenario.kinds import NOT_RUN_3D
 from ..scenario.schema import ScenarioError, ScenarioWarning, load_scenario
 from .messages import echo_caught
 
@@ -101,14 +100,10 @@ def _run(
             typer.echo(f"error: {exc}", err=True)
             raise typer.Exit(EXIT_INVALID) from None
     echo_caught([w for w in caught if issubclass(w.category, ScenarioWarning)])
-    if sc.dimensions == 3:  # checked above; the 3D run is not built yet (docs/three-d.md)
-        message = NOT_RUN_3D.format(vehicle=sc.train.vehicle, file=scenario)
-        typer.echo(f"error: {scenario}: {message}", err=True)
-        raise typer.Exit(EXIT_INVALID)
-
     try:  # before anything is computed: a bad path would otherwise lose the whole run
         path = check_output(output, run_inputs(sc))
-        check_memory(sc, max_memory)
+        if sc.dimensions == 2:  # the estimate is the 2D loop's; a 3D run's refusals come first
+            check_memory(sc, max_memory)
     except ValueError as exc:  # OutputPathError, MemoryLimitError
         typer.echo(f"error: {exc}", err=True)
         raise typer.Exit(EXIT_INVALID) from None

@@ -2,21 +2,21 @@
 
 A 3D vehicle (derived in :mod:`svbi.codegen.vehicle3d`) on one simply supported 3D span
 (:mod:`svbi.runtime.model.span3d`), each wheelset held on its two rails by the normal gaps of
-:mod:`svbi.codegen.contact3d`. Nothing here derives: the contact expressions (gaps, their gradients
-and Hessians, the discrete constraint residuals and their Jacobians, the flange gaps, the
-creepages) are the generated kernels of ``generated/contact3d/numpy_kernels.py``
-(:mod:`svbi.codegen.contact3d_kernels`), and a built-in 3D vehicle's matrices its generated module
-``generated/<name>/numpy_kernels.py``. A 3D topology file of the user's (or a parsed topology
-object) is derived and emitted once into the compile cache (:func:`svbi.runtime.toolchain.python_module_3d`,
+:mod:`svbi.codegen.contact3d`. Nothing here derives: the contact expressions (gaps, their
+gradients and Hessians, the discrete constraint residuals and their Jacobians, the flange gaps, the
+creepages, the creep law and its generalised loads) are the generated kernels of
+``generated/contact3d/numpy_kernels.py`` (:mod:`svbi.codegen.contact3d_kernels`), and a built-in
+3D vehicle's matrices its generated module ``generated/<name>/numpy_kernels.py``. A 3D topology
+file of the user's (or a parsed topology object) is derived and emitted once into the compile cache
+(:func:`svbi.runtime.toolchain.python_module_3d`,
 the cache of the 2D topology files), which takes SymPy at that first set-up only.
 """
 
 from __future__ import annotations
 
 import types
-from collections.abc import Callable, Mapping
+from collections.abc import Mapping
 from dataclasses import dataclass, field, replace
-from functools import cache
 from pathlib import Path
 from typing import Any
 
@@ -193,7 +193,9 @@ class ContactKernel3D:
     ``Q = v (F_x dxi_x/dz' + F_y dxi_y/dz' + M_sp dxi_sp/dz')`` on ``z`` (wheelset and deck
     together) for the force ``(F_x, F_y)`` along ``(t_x, t_y)`` and the moment ``M_sp`` about the
     normal that the rail exerts on the wheel (their power on the slip is ``Q . z'`` plus terms free
-    of ``z'``).
+    of ``z'``). ``creep_load_direction`` (2 x 16 x 3): the generalised loads on ``z`` of a unit
+    ``[F_x, F_y, M_sp]`` of each contact by the virtual work of
+    :func:`svbi.codegen.creep3d.creep_loads` (the loads the step applies).
 
     ``irregularity`` (9: ``[r_v, r_a, r_c]`` under the axle, their slopes and curvatures along
     ``x``) is an attribute the step may set before calling; zero by default.
@@ -308,67 +310,21 @@ class ContactKernel3D:
         """2 x 3 x 16: ``d xi / dz'``."""
         return np.asarray(self._call("creepage_rate_gradients", z, zd, None, xi)).reshape(2, 3, NZ)
 
-
-# --------------------------------------------------------------------------------------------------
-# Creep forces: the callables of the creep law (Kalker's coefficients under a normal load, the
-# saturated forces of both contacts, their generalised loads), lambdified in this one place, the
-# SymPy import deferred to the first use. The flange gaps are the generated kernels of
-# ContactKernel3D.
-
-
-@cache
-def _creep_callables() -> dict[str, Callable[..., Any]]:
-    """Lambdified once per process: ``creep_left``/``creep_right`` (the saturated ``F_x``, ``F_y``
-    and the spin moment of Kalker's law), ``kalker`` (``f11, f22, f23`` under a normal load) and
-    ``loads`` (the generalised creep loads of both contacts over ``z``)."""
-    import sympy as sp  # noqa: PLC0415 - the creep law's expressions, until they are emitted
-
-    from ...codegen import contact3d as c3  # noqa: PLC0415
-    from ...codegen import creep as creep2d  # noqa: PLC0415
-    from ...codegen import creep3d  # noqa: PLC0415
-    from ...codegen.beam import le as LE  # noqa: PLC0415
-    from ...codegen.beam import xi as XI  # noqa: PLC0415
-
-    c1, c0 = sp.symbols("c1 c0", real=True)
-    state = (
-        *c3.WHEELSET_DOFS,
-        *c3.WHEELSET_RATES,
-        *c3.WHEELSET_ACCELERATIONS,
-        *c3.UE,
-        *c3.UE_T,
-        *c3.UE_TT,
-        XI,
-    )
-    params = (c3.r0, c3.b, c3.lam, c3.ecc, c3.h_rail, c3.v, LE, c1, c0, c3.clearance)
-    rough = (*c3.IRREGULARITIES, *c3.IRREGULARITY_SLOPES, *c3.IRREGULARITY_CURVATURES)
-    args = (*state, *params, *rough)
-    law_args = (creep3d.f11, creep3d.f22, creep3d.f23, creep3d.normal_load, creep2d.friction)
-    material = (*creep2d.PARAMETERS, creep3d.kalker_c22, creep3d.kalker_c23)
-    forces = (creep3d.creep_fx, creep3d.creep_fy, creep3d.creep_spin)
-
-    def fn(exprs: list[Any], extra: tuple[Any, ...] = ()) -> Callable[..., Any]:
-        return sp.lambdify((*args, *extra), exprs, "numpy", cse=True)
-
-    out: dict[str, Callable[..., Any]] = {}
-    for force in creep3d.creep_forces():
-        out[f"creep_{force.side}"] = fn([force.fx, force.fy, force.spin_moment], law_args)
-    kalker = creep3d.kalker_coefficients()
-    out["kalker"] = sp.lambdify(
-        (creep3d.normal_load, *material), [kalker[k] for k in (creep3d.f11, creep3d.f22, creep3d.f23)]
-    )
-    loads = [e for ld in creep3d.creep_loads() for e in (*ld.wheelset, *ld.deck)]
-    out["loads"] = fn(loads, forces)
-    out["material_names"] = tuple(p.name for p in creep2d.PARAMETERS)  # type: ignore[assignment]
-    return out
+    def creep_load_direction(self, z: np.ndarray, xi: float) -> np.ndarray:
+        """2 x 16 x 3: the generalised loads on ``z`` of a unit ``[F_x, F_y, M_sp]`` of each side."""
+        return np.array(self._call("creep_load_directions", z, None, None, xi), dtype=float)
 
 
 class FlangeCreepKernel3D:
-    """Both flange gaps and both contacts' creep forces of one wheelset on a deck element, as
-    NumPy callables (the counterpart of :class:`ContactKernel3D` for the flange and the creep law).
+    """Both flange gaps and both contacts' creep forces of one wheelset on a deck element, on the
+    generated kernels of ``generated/contact3d/`` (:mod:`svbi.codegen.contact3d_kernels`).
 
     ``flange_*``: as :class:`ContactKernel3D`'s ``gap``, ``gradient``, ``residual``,
     ``residual_jacobian`` for ``g_F,s = c_f - s (y_w - y_r)``; ``creep``: the creep forces of both
-    contacts under their normal loads and their generalised loads on ``z``.
+    contacts under their normal loads (the ``creepages`` of each side through the generated
+    ``creep_forces``: Kalker's law with Shen-Hedrick-Elkins saturation) and their generalised loads
+    on ``z`` (``creep_load_directions`` times the forces); ``coefficients``: Kalker's ``f11, f22,
+    f23`` under a normal load (``kalker_coefficients``).
     """
 
     def __init__(
@@ -384,37 +340,16 @@ class FlangeCreepKernel3D:
         self._contact = ContactKernel3D(
             wheelset, track, element_length, speed, c1, c0, flange_clearance=track.flange_clearance
         )
-        self._params = [
-            wheelset.radius,
-            wheelset.half_gauge,
-            track.conicity,
-            track.eccentricity,
-            track.rail_height,
-            speed,
-            element_length,
-            c1,
-            c0,
-            track.flange_clearance,
-            *[0.0] * 9,  # no irregularity
-        ]
-        self._material: list[float] | None = None
+        self._k = load(CONTACT3D)
+        self._material: np.ndarray | None = None
         self.friction = 0.0
         if creep is not None:
-            self._fn = _creep_callables()
             creep = replace(creep, wheel_radius=wheelset.radius)
-            named = creep.named_values()
+            named = {**creep.named_values()}
             m, n = creep.hertz
-            _, c22, c23 = kalker_coefficients(m / n, creep.poisson_ratio)
-            self._material = [*(named[name] for name in self._fn["material_names"]), c22, c23]
+            _, named["kalker_c22"], named["kalker_c23"] = kalker_coefficients(m / n, creep.poisson_ratio)
+            self._material = np.array([named[name] for name in self._k.DATA["creep_names"]], dtype=float)
             self.friction = creep.friction
-
-    def _call(self, name: str, args: list[Any], shape: tuple[int, ...], extra: tuple = ()) -> np.ndarray:
-        out = self._fn[name](*args, *self._params, *extra)
-        return np.array([np.broadcast_to(np.asarray(o), shape) for o in out])
-
-    @staticmethod
-    def _args(z: np.ndarray, zd: np.ndarray, zdd: np.ndarray, xi: Any) -> list[Any]:
-        return [*z[:4], *zd[:4], *zdd[:4], *z[4:], *zd[4:], *zdd[4:], xi]
 
     def flange_gap(self, z: np.ndarray, xi: float) -> np.ndarray:
         """``[g_F,left, g_F,right]``."""
@@ -438,7 +373,7 @@ class FlangeCreepKernel3D:
         """Kalker's ``f11, f22, f23`` under the normal load ``normal`` (> 0)."""
         if self._material is None:
             return 0.0, 0.0, 0.0
-        f11, f22, f23 = self._fn["kalker"](normal, *self._material)
+        f11, f22, f23 = self._k.kalker_coefficients(np.zeros(3), normal, self._material)
         return float(f11), float(f22), float(f23)
 
     @property
@@ -453,17 +388,13 @@ class FlangeCreepKernel3D:
         forces = np.zeros((2, 3))
         if self._material is None:
             return forces, np.zeros(NZ)
-        args = self._args(z, zd, np.zeros(NZ), xi)
-        for k, side in enumerate(("left", "right")):
+        creepages = self._contact.creepages(z, zd, xi)
+        for k in range(2):
             if normal[k] <= 0.0:
                 continue
-            f11, f22, f23 = self._fn["kalker"](normal[k], *self._material)
-            law = (f11, f22, f23, normal[k], self.friction)
-            forces[k] = self._call(f"creep_{side}", args, (), law)
-        load = np.zeros(NZ)
-        for k in range(2):
-            per = self._call("loads", args, (), tuple(forces[k])).reshape(2, NZ)
-            load += per[k]
+            forces[k] = self._k.creep_forces(creepages[k], float(normal[k]), self._material)
+        directions = self._contact.creep_load_direction(z, xi)
+        load = directions[0] @ forces[0] + directions[1] @ forces[1]
         return forces, load
 
 

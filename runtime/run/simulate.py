@@ -91,6 +91,12 @@ def simulate(
     """
     t_start = time.perf_counter() if clock_start is None else clock_start
     scenario = _as_scenario(scenario)
+    if scenario.dimensions == 3 and model is None:  # the 3D run (docs/three-d.md, "3D runs")
+        from .simulate3d import simulate3d
+
+        return simulate3d(
+            scenario, progress=progress, hold_train=hold_train, clock_start=t_start, variables=variables
+        )
     if model is None:
         model = build_model(scenario, hold_train=hold_train)
     s = model.settings

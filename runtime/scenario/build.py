@@ -83,7 +83,7 @@ def run_extent(
 
 def build_model(scenario: Scenario, hold_train: bool = False) -> Model:
     """Numbers for everything: bridge, train, excitations and solver settings."""
-    if scenario.dimensions == 3:  # checked and `svbi modes`, never a run that is not one
+    if scenario.dimensions == 3:  # the 3D run builds its own model (run/simulate3d.py)
         message = NOT_RUN_3D.format(vehicle=scenario.train.vehicle, file=scenario.source or "FILE")
         raise ScenarioError([Problem("train.vehicle", message, scenario.source)], scenario.source)
     refused = scenario.bridge.long_form_problems()
@@ -111,10 +111,10 @@ def build_model(scenario: Scenario, hold_train: bool = False) -> Model:
         check_start = getattr(ground, "check_start", None)
         if check_start is not None:
             check_start(train.positions(0.0))
-    return Model(bridge, train, settings, irregularity, ground, creep=_creep(scenario))
+    return Model(bridge, train, settings, irregularity, ground, creep=creep_parameters(scenario))
 
 
-def _creep(scenario: Scenario) -> CreepParameters | None:
+def creep_parameters(scenario: Scenario) -> CreepParameters | None:
     """Creep-law parameters of ``[contact]`` (None when creep is off); the wheel radius comes from
     the vehicle topology (``runtime.wheel_creep``)."""
     c = scenario.contact
@@ -168,7 +168,7 @@ def _ground(scenario: Scenario, duration: float) -> Ground:
 
 
 # --------------------------------------------------------------------------------------------------
-# 3D scenarios (docs/three-d.md): their sections and track geometry; not run yet
+# 3D scenarios (docs/three-d.md): their sections and track geometry (run/simulate3d.py builds the run)
 
 
 def _shear(table: Any, fallback: Any, youngs_modulus: float) -> tuple[float, float | None]:
@@ -287,7 +287,7 @@ def track_geometry_3d(scenario: Scenario) -> TrackGeometry3D:
     """``[contact]`` conicity and flange clearance (given, else the vehicle's parameters of those
     names, else :data:`CONICITY_DEFAULT` and :data:`FLANGE_CLEARANCE_DEFAULT`), ``[bridge]``
     track eccentricity (default 0) and rail height."""
-    from ..model.system3d import load_topology3d  # deferred: SymPy, for 3D scenarios only
+    from ..toolchain import load_topology3d  # SymPy on call, for 3D scenarios only
 
     params = load_topology3d(vehicle_ref(scenario)).parameters
     given = scenario.train.parameters

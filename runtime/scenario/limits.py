@@ -78,7 +78,7 @@ def _geometry(s: Scenario, values: Mapping[str, Any]) -> tuple[list[float], floa
     """Wheel offsets behind the car's leading axle, the car length and the wheel radii (m), as
     ``Train`` places them; ``None`` when the vehicle cannot be evaluated (its own check says why)."""
 
-    if s.dimensions == 3:  # not run yet: its vehicle has no 2D kernels (docs/three-d.md)
+    if s.dimensions == 3:  # its vehicle has no 2D kernels: the 3D run places it (run/simulate3d.py)
         return None
     vals = dict(values)
     if s.train.hslm is not None:

@@ -775,7 +775,7 @@ def _keys_3d_in_2d(s: Scenario) -> Iterable[tuple[str, str]]:
 
 def _three_d_problems(s: Scenario) -> Iterable[tuple[str, str]]:
     """The checks of a 3D scenario: its vehicle topology and parameters, the 3D section keys."""
-    from ..model.system3d import load_topology3d  # deferred: SymPy, for 3D scenarios only
+    from ..toolchain import load_topology3d  # SymPy on call, for 3D scenarios only
 
     t, b = s.train, s.bridge
     if t.hslm is not None:
@@ -939,7 +939,7 @@ def vehicle_topology(s: Scenario):  # noqa: ANN201 - Topology, imported lazily
 
 def time_step_warnings(s: Scenario) -> list[str]:
     """Warn when the time step does not resolve the fastest vehicle mode on rigid track (2D
-    vehicles; a 3D scenario is not run yet)."""
+    vehicles; the 3D run does not check its time step yet)."""
     if s.dimensions == 3:
         return []
     topo = vehicle_topology(s)

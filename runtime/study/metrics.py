@@ -499,9 +499,18 @@ def _deck_acceleration(ds: xr.Dataset, t: np.ndarray) -> _Deck:
     table = scenario_table(ds)
     bridge = table["bridge"]
     if not has_earthquake(table) and t.size > 1:
-        forces = np.asarray(ds["contact_force"].transpose("time", "car", "wheel").values, dtype=float)
+        force = ds["contact_force"]
+        positions = None
+        if "side" in force.dims:  # a 3D run: a wheelset's two vertical wheel forces, where it is
+            force = force.sum("side")
+            if "wheelset_position" in ds.variables:
+                where = ds["wheelset_position"].transpose("time", "car", "wheel").values
+                positions = np.asarray(where, dtype=float).reshape(t.size, -1)
+        forces = np.asarray(force.transpose("time", "car", "wheel").values, dtype=float)
         try:
-            env = deck_envelope(table, t, forces.reshape(t.size, -1))
+            if "side" in ds["contact_force"].dims and positions is None:
+                raise ValueError("the 3D results carry no wheelset_position")
+            env = deck_envelope(table, t, forces.reshape(t.size, -1), positions)
         except (ValueError, KeyError, OSError) as exc:  # unequal output steps, an unreadable vehicle
             # (a topology file no longer where the scenario says): the filtered midspan value below
             env = None

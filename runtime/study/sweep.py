@@ -340,7 +340,7 @@ def load_study(path: str | Path, sets: Sequence[str] | dict[str, Any] = ()) -> S
 
 
 def _three_d(scenario_path: Path, sets: Mapping[str, Any], where: str) -> list[Problem]:
-    """A study of a 3D scenario is refused: 3D scenarios are not run yet (docs/three-d.md)."""
+    """A study of a 3D scenario is refused: `svbi sweep` does not run 3D scenarios yet (docs/three-d.md)."""
     try:
         with warnings.catch_warnings():
             warnings.simplefilter("ignore")

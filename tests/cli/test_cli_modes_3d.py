@@ -141,13 +141,16 @@ def test_a_long_form_3d_bridge_lists_each_distinct_span(tmp_path: Path) -> None:
     )
 
 
-def test_svbi_run_of_a_3d_scenario_is_one_line_and_exit_2(tmp_path: Path) -> None:
-    result = runner.invoke(app, ["run", str(EXAMPLE_3D), "-o", str(tmp_path / "out.nc")])
+def test_svbi_run_of_a_3d_scenario_without_a_3d_step_is_one_line_and_exit_2(tmp_path: Path) -> None:
+    out = tmp_path / "out.nc"
+    result = runner.invoke(
+        app, ["run", str(EXAMPLE_3D), "-o", str(out), "--set", "solver.method=coupled-classic"]
+    )
     assert result.exit_code == 2
     lines = result.output.strip().splitlines()
     assert len(lines) == 1, result.output
-    assert "3D scenarios can be checked with `svbi modes" in lines[0] and "not run yet" in lines[0]
-    assert "Traceback" not in result.output and not (tmp_path / "out.nc").exists()
+    assert "solver.method: 'coupled-classic' has no 3D step" in lines[0]
+    assert "Traceback" not in result.output and not out.exists()
 
 
 def test_svbi_sweep_of_a_3d_scenario_is_refused(tmp_path: Path) -> None:
@@ -157,7 +160,7 @@ def test_svbi_sweep_of_a_3d_scenario_is_refused(tmp_path: Path) -> None:
     )
     result = runner.invoke(app, ["sweep", str(study), "-o", str(tmp_path / "out.nc")])
     assert result.exit_code == 2, result.output
-    assert "3D scenarios can be checked with `svbi modes" in result.output
+    assert "`svbi sweep` does not take 3D scenarios yet" in result.output
     assert "Traceback" not in result.output
 
 

@@ -11,8 +11,14 @@
 * the committed modules are what the generator writes, byte for byte;
 * the 3D vehicles' generated matrices equal ``derive_vehicle3d(...).numeric(...)``;
 * ``v`` times the creepages' rate gradients is the generalized force of a unit creep force (virtual work);
-* the 3D step's model glue imports no SymPy for a built-in car; a 3D topology file is derived once
-  into the cache and later only loaded.
+* the creep law's groups (Kalker's coefficients under a load, the saturated forces of one contact)
+  equal the law written out here (Hertz, Kalker, Shen-Hedrick-Elkins) in mpmath at 30 digits, below
+  and beyond saturation, to 1e-13 of each output's largest entry (measured 1.1e-15; real inputs:
+  the step applies the creep forces explicitly and takes no derivative through them), and are
+  zero out of load; the step's creep forces and loads, composed of the generated groups, equal
+  the symbolic law over the state;
+* the 3D step's model glue imports no SymPy for a built-in car, a step with creep included; a 3D
+  topology file is derived once into the cache and later only loaded.
 """
 
 from __future__ import annotations
@@ -58,6 +64,7 @@ def _expected() -> dict[str, list[sp.Matrix]]:
     dt = c3.time_derivative
     flange = [dt(dt(g)) + c1 * dt(g) + c0 * g for g in flanges]
     creep = [e for cr in creep3d.creepages() for e in (cr.xi_x, cr.xi_y, cr.xi_sp)]
+    unit = (creep3d.creep_fx, creep3d.creep_fy, creep3d.creep_spin)
     return {
         "normal_gaps": [sp.Matrix(gaps)],
         "normal_gap_gradients": [_diff(gaps, ck.Z)],
@@ -71,6 +78,7 @@ def _expected() -> dict[str, list[sp.Matrix]]:
         "creepages": [sp.Matrix(creep)],
         "creepage_gradients": [_diff(creep, ck.Z)],
         "creepage_rate_gradients": [_diff(creep, ck.Z_T)],
+        "creep_load_directions": [_diff([*ld.wheelset, *ld.deck], unit) for ld in creep3d.creep_loads()],
     }
 
 
@@ -100,7 +108,9 @@ def _arguments(values: list) -> list:
 
 def test_groups_are_the_generated_kernels() -> None:
     module = load(ck.CONTACT3D)
-    assert list(module.KERNELS) == [g.name for g in ck.GROUPS] == list(_expected())
+    assert [g.name for g in ck.GROUPS] == list(_expected())
+    assert list(module.KERNELS) == [g.name for g in (*ck.GROUPS, *ck.LAW_GROUPS)]
+    assert [g.name for g in ck.LAW_GROUPS] == ["kalker_coefficients", "creep_forces"]
 
 
 @pytest.mark.parametrize("imaginary", [False, True], ids=["real", "complex"])
@@ -158,6 +168,111 @@ def test_complex_step_of_the_kernels_gives_their_derivatives() -> None:
                 assert np.allclose(grad, hess[:, k, :], rtol=1e-13, atol=1e-15)
 
 
+def _law(creepage: list, normal, creep: list) -> tuple[list, list]:
+    """Kalker's ``[f11, f22, f23]`` and the saturated ``[F_x, F_y]`` with the spin moment of one
+    contact, written out: the Hertz ellipse of two steel bodies (relative curvatures
+    ``1/(2 R_wheel)`` along, ``1/(2 R_rail)`` across), ``f11 = G a b C11``, ``f22 = G a b C22``,
+    ``f23 = G (a b)^(3/2) C23``, Kalker's linear forces scaled by Shen-Hedrick-Elkins' ``eps``."""
+    e, nu, r_wheel, r_rail, m, n, c11, mu, c22, c23 = (mpmath.mpf(x) for x in creep)
+    normal = mpmath.mpf(normal)
+    g = e / (2 * (1 + nu))
+    c = mpmath.cbrt(3 * normal * (1 - nu**2) / (2 * e * (1 / (2 * r_wheel) + 1 / (2 * r_rail))))
+    ab = m * c * n * c
+    f11, f22, f23 = g * ab * c11, g * ab * c22, g * ab ** mpmath.mpf(1.5) * c23
+    x, y, spin = (mpmath.mpf(v) for v in creepage)
+    fx, fy = -f11 * x, -f22 * y - f23 * spin
+    beta = mpmath.sqrt(fx**2 + fy**2) / (mu * normal)
+    eps = 1 - beta / 3 + beta**2 / 27 if beta < 3 else 1 / beta
+    return [f11, f22, f23], [eps * fx, eps * fy, f23 * y]
+
+
+def _close(got, want: list, rtol: float) -> float:
+    want = np.array([float(w) for w in want])
+    got = np.asarray(got, dtype=float).reshape(-1)
+    err = float(np.max(np.abs(got - want)))
+    assert err <= rtol * float(np.max(np.abs(want))), (got, want)
+    return err
+
+
+def test_creep_law_groups_equal_the_law() -> None:
+    """Below and beyond saturation (the creepages scaled so that ``beta`` spans 0.1 to 10), at
+    random points around the sample; zero forces for a contact out of load."""
+    module = load(ck.CONTACT3D)
+    rng = np.random.default_rng(20261128)
+    mpmath.mp.dps = 30
+    names = [s.name for _, m in ck.LAW_INPUTS for s in m]
+    branches = set()
+    for scale in (0.1, 1.0, 10.0):
+        for _ in range(3):
+            x = {k: ck.LAW_SAMPLE[k] * (1 + 0.2 * rng.uniform(-1, 1)) for k in names}
+            creepage = [scale * x[k] for k in ("xi_cx", "xi_cy", "xi_csp")]
+            creep = [x[s.name] for s in ck.MATERIAL]
+            f, forces = _law(creepage, x["N_c"], creep)
+            _close(module.kalker_coefficients(np.array(creepage), x["N_c"], np.array(creep)), f, 1e-13)
+            _close(module.creep_forces(np.array(creepage), x["N_c"], np.array(creep)), forces, 1e-13)
+            fx, fy = -f[0] * creepage[0], -f[1] * creepage[1] - f[2] * creepage[2]
+            branches.add(bool(mpmath.sqrt(fx**2 + fy**2) / (x["mu_f"] * x["N_c"]) < 3))
+    assert branches == {True, False}
+    creep = np.array([ck.LAW_SAMPLE[s.name] for s in ck.MATERIAL])
+    with np.errstate(all="ignore"):
+        for normal in (0.0, -1e3):
+            got = module.creep_forces(np.array([1e-3, 1e-3, 0.1]), np.float64(normal), creep)
+            assert np.array_equal(np.asarray(got, dtype=float), np.zeros(3))
+
+
+def test_creep_of_the_step_is_the_symbolic_law() -> None:
+    """:class:`FlangeCreepKernel3D` (creepages, then the law, then the load directions, all
+    generated) equals the creep forces and loads of :mod:`svbi.codegen.creep3d` over the state,
+    evaluated by mpmath at 30 digits: each contact's ``[F_x, F_y, M_sp]`` and the load on ``z`` to
+    1e-12 of their largest entry (measured 2e-14: the longitudinal creepage is the difference of
+    the wheel's forward and rolling speeds, which cancel to 1e-5 of each); a contact out of load
+    has none."""
+    from svbi.runtime.model.creep_law import CreepParameters
+    from svbi.runtime.model.system3d import FlangeCreepKernel3D, Track3D, Wheelset
+
+    x = ck.SAMPLE
+    wheelset = Wheelset("ws", np.arange(4), 0.0, x["r0"], x["b"])
+    track = Track3D(conicity=x["lam"], eccentricity=x["e_t"], rail_height=x["h_t"], flange_clearance=x["c_f"])
+    kernel = FlangeCreepKernel3D(wheelset, track, x["le"], x["v"], 1.0, 1.0, CreepParameters())
+    law = dict(zip(ck.MATERIAL, kernel._material, strict=True))
+    kalker = creep3d.kalker_coefficients()
+    state = [*ck.Z, *ck.Z_T, ck.xi]
+    symbols = [*state, *ck.GEOMETRY, creep3d.normal_load]
+    forces = [
+        sp.Matrix([f.fx, f.fy, f.spin_moment])
+        .xreplace(kalker)
+        .xreplace(law)
+        .xreplace({s: 0 for s in (*ck.IRREGULARITY, *ck.Z_TT)})
+        for f in creep3d.creep_forces()
+    ]
+    force_fns = [sp.lambdify(symbols, f, "mpmath") for f in forces]
+    unit = (creep3d.creep_fx, creep3d.creep_fy, creep3d.creep_spin)
+    loads = [
+        sp.Matrix([*ld.wheelset, *ld.deck]).xreplace({s: 0 for s in ck.IRREGULARITY})
+        for ld in creep3d.creep_loads()
+    ]
+    load_fns = [sp.lambdify([*state, *ck.GEOMETRY, *unit], ld, "mpmath") for ld in loads]
+    mpmath.mp.dps = 30
+    rng = np.random.default_rng(11)
+    geometry = [mpmath.mpf(x[s.name]) for s in ck.GEOMETRY]
+    for normal in ([8e4, 6e4], [7e4, 0.0]):
+        z = np.array([x[s.name] * (1 + 0.2 * rng.uniform(-1, 1)) for s in ck.Z])
+        zd = np.array([x[s.name] * (1 + 0.2 * rng.uniform(-1, 1)) for s in ck.Z_T])
+        xi = 0.3 + 0.1 * rng.uniform(-1, 1)
+        got, load_got = kernel.creep(z, zd, xi, np.array(normal))
+        values = [mpmath.mpf(float(v)) for v in (*z, *zd, xi)]
+        want_load = mpmath.matrix(16, 1)
+        for k in range(2):
+            if normal[k] > 0:
+                want = force_fns[k](*values, *geometry, mpmath.mpf(normal[k]))
+                _close(got[k], list(want), 1e-12)
+            else:
+                want = mpmath.matrix([0, 0, 0])
+                assert np.array_equal(got[k], np.zeros(3))
+            want_load += load_fns[k](*values, *geometry, *want)
+        _close(load_got, list(want_load), 1e-12)
+
+
 def test_committed_contact_module_is_reproduced_byte_for_byte() -> None:
     _, source = render_target(ck.CONTACT3D)
     assert source == Path(load(ck.CONTACT3D).__file__).read_bytes()
@@ -210,8 +325,20 @@ v = vehicle3d(sys.argv[1])
 k = ContactKernel3D(v.wheelsets[0], Track3D(conicity=0.15, rail_height=1.0), 5.0, 50.0, 1.0, 1.0)
 z = np.full(16, 1e-3)
 k.hessian(z, 0.3); k.residual_jacobian(z, z, z, 0.3, 1.0, 2.0); k.creepage_rate_gradient(z, z, 0.3)
+# a step with creep on a span (every wheelset on it)
+from svbi.runtime.methods.coupled3d import CoupledDynamic3D, static_state
+from svbi.runtime.model.creep_law import CreepParameters
+from svbi.runtime.model.span3d import Section3D, simply_supported_span
+from svbi.runtime.model.system3d import System3D
+section = Section3D(E=3.0e10, A=5.0, I_y=5.0, I_z=20.0, J=8.0, mass_per_length=1.2e4)
+span = simply_supported_span(section, 40.0, 8)
+start = 5.0 + max(w.offset for w in v.wheelsets)
+system = System3D(v, span, Track3D(conicity=0.15), speed=20.0, start=start, creep=CreepParameters())
+state = CoupledDynamic3D(system, static_state(system), 1e-4).step(0)
+assert np.abs(state.creep).max() > 0.0
 plain = {"svbi.codegen", "svbi.codegen.plain_types", "svbi.codegen.c_flags", "svbi.codegen.loop_abi"}
 plain |= {"svbi.codegen.vehicles", "svbi.codegen.vehicles3d"}  # data folders (the built-in files)
+plain |= {"svbi.codegen.input_files"}  # bounded reading of input files (no SymPy)
 symbolic = sorted(m for m in sys.modules if m.startswith("svbi.codegen") and m not in plain)
 print(repr(float(v.M[0, 0])), "sympy" in sys.modules, bool(symbolic))
 """
