@@ -24,7 +24,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..model.system3d import ContactKernel3D, FlangeCreepKernel3D, System3D
+from ..model.system import newmark_targets, support_hat
+from ..model.system3d import GROUND, ContactKernel3D, FlangeCreepKernel3D, System3D
 from .newmark import Newmark
 from .unilateral import ActiveSet, complementary_solve
 
@@ -112,14 +113,25 @@ class _Assembly:
         self.n = self.oP + self.nC
 
     def columns(self, w: int, element: int) -> np.ndarray:
-        """Unknown of each of the contact's 16 ``z`` entries (-1: a held span DOF)."""
+        """Unknown of each of the contact's 16 ``z`` entries (-1: a held span DOF or the ground)."""
         ws = self.system.vehicle.wheelsets[w]
+        if element == GROUND:
+            return np.concatenate([ws.dofs, -np.ones(12, dtype=int)])
         deck = self.full_to_free[self.system.span.element_dofs(element)]
         return np.concatenate([ws.dofs, np.where(deck >= 0, self.oB + deck, -1)])
 
-    def z(self, w: int, element: int, q: np.ndarray, u: np.ndarray) -> np.ndarray:
+    def z(
+        self, w: int, element: int, q: np.ndarray, u: np.ndarray, ground: np.ndarray | None = None
+    ) -> np.ndarray:
+        """The contact's ``z`` (or a rate of it): the wheelset's four DOFs and the element's 12, or,
+        on the approach track, the ground's rigid "element" (``ground[w]``, of
+        :meth:`System3D.ground_under`; None: at rest)."""
         ws = self.system.vehicle.wheelsets[w]
-        return np.concatenate([q[ws.dofs], u[self.system.span.element_dofs(element)]])
+        if element == GROUND:
+            deck = np.zeros(12) if ground is None else ground[w]
+        else:
+            deck = u[self.system.span.element_dofs(element)]
+        return np.concatenate([q[ws.dofs], deck])
 
     def add_forces(
         self, A: np.ndarray, R: np.ndarray, w: int, cols: np.ndarray, lam: np.ndarray, rows: _Rows
@@ -200,6 +212,8 @@ def static_state(system: System3D, t: float = 0.0) -> State3D:
     kernels = _kernels(system, 0.0, 0.0, 0.0)
     q = np.zeros(asm.nV)
     u = np.zeros(span.M.shape[0])
+    if system.ground is not None:  # the supports where the ground is at t (exact values)
+        u[span.support_dofs] = _support_values(system, t)[0]
     lam = np.zeros(asm.nC)
     closed = np.tile([True, True, False, False], asm.nW)
     loads = [system.vehicle.F, system.vehicle_load()] if system.load is not None else [system.vehicle.F]
@@ -235,6 +249,11 @@ def _static_newton(
     veh, span = system.vehicle, system.span
     loc = system.contact_location(t)
     KB = span.K[np.ix_(asm.free, asm.free)]
+    held = None
+    if system.ground is not None:  # the supports' static load on the free DOFs
+        s = span.support_dofs
+        held = span.K[np.ix_(asm.free, s)] @ u[s]
+    ground = system.ground_under(t)[0]
     lam[~closed] = 0.0
     converged = Convergence()
     zero = np.zeros(16)
@@ -245,11 +264,13 @@ def _static_newton(
         R[: asm.nV] = veh.K @ q - f
         A[asm.oB : asm.oP, asm.oB : asm.oP] = KB
         R[asm.oB : asm.oP] = KB @ u[asm.free]
+        if held is not None:
+            R[asm.oB : asm.oP] += held
         gaps = np.zeros(asm.nC)
         for w, (e, xi) in enumerate(loc):
             cols = asm.columns(w, e)
             keep = cols >= 0
-            z = asm.z(w, e, q, u)
+            z = asm.z(w, e, q, u, ground)
             rows = _rows(kernels[w], z, zero, zero, xi, 0.0, 0.0)
             r = slice(PER_WHEELSET * w, PER_WHEELSET * (w + 1))
             asm.add_forces(A, R, w, cols, lam[r], rows)
@@ -269,11 +290,19 @@ def _static_newton(
         lam += dx[asm.oP :]
         if converged(np.abs(dx[: asm.oP]).max(), max(np.abs(q).max(), np.abs(u).max())):
             for w, (e, xi) in enumerate(loc):
-                z = asm.z(w, e, q, u)
+                z = asm.z(w, e, q, u, ground)
                 k, fk = kernels[w]
                 gaps[PER_WHEELSET * w : PER_WHEELSET * (w + 1)] = [*k.gap(z, xi), *fk.flange_gap(z, xi)]
             return gaps
     raise RuntimeError(f"the static state did not converge in {NEWTON_ITERATIONS} Newton iterations")
+
+
+def _support_values(system: System3D, t: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """``(q, q', q'')`` of every support of the deck (``span.supports``) at ``t``: the ground's
+    ``(x, y, z)`` motion at every support line, taken by ``span.support_motion``."""
+    span = system.span
+    lines = system.ground_motion(t, np.asarray(span.line_x, dtype=float))
+    return tuple(span.support_motion(m) for m in lines)  # type: ignore[return-value]
 
 
 class _Step3D:
@@ -320,6 +349,19 @@ class _Step3D:
             state.contact = np.tile([True, True, False, False], nW)
         self.active = ActiveSet(nC)
         self.active.in_contact[:] = state.contact
+        self.quake = system.ground is not None
+        """Whether the supports move (the ground motion of ``system.ground``)."""
+        self._hat: dict[int, np.ndarray] = {}
+        self.next_support: tuple[np.ndarray, np.ndarray, np.ndarray] | None = None
+        if self.quake:
+            s = span.support_dofs
+            self.held = s
+            k_hat = self.nm.effective(span.K, self.CB, span.M)
+            self.k_hat_fs = k_hat[np.ix_(f, s)]
+            self.CT = (self.CB @ span.T)[f]
+            Q = self.support_targets(state.t)
+            for a, v in zip((state.u, state.ud, state.udd), Q, strict=True):
+                a[s] = v
         if system.creep is not None:
             self._check_creep_stability()
         if state.creep is None:
@@ -366,7 +408,42 @@ class _Step3D:
         fV = sys_.vehicle_load() - veh.K @ st.q + veh.M @ PtV + veh.C @ QtV + st.creep_V
         PB, QB = nm.history(st.u, st.ud, st.udd)
         fB = (span.M @ PB + self.CB @ QB + st.creep_B)[self.asm.free]
-        return (n + 1) * self.dt, (PtV, QtV), (PB, QB), fV, fB
+        t = (n + 1) * self.dt
+        if self.quake:
+            # the supports at their targets of t_{n+1}: their share of the effective load moves to
+            # the right-hand side, and the damping acts on the motion relative to the ground
+            Q = self.next_support = self.support_targets(t)
+            fB = fB - self.k_hat_fs @ Q[0] + self.CT @ Q[1]
+        return t, (PtV, QtV), (PB, QB), fV, fB
+
+    def support_targets(self, t: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """Newmark-consistent targets ``(Q, Q', Q'')`` of every support at ``t`` (a step time), as
+        the 2D supports' (:func:`svbi.runtime.model.system.newmark_targets` of ``h = q - dt^2/4
+        q''`` at ``t - dt``, ``t``, ``t + dt``; docs/method.md, "Support targets")."""
+        dt = self.dt
+        n = round(t / dt)
+        for k in (n - 1, n, n + 1):
+            if k not in self._hat:
+                q, _, q2 = _support_values(self.system, k * dt)
+                self._hat[k] = support_hat(q, q2, dt)
+        for k in [k for k in self._hat if abs(k - n) > 1]:
+            del self._hat[k]
+        return newmark_targets(self._hat[n - 1], self._hat[n], self._hat[n + 1], dt)
+
+    def _hold(self, u: np.ndarray) -> np.ndarray:
+        """``u`` (full vector, in place) with the supports at their targets of the step."""
+        if self.next_support is not None:
+            u[self.held] = self.next_support[0]
+        return u
+
+    def _span_rates(self, u: np.ndarray, PB: np.ndarray, QB: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """The span's Newmark rates at t_{n+1}; the supports' are their targets' (the same values in
+        exact arithmetic: the targets satisfy Newmark's relations)."""
+        ud, udd = self.nm.update(u, PB, QB)
+        if self.next_support is not None:
+            ud[self.held] = self.next_support[1]
+            udd[self.held] = self.next_support[2]
+        return ud, udd
 
     def _creep(self, st: State3D) -> None:
         """The creep forces at the state's time and their loads (zero where a wheel is off its rail
@@ -378,18 +455,21 @@ class _Step3D:
         if self.system.creep is None:
             return
         loc = self.system.contact_location(st.t)
+        g, g1, _ = self.system.ground_under(st.t)
         closed = st.contact.reshape(asm.nW, PER_WHEELSET)[:, :2]
         for w, (e, xi) in enumerate(loc):
-            z, zd = asm.z(w, e, st.q, st.u), asm.z(w, e, st.qd, st.ud)
+            z, zd = asm.z(w, e, st.q, st.u, g), asm.z(w, e, st.qd, st.ud, g1)
             load = np.where(closed[w], st.P[2 * w : 2 * w + 2], 0.0)
             forces, gen = self.pairs[w][1].creep(z, zd, xi, load)
             st.creep[w] = forces
             ws = self.system.vehicle.wheelsets[w]
             st.creep_V[ws.dofs] += gen[:4]
-            st.creep_B[6 * e : 6 * e + 12] += gen[4:]
+            if e != GROUND:  # the rigid approach track takes its creep forces
+                np.add.at(st.creep_B, self.system.span.element_dofs(e), gen[4:])
 
     def _rows_at(
         self,
+        t: float,
         loc: list,
         q: np.ndarray,
         qd: np.ndarray,
@@ -400,9 +480,12 @@ class _Step3D:
         hessian: bool,
     ) -> list[_Rows]:
         asm, nm = self.asm, self.nm
+        ground = self.system.ground_under(t)
         out = []
         for w, (e, xi) in enumerate(loc):
-            z, zd, zdd = (asm.z(w, e, a, b) for a, b in ((q, u), (qd, ud), (qdd, udd)))
+            z, zd, zdd = (
+                asm.z(w, e, a, b, g) for a, b, g in zip((q, qd, qdd), (u, ud, udd), ground, strict=True)
+            )
             out.append(_rows(self.pairs[w], z, zd, zdd, xi, nm.a1, nm.a0, hessian))
         return out
 
@@ -426,8 +509,8 @@ class _Step3D:
             dq, u, lam = self._solve(t, loc, hist_V, hist_B, fV, fB)
             q = st.q + dq
             qd, qdd = self.nm.update_increment(dq, PtV, QtV)
-            ud, udd = self.nm.update(u, PB, QB)
-            rows = self._rows_at(loc, q, qd, qdd, u, ud, udd, hessian=False)
+            ud, udd = self._span_rates(u, PB, QB)
+            rows = self._rows_at(t, loc, q, qd, qdd, u, ud, udd, hessian=False)
             stabilised = np.concatenate([r.res for r in rows]) / self.scale
             uplift = np.concatenate([r.gap for r in rows])
             force = lam.copy()
@@ -461,8 +544,12 @@ class _Step3D:
         """``g'`` and ``g''`` of every constraint at the state (exact, convective terms included)."""
         asm = self.asm
         gt, gtt = np.zeros(asm.nC), np.zeros(asm.nC)
+        ground = self.system.ground_under(st.t)
         for w, (e, xi) in enumerate(loc):
-            z, zd, zdd = (asm.z(w, e, a, b) for a, b in ((st.q, st.u), (st.qd, st.ud), (st.qdd, st.udd)))
+            z, zd, zdd = (
+                asm.z(w, e, a, b, g)
+                for a, b, g in zip((st.q, st.qd, st.qdd), (st.u, st.ud, st.udd), ground, strict=True)
+            )
             r = slice(PER_WHEELSET * w, PER_WHEELSET * (w + 1))
             k0, f0 = self.rates_tt[w]
             k1, f1 = self.rates_t[w]
@@ -478,7 +565,7 @@ class _Step3D:
         the force jump that makes the accelerations consistent (``g'' = 0`` for the landing ones,
         unchanged for the others), forces ``>= 0``. Returns the contacts let go."""
         act, f = self.active, self.asm.free
-        rows = self._rows_at(loc, st.q, st.qd, st.qdd, st.u, st.ud, st.udd, hessian=False)
+        rows = self._rows_at(st.t, loc, st.q, st.qd, st.qdd, st.u, st.ud, st.udd, hessian=False)
         GV, GB = self._directions(rows, loc)
         AV, AB = self.MV_inv @ GV.T, self.MB_inv @ GB.T
         G = GV @ AV + GB @ AB
@@ -518,7 +605,7 @@ class _Step3D:
         st, nm = self.state, self.nm
         st.qd, st.qdd = nm.update_increment(dq, *hist_V)
         st.q = st.q + dq
-        st.ud, st.udd = nm.update(u, *hist_B)
+        st.ud, st.udd = self._span_rates(u, *hist_B)
         st.u = u
         self._set_forces(st, lam)
         st.t = t
@@ -527,17 +614,19 @@ class _Step3D:
     def gaps(self) -> np.ndarray:
         """Normal gaps of every contact at the state's time (m), wheelset by wheelset."""
         st, asm = self.state, self.asm
+        ground = self.system.ground_under(st.t)[0]
         out = []
         for w, (e, xi) in enumerate(self.system.contact_location(st.t)):
-            out.extend(self.kernels[w].gap(asm.z(w, e, st.q, st.u), xi))
+            out.extend(self.kernels[w].gap(asm.z(w, e, st.q, st.u, ground), xi))
         return np.array(out)
 
     def flange_gaps(self) -> np.ndarray:
         """Flange gaps of every wheelset at the state's time (m), left then right."""
         st, asm = self.state, self.asm
+        ground = self.system.ground_under(st.t)[0]
         out = []
         for w, (e, xi) in enumerate(self.system.contact_location(st.t)):
-            out.extend(self.pairs[w][1].flange_gap(asm.z(w, e, st.q, st.u), xi))
+            out.extend(self.pairs[w][1].flange_gap(asm.z(w, e, st.q, st.u, ground), xi))
         return np.array(out)
 
 
@@ -568,21 +657,21 @@ class CoupledDynamic3D(_Step3D):
         nm = self.nm
         (PtV, QtV), (PB, QB) = hist_V, hist_B
         dq = np.zeros(asm.nV)
-        u = st.u.copy()
+        u = self._hold(st.u.copy())
         lam = np.where(act.active, st.forces(), 0.0)
         converged = Convergence()
         for _ in range(NEWTON_ITERATIONS):
             self.iterations += 1
             q = st.q + dq
             qd, qdd = nm.update_increment(dq, PtV, QtV)
-            ud, udd = nm.update(u, PB, QB)
+            ud, udd = self._span_rates(u, PB, QB)
             A = np.zeros((asm.n, asm.n))
             R = np.zeros(asm.n)
             A[: asm.nV, : asm.nV] = self.k_hat_V
             R[: asm.nV] = self.k_hat_V @ dq - fV
             A[asm.oB : asm.oP, asm.oB : asm.oP] = self.k_hat_B
             R[asm.oB : asm.oP] = self.k_hat_B @ u[f] - fB
-            rows = self._rows_at(loc, q, qd, qdd, u, ud, udd, hessian=True)
+            rows = self._rows_at(t, loc, q, qd, qdd, u, ud, udd, hessian=True)
             for w, (e, _) in enumerate(loc):
                 cols = asm.columns(w, e)
                 keep = cols >= 0

@@ -60,7 +60,7 @@ class LocalizedDynamic3D(_Step3D):
         uf0 = self.S_B @ fB
         nC = asm.nC
         dq = dq0.copy()
-        u = np.zeros_like(st.u)
+        u = self._hold(np.zeros_like(st.u))
         u[f] = uf0
         lam = np.where(act.active, st.forces(), 0.0)
         free = np.flatnonzero(~act.active)
@@ -69,8 +69,8 @@ class LocalizedDynamic3D(_Step3D):
             self.iterations += 1
             q = st.q + dq
             qd, qdd = nm.update_increment(dq, PtV, QtV)
-            ud, udd = nm.update(u, PB, QB)
-            rows = self._rows_at(loc, q, qd, qdd, u, ud, udd, hessian=False)
+            ud, udd = self._span_rates(u, PB, QB)
+            rows = self._rows_at(t, loc, q, qd, qdd, u, ud, udd, hessian=False)
             GV, GB = self._directions(rows, loc)  # force directions
             JV = np.zeros((nC, asm.nV))  # constraint rows
             JB = np.zeros((nC, asm.nF))

@@ -84,6 +84,12 @@ class Ground:
         _, (q, q1, q2) = self.motion(t, x)
         return seen_moving(q, q1, q2, self.apparent_velocity, speed, acceleration)
 
+    def lateral(self, t: float, x: np.ndarray) -> Triple:
+        """The transverse component (3D models, positive left) at fixed points ``x``: q, q', q''
+        (zero here: the ground at rest)."""
+        z = np.zeros_like(np.asarray(x, dtype=float))
+        return z, z, z
+
     def recorded(self, t: float, bridge: Bridge) -> tuple[np.ndarray, np.ndarray]:
         """``ground_uz`` and ``ground_ux`` of the results: at x = 0 when uniform, else at every
         support constraint (``bridge.support_x``, span by span)."""
@@ -122,14 +128,27 @@ class GroundAtRest(Ground):
 
 
 class FunctionGround(Ground):
-    """Ground motion from two functions ``f(t, x) -> (q, q', q'')`` (vertical, longitudinal)."""
+    """Ground motion from functions ``f(t, x) -> (q, q', q'')`` (vertical, longitudinal and, for
+    3D models, ``lateral``)."""
 
     def __init__(
-        self, vertical: Any = None, longitudinal: Any = None, apparent_velocity: float | None = None
+        self,
+        vertical: Any = None,
+        longitudinal: Any = None,
+        apparent_velocity: float | None = None,
+        *,
+        lateral: Any = None,
     ) -> None:
-        self._v, self._h = vertical, longitudinal
+        self._v, self._h, self._y = vertical, longitudinal, lateral
         self.apparent_velocity = apparent_velocity
         self.uniform = apparent_velocity is None
+
+    def lateral(self, t: float, x: np.ndarray) -> Triple:
+        x = np.asarray(x, dtype=float)
+        if self._y is None:
+            z = np.zeros_like(x)
+            return z, z, z
+        return tuple(np.broadcast_to(a, x.shape).astype(float) for a in self._y(t, x))  # type: ignore[return-value]
 
     def motion(self, t: float, x: np.ndarray) -> tuple[Triple, Triple]:
         x = np.asarray(x, dtype=float)

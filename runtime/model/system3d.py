@@ -25,6 +25,7 @@ import numpy as np
 from ...codegen.plain_types import TopologyError, builtin_topologies_3d
 from ..toolchain import python_module_3d
 from .creep_law import CreepParameters
+from .ground import seen_moving
 from .kalker3d import kalker_coefficients
 from .kernels import CONTACT3D, load, load_path
 from .span3d import Deck3D
@@ -33,6 +34,9 @@ NZ = 16
 """The contact's own unknowns ``z = [y_w, z_w, phi_w, psi_w, u_e (12)]``: 4 wheelset DOFs and the
 element's 12."""
 NIRREGULARITY = 9
+GROUND = -1
+"""The element that :meth:`System3D.contact_location` gives a wheelset on the approach track (the
+rigid track before and after the deck, moving with the ground)."""
 """Irregularity arguments of the contact kernels: ``[r_v, r_a, r_c]``, their slopes and curvatures."""
 
 
@@ -396,7 +400,8 @@ class FlangeCreepKernel3D:
 
 @dataclass
 class System3D:
-    """One 3D car on one simply supported 3D span, bilateral contact (docs/three-d.md)."""
+    """One 3D car (or train) on a 3D span or bridge and the rigid approach track before and after
+    it, under an optional ground motion (docs/three-d.md)."""
 
     vehicle: Vehicle3DNumeric
     span: Deck3D
@@ -405,7 +410,8 @@ class System3D:
     track: Track3D = field(default_factory=Track3D)
     speed: float = 0.0
     start: float = 0.0
-    """x of the car's leading axle at t = 0 (m from the left support)."""
+    """x of the car's leading axle at t = 0 (m from the left support; negative: on the approach
+    track before the deck)."""
     load: np.ndarray | None = None
     """A constant external load on the vehicle DOFs (N, N m), besides gravity."""
     bridge_damping: np.ndarray | None = None
@@ -414,22 +420,69 @@ class System3D:
     """Wheel-rail material and friction of the creep forces (Kalker with Shen-Hedrick-Elkins
     saturation, :mod:`svbi.codegen.creep3d`; the wheel radius is each wheelset's own); None: no
     creep."""
+    ground: Any = None
+    """The ground motion, with the interface of the 2D ground (:mod:`svbi.runtime.model.ground`:
+    ``motion(t, x)`` gives the vertical and longitudinal ``(q, q', q'')`` at fixed points, ``lateral(t,
+    x)`` the transverse one, positive left, ``apparent_velocity`` a travelling wave's speed or
+    None): a :class:`~svbi.runtime.model.ground.FunctionGround` or the ground of a scenario
+    (``ground_from_scenario``). The supports follow it line by line (the deck must be a
+    :class:`~svbi.runtime.model.bridge3d.Bridge3D`), the approach track under the wheels too. None:
+    the ground at rest."""
 
     def __post_init__(self) -> None:
         # the contact kernels take one element length (``span.element_length`` raises for a deck
         # whose elements differ)
         _ = self.span.element_length
+        if self.ground is not None and not hasattr(self.span, "support_motion"):
+            raise ValueError(
+                "a ground motion needs a deck with supports on the ground (a Bridge3D; a Span3D has "
+                "no support lines)"
+            )
+
+    def positions(self, t: float) -> np.ndarray:
+        """x of every wheelset at ``t`` (m from the deck's start)."""
+        return np.array([self.start + self.speed * t - w.offset for w in self.vehicle.wheelsets])
 
     def contact_location(self, t: float) -> list[tuple[int, float]]:
-        """``(element, xi)`` under each wheelset at ``t`` (deck elements, ``span.deck_location``); a
-        wheelset must be on the deck (no approach track yet)."""
+        """``(element, xi)`` under each wheelset at ``t``: a deck element (``span.deck_location``)
+        for ``0 <= x < span.length``, else :data:`GROUND` (the approach track; ``xi`` 0). As in 2D
+        the last abutment is off the deck: there the deck and the track are both the ground."""
         out = []
-        for w in self.vehicle.wheelsets:
-            x = self.start + self.speed * t - w.offset
-            if not 0.0 <= x <= self.span.length:
-                raise ValueError(f"wheelset {w.name!r} is off the span at t = {t} s (x = {x} m)")
-            out.append(self.span.deck_location(x))
+        for x in self.positions(t):
+            out.append(self.span.deck_location(x) if 0.0 <= x < self.span.length else (GROUND, 0.0))
         return out
+
+    def ground_motion(self, t: float, x: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """``(q, q', q'')`` of the ground at fixed points ``x``, each ``(len(x), 3)``: the ``x``
+        (longitudinal), ``y`` (lateral) and ``z`` (vertical) components (partial time
+        derivatives)."""
+        x = np.atleast_1d(np.asarray(x, dtype=float))
+        if self.ground is None:
+            z = np.zeros((len(x), 3))
+            return z, z.copy(), z.copy()
+        vertical, longitudinal = self.ground.motion(t, x)
+        lateral = self.ground.lateral(t, x)
+        return tuple(  # type: ignore[return-value]
+            np.stack([np.broadcast_to(c[k], x.shape) for c in (longitudinal, lateral, vertical)], axis=-1)
+            for k in range(3)
+        )
+
+    def ground_under(self, t: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """The ground under every wheelset at ``t`` as three rigid "elements": ``(z_e, z_e', z_e'')``,
+        each ``(wheelsets, 12)``, the translation ``[q_x, q_y, q_z, 0, 0, 0]`` at both nodes with its
+        total time derivatives along the moving wheelset (``(1 - v/c)`` and its square for a
+        travelling wave, as :meth:`svbi.runtime.model.ground.Ground.under`). The contact kernels on
+        such an element are the rigid track moving with the ground."""
+        nW = len(self.vehicle.wheelsets)
+        out = [np.zeros((nW, 12)) for _ in range(3)]
+        if self.ground is None:
+            return out[0], out[1], out[2]
+        q = self.ground_motion(t, self.positions(t))
+        moving = seen_moving(*q, getattr(self.ground, "apparent_velocity", None), self.speed)
+        for k in range(3):
+            out[k][:, 0:3] = moving[k]
+            out[k][:, 6:9] = moving[k]
+        return out[0], out[1], out[2]
 
     def vehicle_load(self) -> np.ndarray:
         return self.vehicle.F + (0.0 if self.load is None else np.asarray(self.load, dtype=float))

@@ -51,7 +51,7 @@ from ..excitation.irregularity import (
 from ..methods.coupled3d import CoupledDynamic3D, State3D, static_state
 from ..methods.localized3d import LocalizedDynamic3D
 from ..model.bridge3d import Bridge3D
-from ..model.system3d import System3D, Track3D, Vehicle3DNumeric, vehicle3d
+from ..model.system3d import GROUND, System3D, Track3D, Vehicle3DNumeric, vehicle3d
 from ..model.train3d import train3d
 from ..scenario.build import (
     IRREGULARITY_TABLE_DIVISIONS,
@@ -444,12 +444,16 @@ class _Recorder3D:
             self.tread[i] = closed[:, :2].reshape(-1)
             self.flange_closed[i] = closed[:, 2:].reshape(-1)
         for w, (ws, (e, xi)) in enumerate(zip(self.ws, sys_.contact_location(st.t), strict=True)):
-            rows = deck_rows(b, e, xi)
-            dofs, rv = rows["v"]
-            _, rphi = rows["phi"]
-            ue = st.u[dofs]
-            phi_d = float(rphi @ ue)
-            y_r = float(rv @ ue) - self.h_t * phi_d + irregularity[w, 1]  # the track centreline
+            if e == GROUND:  # on the approach track (the last abutment): the ground, at rest
+                phi_d = 0.0
+                y_r = irregularity[w, 1]
+            else:
+                rows = deck_rows(b, e, xi)
+                dofs, rv = rows["v"]
+                _, rphi = rows["phi"]
+                ue = st.u[dofs]
+                phi_d = float(rphi @ ue)
+                y_r = float(rv @ ue) - self.h_t * phi_d + irregularity[w, 1]  # the track centreline
             phi_t = phi_d + irregularity[w, 2]  # the track plane's roll: the deck's and the cross-level
             self.lateral[i, w] = st.q[ws.dofs[0]] - y_r
             self.angle[i, 2 * w : 2 * w + 2] = self.lam + SIDE_SIGN * (st.q[ws.dofs[2]] - phi_t)

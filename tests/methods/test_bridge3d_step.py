@@ -20,7 +20,7 @@ from svbi.codegen.topology3d import parse_topology3d
 from svbi.runtime.methods.coupled3d import CoupledDynamic3D, static_state
 from svbi.runtime.model.bridge import Girder, Section
 from svbi.runtime.model.bridge3d import Bridge3D, section3d
-from svbi.runtime.model.system3d import System3D, Track3D, vehicle3d
+from svbi.runtime.model.system3d import GROUND, System3D, Track3D, vehicle3d
 from svbi.runtime.model.train3d import train3d
 from svbi.runtime.scenario.schema import validate_scenario
 
@@ -112,8 +112,8 @@ def test_several_spans_in_the_vertical_plane_are_the_2d_run(spans, cars, start, 
 
 
 def test_set_up_errors_on_a_bridge() -> None:
-    """A deck of unequal elements is refused at set-up; a wheelset beyond the last abutment raises
-    the error of a single span (no approach track)."""
+    """A deck of unequal elements is refused at set-up; a wheelset beyond the last abutment is on the
+    approach track (the ground: element ``GROUND``), the last abutment included, as in 2D."""
     car = vehicle3d(parse_topology3d(SPRUNG_WHEELSET_3D))
     plane = Section(MU, E, 1.0, Iy, 0.0)
     section = section3d(plane, 10.0, 5.0)
@@ -123,5 +123,5 @@ def test_set_up_errors_on_a_bridge() -> None:
     bridge = Bridge3D([Girder((L,), plane)] * 2, ELEMENTS, [section] * 2)
     system = System3D(car, bridge, Track3D(conicity=LAM), speed=V, start=19.0)
     assert system.contact_location(0.0) == [(ELEMENTS + 7, pytest.approx(0.2))]
-    with pytest.raises(ValueError, match="wheelset 'ws' is off the span at t = 0.1 s"):
-        system.contact_location(0.1)
+    assert system.contact_location(0.1) == [(GROUND, 0.0)]
+    assert System3D(car, bridge, start=2 * L).contact_location(0.0) == [(GROUND, 0.0)]

@@ -1,0 +1,299 @@
+"""Ground motion at the supports and the approach track in the 3D steps (docs/three-d.md, "The 3D
+time step (prototype)": support motion, approach track).
+
+* a car crossing from the approach track onto a span and off again, with and without a vertical and
+  longitudinal earthquake (synchronous and a travelling wave), against svbi's 2D coupled-dynamic
+  run of the same case (``svbi.simulate`` with the same ground, ``FunctionGround``) in the vertical
+  plane: midspan deflections, axial displacements and contact forces to round-off;
+* a car standing on a bridge whose ground moves at a constant velocity in x, y and z: the whole
+  system translates rigidly with the ground (exact for Newmark), the gaps stay closed;
+* a span under a uniform lateral ground acceleration: its midspan lateral displacement relative to
+  the ground against the modal solution of the Euler-Bernoulli span, written here (lateral modes in
+  closed form, each modal equation integrated by ``solve_ivp``);
+* localized = coupled with a three-component travelling wave, damping and a crossing.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from cases import SPRUNG_WHEELSET_3D
+from scipy.integrate import solve_ivp
+
+import svbi
+from svbi.codegen.topology3d import parse_topology3d
+from svbi.runtime.methods.coupled3d import CoupledDynamic3D, static_state
+from svbi.runtime.methods.localized3d import LocalizedDynamic3D
+from svbi.runtime.model.bridge import Girder, Section
+from svbi.runtime.model.bridge3d import Bridge3D, section3d
+from svbi.runtime.model.ground import FunctionGround
+from svbi.runtime.model.system3d import GROUND, System3D, Track3D, vehicle3d
+from svbi.runtime.run.simulate import build_model
+from svbi.runtime.scenario.schema import validate_scenario
+
+L, E, Iy, MU = 10.0, 2.87e9, 2.9, 2303.0
+V = 100.0 / 3.6
+DT, ELEMENTS = 2e-3, 8
+LAM = 0.1
+COS = 1.0 / np.sqrt(1.0 + LAM**2)
+
+
+def bump(amplitude: float, omega: float, t0: float = 0.0, c: float | None = None):
+    """``q = A (1 - cos(omega s))^2`` for ``s = t - t0 - x/c > 0``, else 0 (q, q', q'' vanish at
+    the onset): a smooth ground motion and its exact partial time derivatives."""
+
+    def f(t, x):
+        x = np.asarray(x, dtype=float)
+        s = t - t0 - (x / c if c else 0.0 * x)
+        on = s > 0.0
+        cs, sn = np.cos(omega * s), np.sin(omega * s)
+        q = amplitude * (1 - cs) ** 2
+        q1 = 2 * amplitude * omega * (1 - cs) * sn
+        q2 = 2 * amplitude * omega**2 * (sn * sn + (1 - cs) * cs)
+        return tuple(np.where(on, a, 0.0) for a in (q, q1, q2))
+
+    return f
+
+
+def support_targets(ground, b: Bridge3D, t: float, dt: float) -> np.ndarray:
+    """The supports' Newmark-consistent targets (docs/method.md, "Support targets"), written here:
+    ``h = q - dt^2/4 q''`` of each support's component at its line, at ``t - dt``, ``t``, ``t + dt``,
+    then ``(h0 + 2 h1 + h2) / 4``; held rotations 0."""
+    x = np.array([s.x for s in b.supports])
+
+    def h(tk):
+        (vz, _, az), (vx, _, ax) = ground.motion(tk, x)
+        vy, _, ay = ground.lateral(tk, x)
+        q = {"x": vx - dt * dt / 4 * ax, "y": vy - dt * dt / 4 * ay, "z": vz - dt * dt / 4 * az}
+        return np.array([q[s.direction][i] if s.direction in q else 0.0 for i, s in enumerate(b.supports)])
+
+    h0, h1, h2 = (h(t + k * dt) for k in (-1, 0, 1))
+    return 0.25 * (h0 + 2 * h1 + h2)
+
+
+def car():
+    return vehicle3d(parse_topology3d(SPRUNG_WHEELSET_3D))
+
+
+def bridge(spans: int, damping: float, elements: int = ELEMENTS, lateral: float = 10.0) -> Bridge3D:
+    plane = Section(MU, E, 1.0, Iy, damping)
+    return Bridge3D([Girder((L,), plane)] * spans, elements, [section3d(plane, lateral, 5.0)] * spans)
+
+
+def run3d(spans, start, steps, damping=0.0, ground=None, method=CoupledDynamic3D):
+    b = bridge(spans, damping)
+    system = System3D(
+        car(), b, Track3D(conicity=LAM), speed=V, start=start, bridge_damping=b.C, ground=ground
+    )
+    stepper = method(system, static_state(system), DT)
+    mids = [b.midspan_node(s) for s in range(spans)]
+    w, u, P, where = [], [], [], []
+    stepper.support_error = 0.0
+    for n in range(steps):
+        st = stepper.step(n)
+        if ground is not None:
+            off = np.abs(st.u[b.support_dofs] - support_targets(ground, b, st.t, DT)).max()
+            stepper.support_error = max(stepper.support_error, off)
+        w.append([st.u[b.dof(m, "w")] for m in mids])
+        u.append([st.u[b.dof(m, "u")] for m in mids])
+        P.append(st.P.copy())
+        where.append(system.contact_location(st.t)[0][0])
+    return np.array(w), np.array(u), np.array(P), np.array(where), stepper
+
+
+def run2d(spans, start, steps, damping=0.0, ground=None):
+    scenario = validate_scenario(
+        {
+            "bridge": dict(
+                spans=spans,
+                span_length=L,
+                mass_per_length=MU,
+                youngs_modulus=E,
+                area=1.0,
+                second_moment=Iy,
+                damping_ratio=damping,
+                elements_per_span=ELEMENTS,
+            ),
+            "train": dict(
+                vehicle="sprung-mass",
+                speed=V,
+                start_position=start,
+                parameters=dict(sprung_mass=5750.0, stiffness=1.595e6, wheel_mass=500.0, damping=0.0),
+            ),
+            "contact": dict(creep=False),
+            "solver": dict(
+                method="coupled-dynamic", backend="numpy", time_step=DT, duration=steps * DT, output_every=1
+            ),
+        }
+    )
+    model = build_model(scenario)
+    if ground is not None:
+        model.ground = ground
+    return svbi.simulate(scenario, model=model)
+
+
+QUAKES = {
+    "no-earthquake": None,
+    "synchronous": dict(
+        vertical=bump(0.005, 2 * np.pi * 2.0, t0=0.05), longitudinal=bump(-0.03, 2 * np.pi * 2.0, t0=0.05)
+    ),
+    "wave-300m/s": dict(
+        vertical=bump(0.02, 2 * np.pi * 3.0, t0=0.05, c=300.0),
+        longitudinal=bump(-0.03, 2 * np.pi * 2.0, t0=0.05, c=300.0),
+        apparent_velocity=300.0,
+    ),
+}
+
+
+@pytest.mark.parametrize("quake", list(QUAKES), ids=list(QUAKES))
+def test_crossing_from_the_approach_track_is_the_2d_run(quake) -> None:
+    """The car starts 5 m before a chain of two 10 m spans (damped 2 %) and leaves it at the far end:
+    the 3D step in the vertical plane is svbi's 2D run of the same case, ground motion included."""
+    spans, start, steps = 2, -5.0, 520  # 1.04 s: 28.9 m, from x = -5 m to 23.9 m (wheelset)
+    spec = QUAKES[quake]
+    g3 = g2 = None
+    if spec is not None:
+        g3 = FunctionGround(**spec)
+        g2 = FunctionGround(**spec)
+    w3, u3, P3, where, stepper = run3d(spans, start, steps, damping=0.02, ground=g3)
+    r2 = run2d(spans, start, steps, damping=0.02, ground=g2)
+    w2 = np.asarray(r2.midspan_uz.values)[1:].reshape(steps, spans)
+    u2 = np.asarray(r2.midspan_ux.values)[1:].reshape(steps, spans)
+    P2 = np.asarray(r2.contact_force.values).reshape(steps + 1, -1)[1:, 0]
+    assert where[0] == GROUND and where[-1] == GROUND and (where != GROUND).sum() > 100
+    peak = np.abs(w2).max()
+    assert peak > 1e-4
+    assert np.abs(w3 - w2).max() < 1e-11 * peak
+    if spec is not None:
+        assert np.abs(u2).max() > 1e-3
+        assert np.abs(u3 - u2).max() < 1e-11 * np.abs(u2).max()
+        # the supports on their targets: the 2D support gaps at round-off, the 3D supports exactly
+        qmax = float(np.abs(r2.ground_uz).max())
+        assert qmax > 1e-3
+        assert float(np.abs(r2.gap_support).max()) < 1e-13 * qmax
+        largest = max(qmax, float(np.abs(r2.ground_ux).max()))
+        assert stepper.support_error < 1e-15 * largest
+    # the forces: 1e-11 of the peak at rest (measured 1.3e-13), 1e-10 under the earthquake (measured
+    # 1.9e-12 synchronous, 9.1e-12 for the wave): they are a0-scaled differences of displacements
+    # that now carry the ground's 0.12 m, a hundred times the deflection
+    tol = 1e-11 if spec is None else 1e-10
+    assert np.abs(P3[:, 0] - P3[:, 1]).max() < tol * P2.max()
+    assert np.abs(COS * (P3[:, 0] + P3[:, 1]) - P2).max() < tol * P2.max()
+
+
+def test_the_system_translates_with_a_ground_at_constant_velocity() -> None:
+    """A car standing on the first span of a two-span bridge whose ground moves at a constant
+    velocity (x, y, z), everything starting with that velocity: the exact solution is the static
+    state translated rigidly, which Newmark reproduces exactly; the gaps stay closed."""
+    rate = np.array([0.3, -0.2, 0.1])  # m/s along x, y, z
+
+    def moving(k):
+        return lambda t, x: (rate[k] * t + 0.0 * x, rate[k] + 0.0 * x, 0.0 * x)
+
+    ground = FunctionGround(vertical=moving(2), longitudinal=moving(0), lateral=moving(1))
+    b = bridge(2, 0.02)
+    veh = car()
+    system = System3D(veh, b, Track3D(conicity=LAM), speed=0.0, start=4.0, bridge_damping=b.C, ground=ground)
+    st0 = static_state(system)
+    u0, q0 = st0.u.copy(), st0.q.copy()
+    # the translation's rates: T maps the supports' rates to the bridge's rigid field
+    st0.ud = b.T @ b.support_motion(np.tile(rate, (b.spans + 1, 1)))
+    ys = [i for i, n in enumerate(veh.dof_names) if n.startswith("y_")]
+    zs = [i for i, n in enumerate(veh.dof_names) if n.startswith("z_")]
+    st0.qd[ys], st0.qd[zs] = rate[1], rate[2]
+    stepper = CoupledDynamic3D(system, st0, DT)
+    rigid_u = b.T @ b.support_motion(np.tile(rate, (b.spans + 1, 1)))
+    for n in range(200):
+        st = stepper.step(n)
+        q = q0.copy()
+        q[ys] += rate[1] * st.t
+        q[zs] += rate[2] * st.t
+        assert np.abs(st.u - (u0 + rigid_u * st.t)).max() < 1e-13
+        assert np.abs(st.q - q).max() < 1e-13
+        assert np.abs(st.P - st0.P).max() < 1e-9 * st0.P.max()
+        assert np.abs(stepper.gaps()).max() < 1e-14
+    assert abs(st.t * rate[1]) > 0.07  # it has moved 8 cm sideways
+
+
+def test_lateral_relative_response_of_a_span_is_the_modal_solution() -> None:
+    """A 10 m span (16 elements, undamped, ``I_z`` 0.05 m^4: first lateral mode 3.93 Hz) under a
+    uniform lateral ground motion, the car on the approach track: the midspan's lateral
+    displacement relative to the ground against ``sum_n Gamma_n phi_n(L/2) Y_n`` with
+    ``Y_n'' + omega_n^2 Y_n = -q_y''`` (odd modes ``sin(n pi x/L)``, ``Gamma_n = 4/(n pi)``,
+    ``omega_n = (n pi/L)^2 sqrt(E I_z/mu)``), integrated by ``solve_ivp``. Tolerance 2e-3 of the
+    peak: Newmark's period error ``(omega dt)^2/12`` on the first mode (5e-5 at dt = 1e-3 s) and the
+    higher modes' (3rd: 4e-3 on its 1/30 share), the discretisation's 1e-6."""
+    Iz, dt, steps = 0.05, 1e-3, 500
+    motion = bump(0.01, 2 * np.pi * 2.0)
+    ground = FunctionGround(lateral=motion)
+    b = bridge(1, 0.0, elements=16, lateral=Iz)
+    system = System3D(car(), b, Track3D(conicity=LAM), speed=0.0, start=-50.0, ground=ground)
+    stepper = CoupledDynamic3D(system, static_state(system), dt)
+    mid = b.dof(b.midspan_node(0), "v")
+    t = (np.arange(steps) + 1) * dt
+    rel = []
+    for n in range(steps):
+        st = stepper.step(n)
+        rel.append(st.u[mid] - motion(st.t, 0.0)[0])
+    rel = np.array(rel)
+
+    def modal(n: int) -> np.ndarray:
+        omega = (n * np.pi / L) ** 2 * np.sqrt(E * Iz / MU)
+        sol = solve_ivp(
+            lambda s, y: [y[1], -(omega**2) * y[0] - float(motion(s, 0.0)[2])],
+            (0.0, t[-1]),
+            [0.0, 0.0],
+            t_eval=t,
+            rtol=1e-10,
+            atol=1e-13,
+        )
+        return 4 / (n * np.pi) * np.sin(n * np.pi / 2) * sol.y[0]
+
+    exact = sum(modal(n) for n in (1, 3, 5, 7, 9))
+    peak = np.abs(exact).max()
+    assert peak > 1e-3
+    assert np.abs(rel - exact).max() < 2e-3 * peak
+
+
+def test_localized_is_coupled_with_a_travelling_wave_and_a_crossing() -> None:
+    """Three components of a travelling wave (300 m/s), 2 % damping, a car crossing from the
+    approach track onto a two-span chain on an eccentric raised track (it sways and rolls): the
+    partitioned step gives the monolithic one to 1e-10 of each series' peak."""
+    c = 300.0
+    ground = dict(
+        vertical=bump(0.005, 2 * np.pi * 1.0, 0.05, c),
+        longitudinal=bump(-0.03, 2 * np.pi * 2.0, 0.05, c),
+        lateral=bump(0.001, 2 * np.pi * 1.0, 0.05, c),
+        apparent_velocity=c,
+    )
+    out = []
+    for method in (CoupledDynamic3D, LocalizedDynamic3D):
+        b = bridge(2, 0.02)
+        system = System3D(
+            car(),
+            b,
+            Track3D(conicity=LAM, eccentricity=0.3, rail_height=0.8),
+            speed=V,
+            start=-3.0,
+            bridge_damping=b.C,
+            ground=FunctionGround(**ground),
+        )
+        stepper = method(system, static_state(system), DT)
+        series = []
+        for n in range(250):
+            st = stepper.step(n)
+            series.append(np.concatenate([st.q, st.u, st.P]))
+        out.append(np.array(series))
+    a, b_ = out
+    peak = np.abs(a).max(axis=0)
+    moving = peak > 1e-12
+    assert (np.abs(a - b_)[:, moving].max(axis=0) < 1e-10 * peak[moving]).all()
+
+
+def test_a_ground_motion_needs_a_bridge_deck() -> None:
+    """A Span3D carries no support lines: a ground motion on it is refused at set-up."""
+    from svbi.runtime.model.span3d import Section3D, simply_supported_span
+
+    span = simply_supported_span(Section3D(E=E, A=1.0, I_y=Iy, I_z=10.0, J=5.0, mass_per_length=MU), L, 4)
+    with pytest.raises(ValueError, match="a ground motion needs a deck with supports on the ground"):
+        System3D(car(), span, ground=FunctionGround(lateral=bump(0.01, 1.0)))
