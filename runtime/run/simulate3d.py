@@ -13,14 +13,15 @@ vertical variables of the 2D results (``midspan_uz``, ``deck_acceleration``, ``c
 are recorded every ``output_every`` steps and given to
 :func:`~svbi.runtime.run.results3d.dataset3d` as its ``base``.
 
-What the 3D step cannot do yet is refused before anything is built, in one line naming the key
-(:class:`NotRun3D`): an earthquake, ``coupled-classic``, a braking or accelerating train,
-``train.initial = "rigid-track"``, a wheelset off the deck at any time of the run (no approach
-track in 3D), spans whose elements differ in length. A ``solver.backend`` other than ``numpy`` runs
-on NumPy with a :class:`~svbi.runtime.backends.base.BackendFallback` warning. The contact is the
-step's: ``contact.normal`` unilateral (lift-off and landing, the default) or bilateral, flange
-contact at ``contact.flange_clearance``, and with ``contact.creep`` Kalker's creep forces with
-Shen-Hedrick-Elkins saturation (``[contact]``'s material and friction, as in 2D).
+The ground of ``[earthquake]`` (vertical, longitudinal and lateral components, per support line or
+travelling) moves the 3D bridge's supports; wheelsets before and after the deck run on rigid track
+moving with the ground. What the 3D step cannot do yet is refused before anything is built, in one
+line naming the key (:class:`NotRun3D`): ``coupled-classic``, a braking or accelerating train,
+``train.initial = "rigid-track"``, spans whose elements differ in length. A ``solver.backend`` other
+than ``numpy`` runs on NumPy with a :class:`~svbi.runtime.backends.base.BackendFallback` warning. The
+contact is the step's: ``contact.normal`` unilateral (lift-off and landing, the default) or
+bilateral, flange contact at ``contact.flange_clearance``, and with ``contact.creep`` Kalker's creep
+forces with Shen-Hedrick-Elkins saturation (``[contact]``'s material and friction, as in 2D).
 
 Rail irregularities (``[track]``) are set on the step's contact kernels (their ``irregularity``
 argument) under each wheelset at t_{n+1} before each step: a German spectrum gives the vertical
@@ -51,6 +52,7 @@ from ..excitation.irregularity import (
 from ..methods.coupled3d import CoupledDynamic3D, State3D, static_state
 from ..methods.localized3d import LocalizedDynamic3D
 from ..model.bridge3d import Bridge3D
+from ..model.ground import Ground, ground_from_scenario
 from ..model.system3d import GROUND, System3D, Track3D, Vehicle3DNumeric, vehicle3d
 from ..model.train3d import train3d
 from ..scenario.build import (
@@ -130,17 +132,11 @@ class Run3D:
 def refuse(scenario: Scenario) -> None:
     """Raise :class:`NotRun3D` for what the 3D run cannot do yet (the checks that need no model)."""
     where = scenario.source or ""
-    eq, ss, t = scenario.earthquake, scenario.solver, scenario.train
+    ss, t = scenario.solver, scenario.train
 
     def no(key: str, message: str) -> NotRun3D:
         return NotRun3D(key, message, where)
 
-    if eq is not None and any(eq.sources(c) != ["none"] for c in eq.components):
-        raise no(
-            "earthquake",
-            "support motion is not in the 3D step yet: a 3D scenario runs without [earthquake] "
-            "(remove the table or set its components to 'none')",
-        )
     if ss.method not in STEPS_3D:
         raise no(
             "solver.method",
@@ -223,38 +219,17 @@ def build_run3d(scenario: Scenario, hold_train: bool = False) -> Run3D:
     start = float(ts.start_position)
     length = bridge.length
     rear = max(w.offset for w in train.wheelsets)
-    front = min(w.offset for w in train.wheelsets)
-    if rear - front > length:
-        raise NotRun3D(
-            "train.cars",
-            f"the train ({rear - front:.4g} m from its first to its last wheelset) is longer than the deck "
-            f"({length:.4g} m), and the 3D run has no approach track yet: use fewer cars",
-            where,
-        )
-    if start - rear < 0.0 or start - front > length:
-        raise NotRun3D(
-            "train.start_position",
-            f"{start:g} m puts wheelsets off the deck at t = 0, and the 3D run has no approach track yet: "
-            f"place the whole train on the deck (train.start_position from {rear:.6g} to "
-            f"{length + front:.6g} m)",
-            where,
-        )
-    on_deck = math.inf if speed == 0.0 else (length + front - start) / speed
-    if ss.duration is None:  # to the leading wheelset's arrival at the end of the deck
-        duration = on_deck
-        steps = max(int(math.floor(duration / ss.time_step + 1e-9)), 1)
+    if ss.duration is None:  # until the last wheelset leaves the deck, as the 2D run
+        if speed <= 0.0:
+            raise NotRun3D("solver.duration", "a train that does not move needs solver.duration", where)
+        duration = max(length + rear - start, 0.0) / speed
     else:
         duration = float(ss.duration)
-        steps = max(int(math.ceil(duration / ss.time_step - 1e-9)), 1)
-    if steps * ss.time_step > on_deck * (1.0 + 1e-12):
-        raise NotRun3D(
-            "solver.duration",
-            f"the leading wheelset leaves the deck at t = {on_deck:.6g} s, before the run ends "
-            f"({steps * ss.time_step:.6g} s), and the 3D run has no track beyond the deck yet: set "
-            f"solver.duration to at most {on_deck:.6g} s (or leave it out: the run then ends there), "
-            "or start the train further back",
-            where,
-        )
+    steps = max(int(math.ceil(duration / ss.time_step - 1e-9)), 1)
+    ground = None
+    eq = scenario.earthquake
+    if eq is not None and any(eq.sources(c) != ["none"] for c in eq.components):
+        ground = ground_from_scenario(scenario, steps * ss.time_step)
     g = track_geometry_3d(scenario)
     track = Track3D(
         conicity=g.conicity,
@@ -270,8 +245,10 @@ def build_run3d(scenario: Scenario, hold_train: bool = False) -> Run3D:
         start=start,
         bridge_damping=bridge.C,
         creep=creep_parameters(scenario),
+        ground=ground,
     )
     irregularity = irregularities_3d(scenario, speed, duration, steps * ss.time_step)
+    front = min(w.offset for w in train.wheelsets)
     path = np.array([start - rear, start + speed * steps * ss.time_step - front])
     for profile in irregularity.values():  # a measured profile must cover the wheelsets' path
         try:
@@ -388,6 +365,9 @@ class _Recorder3D:
         )
         self.pier_v = np.array([b.dof(b.pier_top(i), "v") for i in range(len(b.piers))], dtype=np.intp)
         self.pier_u = np.array([b.dof(b.pier_top(i), "u") for i in range(len(b.piers))], dtype=np.intp)
+        self.ground: Ground = sys_.ground if sys_.ground is not None else Ground()
+        self.lines = np.asarray(b.line_x, dtype=float)
+        self.pier_line = np.array([p.support for p in b.piers], dtype=np.intp)
         self.lam = math.atan(sys_.track.conicity)
         self.h_t = sys_.track.rail_height
         self.ws = veh.wheelsets
@@ -408,6 +388,8 @@ class _Recorder3D:
         self.ay = np.zeros((capacity, c))
         self.roll = np.zeros((capacity, c))
         self.mid_v = np.zeros((capacity, spans))
+        self.mid_v_rel = np.zeros((capacity, spans))
+        self.pier_uy_rel = np.zeros((capacity, len(b.piers)))
         self.mid_phi = np.zeros((capacity, spans))
         self.pier_uy = np.zeros((capacity, len(self.pier_v)))
         rows = (capacity + every - 1) // every
@@ -423,6 +405,11 @@ class _Recorder3D:
             "normal_gap": np.zeros((rows, nw * 2)),
             "wheelset_position": np.zeros((rows, nw)),
             "pier_top_ux": np.zeros((rows, len(self.pier_u))),
+            "midspan_uz_rel": np.zeros((rows, spans)),
+            "midspan_ux_rel": np.zeros((rows, spans)),
+            "pier_drift": np.zeros((rows, len(self.pier_u))),
+            "ground_uz": np.zeros(rows),
+            "ground_ux": np.zeros(rows),
         }
         self.shape = (c, a)
 
@@ -444,9 +431,10 @@ class _Recorder3D:
             self.tread[i] = closed[:, :2].reshape(-1)
             self.flange_closed[i] = closed[:, 2:].reshape(-1)
         for w, (ws, (e, xi)) in enumerate(zip(self.ws, sys_.contact_location(st.t), strict=True)):
-            if e == GROUND:  # on the approach track (the last abutment): the ground, at rest
+            if e == GROUND:  # on the approach track: the ground under the wheelset
                 phi_d = 0.0
-                y_r = irregularity[w, 1]
+                x = self.start + sys_.speed * st.t - self.offsets[w]
+                y_r = float(self.ground.lateral(st.t, np.array([x]))[0][0]) + irregularity[w, 1]
             else:
                 rows = deck_rows(b, e, xi)
                 dofs, rv = rows["v"]
@@ -464,8 +452,13 @@ class _Recorder3D:
                 self.roll[i, k] = st.q[body["phi"]] - self.q_rigid[body["phi"]]
         self.mid_v[i] = self.mid["v"] @ st.u
         self.mid_phi[i] = self.mid["phi"] @ st.u
+        # relative to the ground the span moves with as a rigid body: the mean of its two support
+        # lines' motion at midspan (the ground does not rotate)
+        gy = self.ground.lateral(st.t, self.lines)[0]
+        self.mid_v_rel[i] = self.mid_v[i] - 0.5 * (gy[:-1] + gy[1:])
         if len(self.pier_v):
             self.pier_uy[i] = st.u[self.pier_v]
+            self.pier_uy_rel[i] = self.pier_uy[i] - gy[self.pier_line]
         if i % self.every == 0:
             k = self.count
             d = self.v
@@ -481,8 +474,13 @@ class _Recorder3D:
                     d["carbody_pitch"][k, c] = st.q[body["theta"]] - self.q_rigid[body["theta"]]
             d["normal_gap"][k] = gaps()
             d["wheelset_position"][k] = self.start + sys_.speed * st.t - self.offsets
+            (gz, _, _), (gx, _, _) = self.ground.motion(st.t, self.lines)
+            d["midspan_uz_rel"][k] = d["midspan_uz"][k] - 0.5 * (gz[:-1] + gz[1:])
+            d["midspan_ux_rel"][k] = d["midspan_ux"][k] - 0.5 * (gx[:-1] + gx[1:])
+            d["ground_uz"][k], d["ground_ux"][k] = gz[0], gx[0]
             if len(self.pier_u):
                 d["pier_top_ux"][k] = st.u[self.pier_u]
+                d["pier_drift"][k] = d["pier_top_ux"][k] - gx[self.pier_line]
             self.count += 1
         self.steps += 1
 
@@ -507,11 +505,11 @@ class _Recorder3D:
             carbody_ay=self.ay[:n],
             carbody_roll=self.roll[:n],
             midspan_uy=self.mid_v[:n],
-            midspan_uy_rel=self.mid_v[:n],  # a fixed ground: relative = absolute
+            midspan_uy_rel=self.mid_v_rel[:n],
             midspan_twist=self.mid_phi[:n],
             midspan_twist_rel=self.mid_phi[:n],
             pier_top_uy=pier,
-            pier_top_uy_rel=pier,
+            pier_top_uy_rel=self.pier_uy_rel[:n] if len(self.pier_v) else None,
         )
 
     def base(self) -> xr.Dataset:
@@ -534,11 +532,8 @@ class _Recorder3D:
             ),
             "midspan_uz_rel": (
                 ("time", "span"),
-                d["midspan_uz"],
-                at(
-                    "m",
-                    "vertical displacement at midspan relative to the ground (a fixed ground: midspan_uz)",
-                ),
+                d["midspan_uz_rel"],
+                at("m", "vertical displacement at midspan relative to the ground under the span's supports"),
             ),
             "midspan_ux": (
                 ("time", "span"),
@@ -547,8 +542,11 @@ class _Recorder3D:
             ),
             "midspan_ux_rel": (
                 ("time", "span"),
-                d["midspan_ux"],
-                at("m", "longitudinal displacement at midspan relative to the ground (a fixed ground)"),
+                d["midspan_ux_rel"],
+                at(
+                    "m",
+                    "longitudinal displacement at midspan relative to the ground under the span's supports",
+                ),
             ),
             "deck_acceleration": (
                 ("time", "span"),
@@ -588,10 +586,14 @@ class _Recorder3D:
             ),
             "ground_uz": (
                 ("time",),
-                np.zeros(k),
-                at("m", "vertical ground displacement (at rest: no earthquake)"),
+                d["ground_uz"],
+                at("m", "vertical ground displacement at the first abutment"),
             ),
-            "ground_ux": (("time",), np.zeros(k), at("m", "longitudinal ground displacement (at rest)")),
+            "ground_ux": (
+                ("time",),
+                d["ground_ux"],
+                at("m", "longitudinal ground displacement at the first abutment"),
+            ),
             "wheelset_position": (
                 ("time", "car", "wheel"),
                 d["wheelset_position"].reshape(k, c, a),
@@ -607,7 +609,7 @@ class _Recorder3D:
             )
             data["pier_drift"] = (
                 ("time", "pier"),
-                d["pier_top_ux"],
+                d["pier_drift"],
                 at("m", "longitudinal displacement of the pier top relative to the ground at its base"),
             )
             coords["pier_line"] = ("pier", np.array([p.support for p in b.piers]), at("1", "support line"))

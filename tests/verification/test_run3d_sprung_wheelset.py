@@ -205,3 +205,53 @@ def test_a_measured_vertical_profile_is_the_2d_runs(tmp_path, topology: str, run
     assert np.abs(q3 - p2).max() < 1e-11 * p2.max()
     level = run2d.contact_force.values.reshape(STEPS + 1, -1)[:, 0]  # the same run on level track
     assert np.abs(q3 - level).max() > 0.01 * level.max()  # the dip shows (measured 3 %)
+
+
+def test_a_run_from_the_approach_under_an_earthquake_is_the_2d_run(topology: str) -> None:
+    """The train starts 10 m before the span (approach track), the ground shakes vertically and
+    longitudinally (the synthetic record, its wave passing at 300 m/s): the 3D run's vertical plane
+    is the 2D run with the same scenario, through ``svbi.simulate``; a lateral component added, the
+    ground's sway reaches the span (its motion relative to the ground is what is left of it)."""
+    quake = dict(
+        vertical="synthetic", longitudinal="synthetic", scale=0.5, apparent_velocity=300.0, arrival=0.1
+    )
+    common = dict(contact=dict(creep=False), earthquake=quake)
+    steps = 600
+    sol = dict(method="localized-dynamic", backend="numpy", time_step=DT, duration=steps * DT, output_every=1)
+    two = svbi.simulate(
+        validate_scenario(
+            {
+                "bridge": bridge() | dict(spans=2),
+                "train": dict(
+                    vehicle="sprung-mass",
+                    speed=V,
+                    start_position=-10.0,
+                    parameters=dict(sprung_mass=5750.0, stiffness=1.595e6, wheel_mass=500.0, damping=0.0),
+                ),
+                "solver": sol,
+            }
+            | common
+        )
+    )
+    three_d = {
+        "bridge": bridge() | dict(spans=2, lateral_second_moment=10.0, torsion_constant=5.0),
+        "train": dict(vehicle=topology, speed=V, start_position=-10.0),
+        "solver": sol,
+    } | common
+    three_d["contact"] = dict(creep=False, normal="bilateral", conicity=LAM)
+    three = svbi.simulate(validate_scenario(three_d))
+    assert three.attrs["complete"] == 1
+    for name in ("midspan_uz", "midspan_uz_rel", "midspan_ux"):
+        a, b = two[name].values, three[name].values
+        peak = np.abs(a).max()
+        assert peak > 0 and np.abs(a - b).max() < 1e-10 * peak, (name, np.abs(a - b).max() / peak)
+    p2 = two.contact_force.values.reshape(steps + 1, -1)[:, 0]
+    q = three.contact_force.transpose("time", "car", "wheel", "side").values[:, 0, 0, :]
+    assert np.abs(q.sum(axis=1) - p2).max() < 1e-9 * p2.max()
+    assert np.abs(three.ground_uz.values - two.ground_uz.values.reshape(steps + 1, -1)[:, 0]).max() == 0.0
+    # the lateral component: the span sways with the ground; its motion relative to the ground is
+    # the absolute one less the mean of its supports' (the same synthetic record, here synchronous)
+    three_d["earthquake"] = dict(lateral="synthetic", scale=0.5)
+    sway = svbi.simulate(validate_scenario(three_d))
+    uy, rel = sway.midspan_uy.values, sway.midspan_uy_rel.values
+    assert np.abs(uy).max() > 10 * np.abs(rel).max() > 0  # a stiff span rides with its supports
