@@ -27,71 +27,9 @@ from svbi.runtime.methods.localized3d import LocalizedDynamic3D
 from svbi.runtime.model.span3d import Section3D, simply_supported_span
 from svbi.runtime.model.system3d import GROUND, System3D, Track3D, vehicle3d
 from svbi.runtime.scenario.schema import validate_scenario
+from tests.cases import SPRUNG_WHEELSET_3D
 
-TOPOLOGY = """
-name = "sprung-wheelset-3d"
-kind = "rigid-body"
-dimensions = 3
-description = "A sprung mass on a coned wheelset: the 3D counterpart of sprung-mass (test vehicle)."
-source = "tests: the sprung-mass benchmark values, a symmetric lateral layout"
-[parameters.m_s]
-value = 5750.0
-unit = "kg"
-description = "sprung mass"
-[parameters.m_w]
-value = 500.0
-unit = "kg"
-description = "wheelset mass"
-[parameters.k]
-value = 1.595e6
-unit = "N/m"
-description = "vertical stiffness, whole"
-[parameters.kl]
-value = 2.0e6
-unit = "N/m"
-description = "lateral and longitudinal stiffness per side"
-[parameters.car_length]
-value = 25.0
-unit = "m"
-description = "spacing"
-[parameters.r0]
-value = 0.46
-unit = "m"
-description = "wheel radius"
-[[bodies]]
-name = "body"
-dofs = ["y", "z", "phi"]
-mass = "m_s"
-roll_inertia = "3000"
-position = "0"
-height = "1.5"
-[[bodies]]
-name = "ws"
-dofs = ["y", "z", "phi", "psi"]
-mass = "m_w"
-roll_inertia = "100"
-yaw_inertia = "100"
-position = "0"
-height = "r0"
-[[suspensions]]
-name = "spring"
-body_a = "body"
-body_b = "ws"
-lateral = "1.0"
-height = "0.8"
-sides = 2
-stiffness = ["kl", "kl", "k / 2"]
-[[wheels]]
-name = "left"
-body = "ws"
-lateral = "0.75"
-radius = "r0"
-[[wheels]]
-name = "right"
-body = "ws"
-lateral = "-0.75"
-radius = "r0"
-"""
+TOPOLOGY = SPRUNG_WHEELSET_3D
 
 L, E, Iy, MU = 25.0, 2.87e9, 2.9, 2303.0
 V = 100.0 / 3.6
