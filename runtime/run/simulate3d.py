@@ -363,6 +363,14 @@ class _Recorder3D:
                 for s in range(spans)
             ]
         )
+        # every span's nodes, span by span (a joint's two nodes both listed): the deck's twist there
+        self.twist_dofs = np.concatenate(
+            [[b.dof(int(n), "phi") for n in b.span_nodes[s]] for s in range(spans)]
+        )
+        self.twist_span = np.repeat(np.arange(spans), [len(b.span_nodes[s]) for s in range(spans)])
+        self.twist_x = np.concatenate(
+            [b.line_x[s] + np.linspace(0.0, b.span_lengths[s], len(b.span_nodes[s])) for s in range(spans)]
+        )
         self.pier_v = np.array([b.dof(b.pier_top(i), "v") for i in range(len(b.piers))], dtype=np.intp)
         self.pier_u = np.array([b.dof(b.pier_top(i), "u") for i in range(len(b.piers))], dtype=np.intp)
         self.ground: Ground = sys_.ground if sys_.ground is not None else Ground()
@@ -405,6 +413,7 @@ class _Recorder3D:
             "normal_gap": np.zeros((rows, nw * 2)),
             "wheelset_position": np.zeros((rows, nw)),
             "pier_top_ux": np.zeros((rows, len(self.pier_u))),
+            "deck_twist": np.zeros((rows, self.twist_dofs.size)),
             "midspan_uz_rel": np.zeros((rows, spans)),
             "midspan_ux_rel": np.zeros((rows, spans)),
             "pier_drift": np.zeros((rows, len(self.pier_u))),
@@ -466,6 +475,7 @@ class _Recorder3D:
             d["midspan_ux"][k] = self.mid["u"] @ st.u
             d["deck_acceleration"][k] = self.mid["w"] @ st.udd
             d["end_rotation"][k] = st.u[self.ends]
+            d["deck_twist"][k] = st.u[self.twist_dofs]
             for c, body in enumerate(run.carbody):
                 if "z" in body:
                     d["carbody_uz"][k, c] = st.q[body["z"]] - self.q_rigid[body["z"]]
@@ -600,7 +610,20 @@ class _Recorder3D:
                 at("m", "position of the wheelset along the deck, from the first abutment"),
             ),
         }
-        coords: dict[str, Any] = {"end": ("end", np.array(["left", "right"], dtype=object))}
+        data["deck_twist"] = (
+            ("time", "deck_node"),
+            d["deck_twist"],
+            at("rad", "twist of the deck about its axis at every node of every span, left side up positive"),
+        )
+        coords: dict[str, Any] = {
+            "end": ("end", np.array(["left", "right"], dtype=object)),
+            "deck_node_x": (
+                "deck_node",
+                self.twist_x,
+                at("m", "position of the node from the first abutment"),
+            ),
+            "deck_node_span": ("deck_node", self.twist_span + 1, at("1", "span of the node (from 1)")),
+        }
         if len(self.pier_u):
             data["pier_top_ux"] = (
                 ("time", "pier"),

@@ -8,7 +8,8 @@ A run is checked against one of two sets, chosen from its scenario:
 * deck acceleration (A2.4.4.2.1(4)P): 3.5 m/s² ballasted, 5 m/s² direct fastening, for frequencies
   up to max(30 Hz, 1.5 f1, f3) (the metric ``peak_deck_acceleration``: modal truncation, envelope
   over the span);
-* deck twist (A2.4.4.2.2): needs the 3D model, not available (n/a);
+* deck twist (A2.4.4.2.2): a 3D run's track twist over 3 m from the deck's twist (Table A2.7:
+  4.5, 3.0, 1.5 mm/3m up to 120, 200 and above 200 km/h); n/a for a 2D run;
 * vertical deflection (A2.4.4.2.3(1)): the largest deflection under LM71 x α x Φ (static, the
   bridge's own stiffness, ``svbi.runtime.study.lm71``) at most L/600;
 * deck end rotations with ballasted track (A2.4.4.2.3(2) leaves them to EN 1991-2 6.5.4, where they
@@ -280,6 +281,24 @@ def _validated(row: Check, metrics: xr.Dataset, nans: dict[str, int]) -> Check:
     return Check(row.name, math.nan, row.limit, row.unit, "", None, False, why)
 
 
+TWIST_LIMITS = ((120.0, 4.5), (200.0, 3.0), (float("inf"), 1.5))
+"""EN 1990 A2.4.4.2.2(2)P, Table A2.7: the deck twist t (mm/3m) at most 4.5 for V <= 120 km/h,
+3.0 for 120 < V <= 200 km/h, 1.5 above."""
+
+
+def _twist_row(metrics: xr.Dataset, speed: float | None) -> Check:
+    name = "deck twist (A2.4.4.2.2)"
+    worst = _worst(metrics, "peak_track_twist")
+    if worst is None:
+        return Check(name, None, None, "mm/3m", "", None, None, "needs a 3D run (the deck's twist)")
+    if speed is None:
+        return Check(name, worst[0], None, "mm/3m", worst[1], worst[2], None, "no line speed in the scenario")
+    limit = next(lim for v, lim in TWIST_LIMITS if speed <= v)
+    v, where, when = worst
+    note = f"Table A2.7 at V = {speed:.0f} km/h; the run's own traffic over 3 m at gauge 1.435 m"
+    return Check(name, v, limit, "mm/3m", where, when, v <= limit, note)
+
+
 def _traffic_rows(
     metrics: xr.Dataset, form: str, moving_load: bool, table: Mapping[str, Any], opts: CheckOptions
 ) -> list[Check]:
@@ -294,20 +313,9 @@ def _traffic_rows(
         rows.append(
             Check(name, v, limit, "m/s^2", _with_x(metrics, where), when, v <= limit, _deck_note(metrics))
         )
-    rows.append(
-        Check(
-            "deck twist (A2.4.4.2.2)",
-            None,
-            None,
-            "",
-            "",
-            None,
-            None,
-            "needs the 3D model (not yet available)",
-        )
-    )
     bridge = table.get("bridge", {})
     speed = _speed_kmh(table)
+    rows.append(_twist_row(metrics, speed))
     rows += _deflection_rows(bridge, opts, moving_load, speed, metrics)
     rows += _rotation_rows(metrics, form)
     worst = None if moving_load else _worst(metrics, "max_unloading_ratio")

@@ -99,6 +99,7 @@ METRIC_DIMS: dict[str, tuple[str, ...]] = {
     "peak_midspan_uy_rel": ("span",),
     "peak_midspan_twist": ("span",),
     "peak_midspan_twist_rel": ("span",),
+    "peak_track_twist": ("span",),
     "peak_pier_top_uy": ("pier",),
     "peak_pier_top_uy_rel": ("pier",),
     "complete": (),
@@ -121,6 +122,7 @@ LATERAL_METRICS = (
     "peak_midspan_uy_rel",
     "peak_midspan_twist",
     "peak_midspan_twist_rel",
+    "peak_track_twist",
     "peak_pier_top_uy",
     "peak_pier_top_uy_rel",
 )
@@ -152,6 +154,7 @@ METRIC_UNITS = {
     "peak_midspan_uy_rel": "m",
     "peak_midspan_twist": "rad",
     "peak_midspan_twist_rel": "rad",
+    "peak_track_twist": "mm/3m",
     "peak_pier_top_uy": "m",
     "peak_pier_top_uy_rel": "m",
     "complete": "1",
@@ -480,6 +483,64 @@ def _lateral_metrics(ds: xr.Dataset, t: np.ndarray, put: Any) -> None:
     for name in ("pier_top_uy", "pier_top_uy_rel"):
         if name in ds.variables:
             put(f"peak_{name}", *_peak_abs(arr(name, ("time", "pier")), t), f"max |{name}|")
+    if "deck_twist" in ds.variables:
+        twist, when = track_twist(ds)
+        put(
+            "peak_track_twist",
+            twist,
+            when,
+            f"max track twist over {TWIST_BASE:g} m at gauge {TWIST_GAUGE:g} m from the deck's twist "
+            "(EN 1990 A2.4.4.2.2), within each span",
+        )
+
+
+TWIST_BASE = 3.0
+"""m: EN 1990 A2.4.4.2.2 measures the track twist over 3 m."""
+TWIST_GAUGE = 1.435
+"""m: the track gauge ``s`` of EN 1990 Figure A2.1 (standard gauge)."""
+
+
+def _linear(xs: np.ndarray, values: np.ndarray, idx: np.ndarray, pos: np.ndarray) -> np.ndarray:
+    """``values`` (time x nodes at ``xs``) linearly interpolated at ``pos`` in the intervals ``idx``."""
+    w = (pos - xs[idx]) / (xs[idx + 1] - xs[idx])
+    return values[:, idx] * (1.0 - w) + values[:, idx + 1] * w
+
+
+def track_twist(ds: xr.Dataset) -> tuple[np.ndarray, np.ndarray]:
+    """The peak track twist (mm per 3 m) of each span and when: ``s |phi(x + 3) - phi(x)|`` over
+    every 3 m base within the span, ``phi`` the deck's twist, linear between its nodes as the frame
+    element's torsion (exact), ``s`` the gauge; bases every tenth of the element (and ending at the
+    span's end) and the nodes."""
+    phi = np.asarray(ds["deck_twist"].transpose("time", "deck_node").values, dtype=float)
+    x = np.asarray(ds["deck_node_x"].values, dtype=float)
+    span = np.asarray(ds["deck_node_span"].values)
+    t = np.asarray(ds["time"].values, dtype=float)
+    spans = int(span.max()) if span.size else 0
+    peak, when = np.full(spans, np.nan), np.full(spans, np.nan)
+    for s in range(1, spans + 1):
+        at = span == s
+        xs, ph = x[at], phi[:, at]
+        if xs[-1] - xs[0] < TWIST_BASE:
+            continue
+        step = float(np.min(np.diff(xs))) / 10.0
+        starts = np.concatenate(
+            [
+                np.arange(xs[0], xs[-1] - TWIST_BASE, step),
+                xs[xs <= xs[-1] - TWIST_BASE],
+                [xs[-1] - TWIST_BASE],
+            ]
+        )
+        # linear interpolation of every time row at the bases' two ends (the twist is linear between nodes)
+        lo = np.clip(np.searchsorted(xs, starts, side="right") - 1, 0, xs.size - 2)
+        hi = np.clip(np.searchsorted(xs, starts + TWIST_BASE, side="right") - 1, 0, xs.size - 2)
+
+        twist = (
+            1e3 * TWIST_GAUGE * np.abs(_linear(xs, ph, hi, starts + TWIST_BASE) - _linear(xs, ph, lo, starts))
+        )
+        k = int(np.argmax(twist))
+        i, _ = np.unravel_index(k, twist.shape)
+        peak[s - 1], when[s - 1] = twist.reshape(-1)[k], t[i]
+    return peak, when
 
 
 @dataclass(frozen=True)

@@ -260,3 +260,41 @@ def test_unilateral_contact_and_creep_reach_the_results(tmp_path: Path) -> None:
         assert abs(left + right).max() <= 1e-9 * abs(left).max(), (left, right)
         assert not ds["flange_contact"].values.any() and float(abs(ds["flange_force"]).max()) == 0.0
         assert ds["contact_state"].values.all()
+
+
+def test_track_twist_from_the_deck_twist_and_its_check(results) -> None:
+    """EN 1990 A2.4.4.2.2: the track twist over 3 m at gauge 1.435 m, from the deck's twist at every
+    node (linear between nodes, as the element's torsion), recomputed here by brute force (every
+    3 m base starting on a 1 cm grid, ``np.interp``); on the eccentric track the wheel loads twist
+    the deck. Its traffic check row takes Table A2.7's limit at the line speed (100 km/h: 4.5 mm/3m)."""
+    import numpy as np
+
+    from svbi.runtime.study.en1990 import en1990_checks
+    from svbi.runtime.study.metrics import compute_metrics, scenario_table
+
+    out, _ = results
+    with xr.open_dataset(out) as ds:
+        ds.load()
+    phi = ds["deck_twist"].values
+    x = ds["deck_node_x"].values
+    span = ds["deck_node_span"].values
+    truth = []
+    for s in (1, 2):
+        xs, ph = x[span == s], phi[:, span == s]
+        starts = np.arange(xs[0], xs[-1] - 3.0 + 1e-9, 0.01)
+        best = 0.0
+        for row in ph:
+            best = max(
+                best, float(np.abs(np.interp(starts + 3.0, xs, row) - np.interp(starts, xs, row)).max())
+            )
+        truth.append(1e3 * 1.435 * best)
+    m = compute_metrics(ds)
+    got = m["peak_track_twist"].values
+    assert min(truth) > 1e-4  # mm/3m: the eccentric track twists the deck
+    # the grids differ (a tenth of an element, the nodes, the span's end against 1 cm): the peak of a
+    # piecewise-linear function of the base's start lies on a node, which both grids contain
+    np.testing.assert_allclose(got, truth, rtol=1e-6)
+    rows = {r.name: r for r in en1990_checks(m, table=scenario_table(ds))}
+    twist = rows["deck twist (A2.4.4.2.2)"]  # the traffic set: the scenario has no earthquake
+    assert twist.limit == 4.5 and twist.value == pytest.approx(max(truth), rel=1e-6)
+    assert twist.passed is True

@@ -135,7 +135,7 @@ def test_traffic_set_of_a_moving_load_run():
     assert deflection.value == pytest.approx(lm71_deflection(table["bridge"]) * phi3)
     assert deflection.limit == pytest.approx(32.0 / 600) and deflection.passed is True
     assert (
-        "3D model" in rows["deck twist (A2.4.4.2.2)"].note and rows["deck twist (A2.4.4.2.2)"].passed is None
+        "3D run" in rows["deck twist (A2.4.4.2.2)"].note and rows["deck twist (A2.4.4.2.2)"].passed is None
     )
     assert "end rotation at abutments (A2.4.4.2.3(2))" in rows
     comfort = rows["comfort, deflection delta/L (acceptable, A2.4.4.3.2)"]
