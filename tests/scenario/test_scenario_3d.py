@@ -85,17 +85,8 @@ def test_the_3d_example_loads_as_a_3d_scenario() -> None:
     assert sc.dimensions == 3
     assert sc.train.vehicle == "manchester-3d" and sc.train.cars == 10 and sc.train.speed_kmh == 300.0
     assert sc.bridge.lateral_second_moment == 85.86 and sc.bridge.torsion_constant == 15.21
-    assert sc.earthquake is None  # the 3D step has no support motion yet: the table is commented out
-    # ... and, uncommented, it is the three-component synthetic earthquake
-    text = EXAMPLE_3D.read_text(encoding="utf-8")
-    lines = text.splitlines()
-    first = lines.index("# [earthquake]")
-    table = [line[2:] for line in lines[first : first + 7]]
-    with warnings.catch_warnings():
-        warnings.simplefilter("ignore", ScenarioWarning)
-        eq = loads_scenario("\n".join(lines[:first] + table + lines[first + 7 :]), "eq.toml").earthquake
-    assert eq is not None
-    assert (eq.vertical, eq.longitudinal, eq.lateral) == ("synthetic",) * 3
+    eq = sc.earthquake  # the three-component synthetic earthquake
+    assert eq is not None and (eq.vertical, eq.longitudinal, eq.lateral) == ("synthetic",) * 3
     # the paper example's bridge, number for number
     paper = load_scenario(EXAMPLE_2D).bridge
     for key in ("spans", "span_length", "mass_per_length", "youngs_modulus", "area", "second_moment"):

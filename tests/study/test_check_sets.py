@@ -134,9 +134,7 @@ def test_traffic_set_of_a_moving_load_run():
     phi3 = 2.16 / (math.sqrt(32.0) - 0.2) + 0.73
     assert deflection.value == pytest.approx(lm71_deflection(table["bridge"]) * phi3)
     assert deflection.limit == pytest.approx(32.0 / 600) and deflection.passed is True
-    assert (
-        "3D run" in rows["deck twist (A2.4.4.2.2)"].note and rows["deck twist (A2.4.4.2.2)"].passed is None
-    )
+    assert "3D run" in rows["deck twist (A2.4.4.2.2)"].note and rows["deck twist (A2.4.4.2.2)"].passed is None
     assert "end rotation at abutments (A2.4.4.2.3(2))" in rows
     comfort = rows["comfort, deflection delta/L (acceptable, A2.4.4.3.2)"]
     assert comfort.passed is None and "Figure A2.3" in comfort.note
