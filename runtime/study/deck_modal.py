@@ -214,26 +214,33 @@ def _long_form_mode_set(key: str) -> BridgeModeSet:
     return BridgeModeSet(freq[keep], shapes, f1, f3, float(zeta), b)
 
 
-def long_form_shape_values(modes: BridgeModeSet, x: np.ndarray) -> np.ndarray:
-    """The long form's mode shapes' vertical deck deflection at points ``x`` (m from the bridge's
-    start): ``(..., modes)``, zero off the bridge; the generated Hermite shape functions of each
-    span's elements, as a run loads the deck."""
-    b = modes.bridge
-    loc = b.locate(np.asarray(x, dtype=float))
-    out = np.zeros((*loc.on.shape, modes.shapes.shape[0]))
-    idx = np.nonzero(loc.on)
-    if idx[0].size == 0:
+def deck_values(b: Bridge, x: np.ndarray, field: np.ndarray, include_end: bool = False) -> np.ndarray:
+    """The vertical deck deflection at points ``x`` (m from the bridge's start, 1-D) of every column
+    of ``field`` (global DOFs x columns): ``(points, columns)``, zero off the bridge (``include_end``:
+    the bridge's last point counts as on it); the generated Hermite shape functions of each span's
+    elements, as a run loads the deck."""
+    x = np.asarray(x, dtype=float)
+    loc = b.locate(x)
+    out = np.zeros((x.size, field.shape[1]))
+    on = np.nonzero(loc.on | (include_end & np.isclose(x, b.length)))[0]
+    if on.size == 0:
         return out
-    span, element, xi = loc.span[idx], loc.element[idx], loc.xi[idx]
+    span, element, xi = loc.span[on], loc.element[on], loc.xi[on]
     powers = np.stack([np.ones_like(xi), xi, xi * xi, xi * xi * xi], axis=-1)
     rows = np.empty((xi.size, 6))
     for le in np.unique(b.span_element_length[span]):
         at = b.span_element_length[span] == le
-        n0 = np.asarray(frame2d().shape_coefficients(float(le), 0.0)[0], dtype=float)
-        rows[at] = powers[at] @ n0
+        rows[at] = powers[at] @ np.asarray(frame2d().shape_coefficients(float(le), 0.0)[0], dtype=float)
     dofs = b.global_dof[span[:, None], 3 * element[:, None] + np.arange(6)]  # (on, 6)
-    out[idx] = np.einsum("pj,mpj->pm", rows, modes.shapes[:, dofs])
+    out[on] = np.einsum("pj,pjn->pn", rows, field[dofs])
     return out
+
+
+def long_form_shape_values(modes: BridgeModeSet, x: np.ndarray) -> np.ndarray:
+    """The long form's mode shapes' vertical deck deflection at points ``x`` (m from the bridge's
+    start): ``(..., modes)``, zero off the bridge (:func:`deck_values`)."""
+    x = np.asarray(x, dtype=float)
+    return deck_values(modes.bridge, x.reshape(-1), modes.shapes.T).reshape(*x.shape, -1)
 
 
 def shape_values(modes: SpanModeSet, x: np.ndarray) -> np.ndarray:

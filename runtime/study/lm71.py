@@ -152,7 +152,7 @@ def long_form_deflections(bridge: Mapping[str, Any]) -> SpanDeflections:
 def _long_form_deflections(key: str) -> SpanDeflections:
     import scipy.sparse.linalg as spla  # noqa: PLC0415 - only for a long form's check
 
-    from .deck_modal import long_form_bridge  # noqa: PLC0415 - its modes' module, not needed above
+    from .deck_modal import deck_values, long_form_bridge  # noqa: PLC0415 - not needed above
 
     b = long_form_bridge(json.loads(key))
     free = b.free_global
@@ -167,18 +167,7 @@ def _long_form_deflections(key: str) -> SpanDeflections:
 
     def eta(x: np.ndarray) -> np.ndarray:
         """Downward deflection of every node per unit downward load at ``x`` (points x nodes)."""
-        loc = b.locate(x)
-        out = np.zeros((x.size, nodes.size))
-        on = np.nonzero(loc.on | np.isclose(x, b.length))[0]
-        span, element, xi = loc.span[on], loc.element[on], loc.xi[on]
-        rows = np.empty((on.size, 6))
-        powers = np.stack([np.ones_like(xi), xi, xi * xi, xi**3], axis=-1)
-        for le in np.unique(b.span_element_length[span]):
-            at = b.span_element_length[span] == le
-            rows[at] = powers[at] @ np.asarray(frame2d().shape_coefficients(float(le), 0.0)[0], dtype=float)
-        dofs = b.global_dof[span[:, None], 3 * element[:, None] + np.arange(6)]
-        out[on] = np.einsum("pj,pjn->pn", rows, G[dofs])
-        return out
+        return deck_values(b, x, G, include_end=True)
 
     gx, gw = np.polynomial.legendre.leggauss(4)
     edges = np.concatenate(
