@@ -222,6 +222,13 @@ def frame3d_model_spec() -> ModelSpec:
             [("K_e", column_stiffness())],
             {k: SAMPLE[k] for k in ("E", "G", "A", "I_y", "I_z", "J", "le")},
         ),
+        KernelSpec(
+            "shape_functions",
+            "Rows (4 x 12) interpolating u, v, w and phi at xi from the element DOFs",
+            [("le", column([le])), ("xi", column([xi]))],
+            [("N", sp.Matrix.vstack(*(shape_functions()[k] for k in ("u", "v", "w", "phi"))))],
+            {"le": SAMPLE["le"], "xi": 0.3},
+        ),
     ]
     return ModelSpec(
         name=FRAME3D,

@@ -25,7 +25,7 @@ from ..toolchain import generated_root, python_module
 FRAME2D = "frame2d"
 """The bridge element model (``svbi.codegen.kernels.FRAME2D``)."""
 FRAME3D = "frame3d"
-"""The 3D frame element model (``svbi.codegen.kernels.FRAME3D``), not yet used by runs."""
+"""The 3D frame element model (``svbi.codegen.kernels.FRAME3D``): the 3D bridge and its runs."""
 CONTACT3D = "contact3d"
 """The 3D contact model (``svbi.codegen.kernels.CONTACT3D``), not yet used by runs."""
 

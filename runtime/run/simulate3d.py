@@ -53,6 +53,7 @@ from ..methods.coupled3d import CoupledDynamic3D, State3D, static_state
 from ..methods.localized3d import LocalizedDynamic3D
 from ..model.bridge3d import Bridge3D
 from ..model.ground import Ground, ground_from_scenario
+from ..model.kernels import FRAME3D, load
 from ..model.system3d import GROUND, System3D, Track3D, Vehicle3DNumeric, vehicle3d
 from ..model.train3d import train3d
 from ..scenario.build import (
@@ -316,20 +317,11 @@ def rigid_track_statics(vehicle: Vehicle3DNumeric) -> tuple[np.ndarray, np.ndarr
 
 def deck_rows(bridge: Bridge3D, element: int, xi: float) -> dict[str, tuple[np.ndarray, np.ndarray]]:
     """``{name: (dofs, weights)}``: the deck's axial ``u``, lateral ``v``, vertical ``w`` and twist
-    ``phi`` at ``xi`` of deck element ``element`` as weights on its 12 DOFs (linear shape functions
-    for ``u`` and ``phi``, Hermite cubics for ``v`` (slope ``psi``) and ``w`` (slope ``theta``))."""
-    le = bridge.element_length
-    x = float(xi)
-    h = np.array(
-        [1 - 3 * x**2 + 2 * x**3, le * (x - 2 * x**2 + x**3), 3 * x**2 - 2 * x**3, le * (x**3 - x**2)]
-    )
+    ``phi`` at ``xi`` of deck element ``element`` as weights on its 12 DOFs (the generated shape
+    functions of the 3D frame element)."""
+    rows = load(FRAME3D).shape_functions(bridge.element_length, float(xi))
     dofs = bridge.element_dofs(element)
-    rows = {name: np.zeros(12) for name in ("u", "v", "w", "phi")}
-    rows["u"][[0, 6]] = [1 - x, x]
-    rows["phi"][[3, 9]] = [1 - x, x]
-    rows["v"][[1, 5, 7, 11]] = h
-    rows["w"][[2, 4, 8, 10]] = h
-    return {name: (dofs, r) for name, r in rows.items()}
+    return {name: (dofs, rows[k]) for k, name in enumerate(("u", "v", "w", "phi"))}
 
 
 def _point_matrix(bridge: Bridge3D, points: list[tuple[int, float]], name: str) -> np.ndarray:

@@ -94,3 +94,21 @@ def test_generated_module_is_the_derivation() -> None:
     np.testing.assert_allclose(got_m, mass, rtol=1e-14, atol=1e-14 * np.abs(mass).max())
     np.testing.assert_allclose(got_k, stiffness, rtol=1e-14, atol=1e-14 * np.abs(stiffness).max())
     assert k.DATA["dof_names"] == frame3d.DOF_NAMES
+
+
+def test_generated_shape_functions_are_the_derivation() -> None:
+    """The rows the 3D runs read the deck with (``u``, ``v``, ``w``, ``phi`` at ``xi``) against the
+    SymPy shape functions, at a few points of two element lengths."""
+    k = load(FRAME3D)
+    n = frame3d.shape_functions()
+    for le_value in (0.7, 2.5):
+        for xi_value in (0.0, 0.21, 0.5, 0.93, 1.0):
+            got = k.shape_functions(le_value, xi_value)
+            subs = {beam.le: le_value, beam.xi: xi_value}
+            for row, name in enumerate(("u", "v", "w", "phi")):
+                want = np.array(n[name].subs(subs), dtype=float).ravel()
+                assert np.allclose(got[row], want, rtol=0.0, atol=1e-15 * le_value), (
+                    name,
+                    le_value,
+                    xi_value,
+                )
