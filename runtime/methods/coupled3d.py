@@ -170,13 +170,14 @@ def _kernels(
 ) -> list[tuple[ContactKernel3D, FlangeCreepKernel3D]]:
     span = system.span
     le = span.length / span.n_elements
-    return [
-        (
-            ContactKernel3D(w, system.track, le, speed, c1, c0),
-            FlangeCreepKernel3D(w, system.track, le, speed, c1, c0, system.creep),
+    out = []
+    for w in system.vehicle.wheelsets:
+        # one contact kernel per wheelset, its flange and creep included (one irregularity argument)
+        k = ContactKernel3D(
+            w, system.track, le, speed, c1, c0, flange_clearance=system.track.flange_clearance
         )
-        for w in system.vehicle.wheelsets
-    ]
+        out.append((k, FlangeCreepKernel3D(w, system.track, le, speed, c1, c0, system.creep, contact=k)))
+    return out
 
 
 def _rows(

@@ -336,8 +336,11 @@ class FlangeCreepKernel3D:
         c1: float,
         c0: float,
         creep: CreepParameters | None = None,
+        contact: ContactKernel3D | None = None,
     ) -> None:
-        self._contact = ContactKernel3D(
+        # ``contact``: the step's own normal-contact kernel of this wheelset, shared so that the
+        # irregularities a run sets on it reach the flange gaps and the creepages too
+        self._contact = contact or ContactKernel3D(
             wheelset, track, element_length, speed, c1, c0, flange_clearance=track.flange_clearance
         )
         self._k = load(CONTACT3D)

@@ -312,3 +312,20 @@ def test_explicit_creep_refuses_an_unstable_time_step(car):
     ):
         CoupledDynamic3D(system, st, DT)
     LocalizedDynamic3D(system, st, 5e-5)  # k dt below 1
+
+
+def test_the_flange_sees_the_alignment_the_run_sets(car):
+    """A run sets the rail irregularities under each wheelset on the step's contact kernels
+    (``stepper.kernels[w].irregularity``); the flange gaps must see the same alignment ``r_a`` (the
+    track centreline moves by it: ``g_F,s = c_f - s (y_w - y_r)``, ``y_r`` including ``r_a``)."""
+    span = simply_supported_span(SECTION, LB, 4)
+    track = Track3D(conicity=LAM, eccentricity=E_T, rail_height=H_T, flange_clearance=CLEARANCE)
+    system = System3D(car, span, track, speed=0.0, start=LB / 2)
+    stepper = CoupledDynamic3D(system, static_state(system), DT)
+    before = np.array(stepper.flange_gaps())
+    shift = 1.5e-3
+    rough = np.zeros(9)
+    rough[1] = shift  # the alignment, m to the left
+    stepper.kernels[0].irregularity = rough
+    after = np.array(stepper.flange_gaps())
+    assert after - before == pytest.approx([shift, -shift], abs=1e-15)
