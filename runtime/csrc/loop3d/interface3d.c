@@ -1,0 +1,295 @@
+/*
+ * The interface iteration of LocalizedDynamic3D._solve: predictors of the vehicle (its per-car
+ * compliance) and of the span (a band solve), then, with the gradients G and the constraint rows
+ * J at the iterate, the contact forces of the active constraints from
+ *
+ *     (J_V A_V G_V^T + J_B S G_B^T) P = -E + J_V (dq - dq~) + J_B (u - u~),
+ *
+ * until the update is round-off (coupled3d.Convergence). Only what the interface needs is formed:
+ * the 4 x 4 blocks of two wheelsets of the same car (A_V) or on the same part of the structure (the
+ * compliance S between their elements' DOFs); the span's displacements are followed at the contact
+ * elements' DOFs during the iteration, and solved for all DOFs once at the end. The change of the
+ * convergence rule is measured at the vehicle's DOFs and the contact elements' span DOFs, its size
+ * from the vehicle, the predictor and the contact DOFs (the span's other DOFs follow the same
+ * forces linearly).
+ */
+#include <math.h>
+#include <string.h>
+
+#include "loop3d.h"
+
+/* the deck part of z, z', z'' of wheelset w from the span's iterate (held DOFs: their targets) */
+static void deck_z(work3d_t* W, int w, const double* uc, double* z, double* zd, double* zdd) {
+  const setup3d_t* S = W->S;
+  int j;
+  if (W->ondeck[w] < 0) {
+    for (j = 0; j < 12; ++j) {
+      z[4 + j] = W->gz ? W->gz[12 * w + j] : 0.0;
+      zd[4 + j] = W->gz ? W->gz[12 * (S->nW + w) + j] : 0.0;
+      zdd[4 + j] = W->gz ? W->gz[12 * (2 * S->nW + w) + j] : 0.0;
+    }
+    return;
+  }
+  for (j = 0; j < 12; ++j) {
+    int d = S->el_dofs[12 * W->ondeck[w] + j];
+    double u = W->fidx[12 * w + j] >= 0 ? uc[12 * w + j] : W->uk[d];
+    z[4 + j] = u;
+    zd[4 + j] = S->a1 * u - W->QB[d];
+    zdd[4 + j] = S->a0 * u - W->PB[d];
+  }
+  if (W->Q0)
+    for (j = 0; j < 12; ++j)
+      if (W->fidx[12 * w + j] < 0) {
+        int d = S->el_dofs[12 * W->ondeck[w] + j], s;
+        for (s = 0; s < S->nS; ++s)
+          if (S->held[s] == d) {
+            zd[4 + j] = W->Q1[s];
+            zdd[4 + j] = W->Q2[s];
+          }
+      }
+}
+
+/* the vehicle part of z, z', z'' of wheelset w from the vehicle's iterate */
+static void veh_z(work3d_t* W, int w, double* z, double* zd, double* zdd) {
+  const int* d = W->S->ws_dofs + 4 * w;
+  int j;
+  for (j = 0; j < 4; ++j) {
+    z[j] = W->qk[d[j]];
+    zd[j] = W->qdk[d[j]];
+    zdd[j] = W->qddk[d[j]];
+  }
+}
+
+/* rows of every wheelset at the iterate (dq, the span at the contact DOFs uc) */
+int iterate_rows3(work3d_t* W, const state3d_t* X, const double* uc, const double* xi, const double* irr) {
+  const setup3d_t* S = W->S;
+  double z[NZ3], zd[NZ3], zdd[NZ3];
+  int i, w, st = 0;
+  for (i = 0; i < S->nV; ++i) {
+    W->qk[i] = X->q[i] + W->dq[i];
+    W->qdk[i] = S->a1 * W->dq[i] - W->QtV[i];
+    W->qddk[i] = S->a0 * W->dq[i] - W->PtV[i];
+  }
+  for (w = 0; w < S->nW; ++w) {
+    veh_z(W, w, z, zd, zdd);
+    deck_z(W, w, uc, z, zd, zdd);
+    st |= rows3(W, w, z, zd, zdd, xi[w], irr + 9 * w);
+  }
+  return st ? S3_KERNEL : S3_OK;
+}
+
+/* h_w = G_B,w^T lam_w (12 per wheelset): the contact forces' load on the element */
+static void element_loads(const work3d_t* W, const double* lam, double* h) {
+  int w, j, k;
+  for (w = 0; w < W->S->nW; ++w)
+    for (j = 0; j < 12; ++j) {
+      double s = 0.0;
+      for (k = 0; k < PER_WS; ++k) s += W->grad[(4 * w + k) * NZ3 + 4 + j] * lam[4 * w + k];
+      h[12 * w + j] = s;
+    }
+}
+
+/* the span's response to element loads h into W->tF (free DOFs); with u, u = predictor + it (all
+ * DOFs; the held ones as set) */
+static void full_span(work3d_t* W, const double* h, double* u) {
+  const setup3d_t* S = W->S;
+  int w, j, i;
+  memset(W->tF, 0, sizeof(double) * (size_t)S->nF);
+  for (w = 0; w < S->nW; ++w)
+    for (j = 0; j < 12; ++j) {
+      int f = W->fidx[12 * w + j];
+      if (f >= 0) W->tF[f] += h[12 * w + j];
+    }
+  span_solve3(W, W->tF);
+  if (u == W->uk)
+    for (i = 0; i < S->nF; ++i) W->uk[S->free_dofs[i]] = W->uf0[i] + W->tF[i];
+}
+
+static int span_coupled(const work3d_t* W, int a, int b) {
+  int i, j;
+  if (W->ondeck[a] < 0 || W->ondeck[b] < 0) return 0;
+  for (i = 0; i < 12; ++i)
+    if (W->fidx[12 * a + i] >= 0)
+      for (j = 0; j < 12; ++j)
+        if (W->fidx[12 * b + j] >= 0)
+          return W->S->comp[W->fidx[12 * a + i]] == W->S->comp[W->fidx[12 * b + j]];
+  return 0;
+}
+
+int interface3(work3d_t* W, const state3d_t* X, const int* el, const double* xi, const double* irr) {
+  const setup3d_t* S = W->S;
+  const int nW = S->nW, nC = 4 * nW, nV = S->nV, nF = S->nF;
+  double last = INFINITY, size0 = 0.0;
+  double* hh = W->hw;
+  int i, j, a, b, k, l, w, na = 0, it, st, full = 0;
+  (void)el;
+  /* predictors */
+  veh_mul3(S, S->AV, W->fV, W->dq0, 0);
+  memcpy(W->uf0, W->fB, sizeof(double) * (size_t)nF);
+  span_solve3(W, W->uf0);
+  memcpy(W->dq, W->dq0, sizeof(double) * (size_t)nV);
+  memset(W->uk, 0, sizeof(double) * (size_t)S->nB);
+  if (W->Q0)
+    for (i = 0; i < S->nS; ++i) W->uk[S->held[i]] = W->Q0[i];
+  for (i = 0; i < nF; ++i) {
+    W->uk[S->free_dofs[i]] = W->uf0[i];
+    if (fabs(W->uf0[i]) > size0) size0 = fabs(W->uf0[i]);
+  }
+  if (W->Q0)
+    for (i = 0; i < S->nS; ++i)
+      if (fabs(W->Q0[i]) > size0) size0 = fabs(W->Q0[i]);
+  for (w = 0; w < nW; ++w)
+    for (j = 0; j < 12; ++j) {
+      int f = W->fidx[12 * w + j];
+      W->uc0[12 * w + j] = f >= 0 ? W->uf0[f] : 0.0;
+    }
+  memcpy(W->ucn, W->uc0, sizeof(double) * (size_t)(12 * nW));
+  memset(W->hwp, 0, sizeof(double) * (size_t)(12 * nW));
+  for (i = 0; i < nC; ++i) {
+    W->lam[i] = 0.0;
+    if (W->active[i]) W->idx[na++] = i;
+  }
+  for (it = 0; it < NEWTON_ITERATIONS3; ++it) {
+    double change = 0.0, size;
+    W->iterations++;
+    st = iterate_rows3(W, X, W->ucn, xi, irr);
+    if (st) return st;
+    /* the interface matrix over the active constraints, and its right-hand side */
+    for (a = 0; a < na; ++a) {
+      int ia = W->idx[a], wa = ia / 4;
+      const double* ra = W->landing[ia] ? W->grad + ia * NZ3 : W->jac + ia * NZ3;
+      double Ea = W->landing[ia] ? W->gap[ia] : W->res[ia];
+      double r = -Ea;
+      const int* da = S->ws_dofs + 4 * wa;
+      for (k = 0; k < 4; ++k) r += ra[k] * (W->dq[da[k]] - W->dq0[da[k]]);
+      for (k = 0; k < 12; ++k)
+        if (W->fidx[12 * wa + k] >= 0) r += ra[4 + k] * (W->ucn[12 * wa + k] - W->uc0[12 * wa + k]);
+      W->rhs[a] = r;
+    }
+    for (a = 0; a < na * na; ++a) W->A[a] = 0.0;
+    for (w = 0; w < nW; ++w) {
+      int v;
+      for (v = 0; v < nW; ++v) {
+        double T[NZ3 * 4]; /* C_wv G_v^T: 16 x 4 */
+        int veh = S->ws_blk[w] == S->ws_blk[v], spn = span_coupled(W, w, v), any = 0;
+        if (!veh && !spn) continue;
+        for (a = 0; a < na; ++a)
+          if (W->idx[a] / 4 == w) any = 1;
+        if (!any) continue;
+        memset(T, 0, sizeof T);
+        if (veh) {
+          const int *dw = S->ws_dofs + 4 * w, *dv = S->ws_dofs + 4 * v;
+          int blk = S->ws_blk[w], s0 = S->blk_start[blk], nb = S->blk_start[blk + 1] - s0;
+          const double* AB = S->AV + S->blk_off[blk];
+          for (i = 0; i < 4; ++i)
+            for (l = 0; l < 4; ++l) {
+              double s = 0.0;
+              for (j = 0; j < 4; ++j) s += AB[(long)(dw[i] - s0) * nb + (dv[j] - s0)] * W->grad[(4 * v + l) * NZ3 + j];
+              T[i * 4 + l] = s;
+            }
+        }
+        if (spn)
+          for (i = 0; i < 12; ++i) {
+            int fi = W->fidx[12 * w + i];
+            const double* Srow;
+            if (fi < 0) continue;
+            Srow = S->S + (long)fi * nF;
+            for (j = 0; j < 12; ++j) {
+              int fj = W->fidx[12 * v + j];
+              double sij;
+              if (fj < 0) continue;
+              sij = Srow[fj];
+              for (l = 0; l < 4; ++l) T[(4 + i) * 4 + l] += sij * W->grad[(4 * v + l) * NZ3 + 4 + j];
+            }
+          }
+        for (a = 0; a < na; ++a) {
+          int ia = W->idx[a];
+          const double* ra;
+          if (ia / 4 != w) continue;
+          ra = W->landing[ia] ? W->grad + ia * NZ3 : W->jac + ia * NZ3;
+          for (b = 0; b < na; ++b) {
+            int ib = W->idx[b];
+            double s = 0.0;
+            if (ib / 4 != v) continue;
+            l = ib % 4;
+            for (i = 0; i < NZ3; ++i) s += ra[i] * T[i * 4 + l];
+            W->A[(long)a * na + b] = s;
+          }
+        }
+      }
+    }
+    if (na && lu_solve3(W->A, na, W->rhs, W->piv)) return S3_SINGULAR;
+    for (i = 0; i < nC; ++i) W->lamn[i] = 0.0;
+    for (a = 0; a < na; ++a) W->lamn[W->idx[a]] = W->rhs[a];
+    /* the responses: vehicle (all DOFs), span at the contact DOFs */
+    memset(W->gv, 0, sizeof(double) * (size_t)nV);
+    for (w = 0; w < nW; ++w)
+      for (k = 0; k < 4; ++k)
+        for (j = 0; j < 4; ++j) W->gv[S->ws_dofs[4 * w + j]] += W->grad[(4 * w + k) * NZ3 + j] * W->lamn[4 * w + k];
+    memcpy(W->dqn, W->dq0, sizeof(double) * (size_t)nV);
+    veh_mul3(S, S->AV, W->gv, W->dqn, 1);
+    element_loads(W, W->lamn, hh);
+    size = 0.0;
+    for (w = 0; w < nW; ++w) {
+      for (i = 0; i < 12; ++i) {
+        int fi = W->fidx[12 * w + i];
+        double s = W->uc0[12 * w + i], d;
+        if (fi < 0) continue;
+        for (k = 0; k < nW; ++k) {
+          const double* Srow = S->S + (long)fi * nF;
+          if (!span_coupled(W, w, k)) continue;
+          for (j = 0; j < 12; ++j) {
+            int fj = W->fidx[12 * k + j];
+            if (fj >= 0) s += Srow[fj] * hh[12 * k + j];
+          }
+        }
+        d = fabs(s - W->ucn[12 * w + i]);
+        if (d > change) change = d;
+        W->ucn[12 * w + i] = s;
+        if (fabs(s) > size) size = fabs(s);
+      }
+    }
+    for (i = 0; i < nV; ++i) {
+      double d = fabs(W->dqn[i] - W->dq[i]), q = fabs(X->q[i] + W->dqn[i]);
+      if (d > change) change = d;
+      if (q > size) size = q;
+      W->dq[i] = W->dqn[i];
+    }
+    memcpy(W->lam, W->lamn, sizeof(double) * (size_t)nC);
+    if (size0 > size) size = size0;
+    if (size < 1e-300) size = 1e-300;
+    if (change <= NEWTON_TOLERANCE3 * size || (change <= STAGNATION3 * size && change > 0.5 * last)) {
+      /* stopping by the contact DOFs: the rule again over every DOF of the span, as the NumPy step
+       * (the new iterate in full by one band solve, its change from the last by another) */
+      double cu = 0.0, su = 0.0;
+      full_span(W, hh, W->uk);
+      for (w = 0; w < 12 * nW; ++w) W->hwp[w] = hh[w] - W->hwp[w];
+      full_span(W, W->hwp, 0);
+      for (i = 0; i < nF; ++i) {
+        if (fabs(W->tF[i]) > cu) cu = fabs(W->tF[i]);
+      }
+      for (i = 0; i < S->nB; ++i)
+        if (fabs(W->uk[i]) > su) su = fabs(W->uk[i]);
+      if (cu > change) change = cu;
+      size = su;
+      for (i = 0; i < nV; ++i)
+        if (fabs(X->q[i] + W->dq[i]) > size) size = fabs(X->q[i] + W->dq[i]);
+      if (size < 1e-300) size = 1e-300;
+      memcpy(W->hwp, hh, sizeof(double) * (size_t)(12 * nW));
+      if (change <= NEWTON_TOLERANCE3 * size || (change <= STAGNATION3 * size && change > 0.5 * last)) {
+        last = change;
+        full = 1;
+        break;
+      }
+    } else {
+      memcpy(W->hwp, hh, sizeof(double) * (size_t)(12 * nW));
+    }
+    last = change;
+  }
+  /* the span's displacements at every DOF: the predictor and the response to the contact loads */
+  if (!full) {
+    element_loads(W, W->lam, hh);
+    full_span(W, hh, W->uk);
+  }
+  return S3_OK;
+}
