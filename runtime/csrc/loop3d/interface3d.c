@@ -116,12 +116,38 @@ static int span_coupled(const work3d_t* W, int a, int b) {
   return 0;
 }
 
+/* The couplings of the step's wheelsets and the S blocks between their elements (gathered when an
+ * element changes: the workspace keeps them from step to step; sel holds element + 1, 0 none). */
+static void couple(work3d_t* W) {
+  const setup3d_t* S = W->S;
+  const int nW = S->nW, nF = S->nF;
+  int w, v, i, j;
+  for (w = 0; w < nW; ++w)
+    for (v = 0; v < nW; ++v) {
+      int flag = (S->ws_blk[w] == S->ws_blk[v]) | (span_coupled(W, w, v) << 1);
+      int* sel = W->sel + 2 * (w * nW + v);
+      W->pair[w * nW + v] = flag;
+      if ((flag & 2) && (sel[0] != W->ondeck[w] + 1 || sel[1] != W->ondeck[v] + 1)) {
+        double* B = W->Sblk + 144 * (w * nW + v);
+        for (i = 0; i < 12; ++i) {
+          int fi = W->fidx[12 * w + i];
+          for (j = 0; j < 12; ++j) {
+            int fj = W->fidx[12 * v + j];
+            B[12 * i + j] = (fi >= 0 && fj >= 0) ? S->S[(long)fi * nF + fj] : 0.0;
+          }
+        }
+        sel[0] = W->ondeck[w] + 1;
+        sel[1] = W->ondeck[v] + 1;
+      }
+    }
+}
+
 int interface3(work3d_t* W, const state3d_t* X, const int* el, const double* xi, const double* irr) {
   const setup3d_t* S = W->S;
   const int nW = S->nW, nC = 4 * nW, nV = S->nV, nF = S->nF;
   double last = INFINITY, size0 = 0.0;
   double* hh = W->hw;
-  int i, j, a, b, k, l, w, na = 0, it, st, full = 0;
+  int i, j, a, k, l, w, na = 0, it, st, full = 0;
   (void)el;
   /* predictors */
   veh_mul3(S, S->AV, W->fV, W->dq0, 0);
@@ -147,8 +173,13 @@ int interface3(work3d_t* W, const state3d_t* X, const int* el, const double* xi,
   memset(W->hwp, 0, sizeof(double) * (size_t)(12 * nW));
   for (i = 0; i < nC; ++i) {
     W->lam[i] = 0.0;
-    if (W->active[i]) W->idx[na++] = i;
+    W->act_of[i] = -1;
+    if (W->active[i]) {
+      W->act_of[i] = na;
+      W->idx[na++] = i;
+    }
   }
+  couple(W);
   for (it = 0; it < NEWTON_ITERATIONS3; ++it) {
     double change = 0.0, size;
     W->iterations++;
@@ -168,16 +199,17 @@ int interface3(work3d_t* W, const state3d_t* X, const int* el, const double* xi,
     }
     for (a = 0; a < na * na; ++a) W->A[a] = 0.0;
     for (w = 0; w < nW; ++w) {
-      int v;
+      int v, rows = 0;
+      for (k = 0; k < 4; ++k) rows += W->act_of[4 * w + k] >= 0;
+      if (!rows) continue;
       for (v = 0; v < nW; ++v) {
         double T[NZ3 * 4]; /* C_wv G_v^T: 16 x 4 */
-        int veh = S->ws_blk[w] == S->ws_blk[v], spn = span_coupled(W, w, v), any = 0;
-        if (!veh && !spn) continue;
-        for (a = 0; a < na; ++a)
-          if (W->idx[a] / 4 == w) any = 1;
-        if (!any) continue;
+        int flag = W->pair[w * nW + v], cols = 0;
+        if (!flag) continue;
+        for (l = 0; l < 4; ++l) cols += W->act_of[4 * v + l] >= 0;
+        if (!cols) continue;
         memset(T, 0, sizeof T);
-        if (veh) {
+        if (flag & 1) {
           const int *dw = S->ws_dofs + 4 * w, *dv = S->ws_dofs + 4 * v;
           int blk = S->ws_blk[w], s0 = S->blk_start[blk], nb = S->blk_start[blk + 1] - s0;
           const double* AB = S->AV + S->blk_off[blk];
@@ -188,32 +220,27 @@ int interface3(work3d_t* W, const state3d_t* X, const int* el, const double* xi,
               T[i * 4 + l] = s;
             }
         }
-        if (spn)
-          for (i = 0; i < 12; ++i) {
-            int fi = W->fidx[12 * w + i];
-            const double* Srow;
-            if (fi < 0) continue;
-            Srow = S->S + (long)fi * nF;
-            for (j = 0; j < 12; ++j) {
-              int fj = W->fidx[12 * v + j];
-              double sij;
-              if (fj < 0) continue;
-              sij = Srow[fj];
-              for (l = 0; l < 4; ++l) T[(4 + i) * 4 + l] += sij * W->grad[(4 * v + l) * NZ3 + 4 + j];
+        if (flag & 2) {
+          const double* B = W->Sblk + 144 * (w * nW + v);
+          for (i = 0; i < 12; ++i)
+            for (l = 0; l < 4; ++l) {
+              const double* g = W->grad + (4 * v + l) * NZ3 + 4;
+              double s = 0.0;
+              for (j = 0; j < 12; ++j) s += B[12 * i + j] * g[j];
+              T[(4 + i) * 4 + l] = s;
             }
-          }
-        for (a = 0; a < na; ++a) {
-          int ia = W->idx[a];
+        }
+        for (k = 0; k < 4; ++k) {
+          int ia = 4 * w + k, ra_ = W->act_of[ia];
           const double* ra;
-          if (ia / 4 != w) continue;
+          if (ra_ < 0) continue;
           ra = W->landing[ia] ? W->grad + ia * NZ3 : W->jac + ia * NZ3;
-          for (b = 0; b < na; ++b) {
-            int ib = W->idx[b];
+          for (l = 0; l < 4; ++l) {
+            int cb = W->act_of[4 * v + l];
             double s = 0.0;
-            if (ib / 4 != v) continue;
-            l = ib % 4;
+            if (cb < 0) continue;
             for (i = 0; i < NZ3; ++i) s += ra[i] * T[i * 4 + l];
-            W->A[(long)a * na + b] = s;
+            W->A[(long)ra_ * na + cb] = s;
           }
         }
       }
@@ -231,22 +258,26 @@ int interface3(work3d_t* W, const state3d_t* X, const int* el, const double* xi,
     element_loads(W, W->lamn, hh);
     size = 0.0;
     for (w = 0; w < nW; ++w) {
-      for (i = 0; i < 12; ++i) {
-        int fi = W->fidx[12 * w + i];
-        double s = W->uc0[12 * w + i], d;
-        if (fi < 0) continue;
-        for (k = 0; k < nW; ++k) {
-          const double* Srow = S->S + (long)fi * nF;
-          if (!span_coupled(W, w, k)) continue;
-          for (j = 0; j < 12; ++j) {
-            int fj = W->fidx[12 * k + j];
-            if (fj >= 0) s += Srow[fj] * hh[12 * k + j];
-          }
+      double un[12];
+      if (W->ondeck[w] < 0) continue;
+      for (i = 0; i < 12; ++i) un[i] = W->uc0[12 * w + i];
+      for (k = 0; k < nW; ++k) {
+        const double* B = W->Sblk + 144 * (w * nW + k);
+        const double* hk = hh + 12 * k;
+        if (!(W->pair[w * nW + k] & 2)) continue;
+        for (i = 0; i < 12; ++i) {
+          double s = 0.0;
+          for (j = 0; j < 12; ++j) s += B[12 * i + j] * hk[j];
+          un[i] += s;
         }
-        d = fabs(s - W->ucn[12 * w + i]);
+      }
+      for (i = 0; i < 12; ++i) {
+        double d;
+        if (W->fidx[12 * w + i] < 0) continue;
+        d = fabs(un[i] - W->ucn[12 * w + i]);
         if (d > change) change = d;
-        W->ucn[12 * w + i] = s;
-        if (fabs(s) > size) size = fabs(s);
+        W->ucn[12 * w + i] = un[i];
+        if (fabs(un[i]) > size) size = fabs(un[i]);
       }
     }
     for (i = 0; i < nV; ++i) {

@@ -127,6 +127,9 @@ typedef struct {
   double *uc0, *ucn;              /* nW x 12: span displacements at the contact DOFs */
   double *A, *rhs, *lam, *lamn, *start, *force, *ggap;
   int *active, *landing, *in_contact, *idx, *piv;
+  int *pair, *sel, *act_of; /* nW x nW coupling (1: same car, 2: same structure), cached elements of
+                             * each pair's S block, the active row of each constraint (-1) */
+  double* Sblk;              /* nW x nW x 144: S between the elements of two wheelsets (0 at held DOFs) */
   double *hw, *hwp; /* nW x 12: the contact forces' loads on their elements, now and before */
   pivot3_t pv; /* pivoting of the active set */
   long iterations, passes;

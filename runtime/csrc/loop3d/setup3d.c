@@ -90,6 +90,10 @@ void w3_carve(const setup3d_t* S, work3d_t* W, double* work, int* iwork, long* n
   W->jac = take_d(&d, nW * 4 * NZ3, &cd);
   W->gap = take_d(&d, nW * 4, &cd);
   W->uc0 = take_d(&d, nW * 12, &cd);
+  W->pair = take_i(&i, nW * nW, &ci);
+  W->sel = take_i(&i, 2 * nW * nW, &ci);
+  W->act_of = take_i(&i, nC, &ci);
+  W->Sblk = take_d(&d, 144 * nW * nW, &cd);
   W->hw = take_d(&d, nW * 12, &cd);
   W->hwp = take_d(&d, nW * 12, &cd);
   W->ucn = take_d(&d, nW * 12, &cd);
