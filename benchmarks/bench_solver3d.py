@@ -106,7 +106,8 @@ def main(argv: list[str]) -> int:
     nW = len(run.system.vehicle.wheelsets)
     print(
         f"3D paper case (examples/paper-2020-3d.toml): {run.cars} cars, {nW} wheelsets on the deck, "
-        f"{run.system.vehicle.M.shape[0]} vehicle DOFs, {run.system.span.M.shape[0]} bridge DOFs, dt = {dt:g} s"
+        f"{run.system.vehicle.M.shape[0]} vehicle DOFs, {run.system.span.M.shape[0]} bridge DOFs, "
+        f"dt = {dt:g} s"
     )
     c_steps = 100 if args.quick else 400
     c3, c3_loop, bw = c_per_step(run, state, dt, c_steps)

@@ -51,6 +51,11 @@ STATUS = {
 }
 """The C loop's status codes (``runtime/csrc/loop3d/loop3d.h``)."""
 NOT_FINITE, SINGULAR = 1, 2
+MAX_WHEELSETS = 256
+"""The loop keeps the span's compliance between the elements of every pair of wheelsets (144
+doubles a pair): 75 MB at this many wheelsets."""
+MAX_FREE_DOFS = 8000
+"""The span's compliance and inverse mass are dense, as the NumPy step's (512 MB each at this size)."""
 
 CONTACT3D_FILES = ("contact3d_kernels.c", "contact3d_kernels.h", "contact3d_model.c", "contact3d.h")
 """The generated contact kernels linked into the loop (``generated/contact3d/``)."""
@@ -274,6 +279,17 @@ class LocalizedDynamic3DC(_Step3D):
         zeta: float = 1.0,
         normal: str = "unilateral",
     ) -> None:
+        nW, nF = len(system.vehicle.wheelsets), len(system.span.free)
+        if nW > MAX_WHEELSETS:
+            raise ValueError(
+                f"the 3D C loop takes at most {MAX_WHEELSETS} wheelsets (its compliance blocks grow with "
+                f"their square); this train has {nW}"
+            )
+        if nF > MAX_FREE_DOFS:
+            raise ValueError(
+                f"the 3D C loop takes bridges of at most {MAX_FREE_DOFS} free DOFs (dense compliance and "
+                f"inverse mass); this one has {nF}"
+            )
         super().__init__(system, state, time_step, kappa, zeta, normal)
         self.stopped: str | None = None
         """Why the last :meth:`advance` stopped early (None: it did every step)."""
@@ -325,6 +341,7 @@ class LocalizedDynamic3DC(_Step3D):
         for r in range(p + 1):
             ab[r, : nF - r] = np.diagonal(kp, -r)
         band = sla.cholesky_banded(ab, lower=True)
+        band[0] = 1.0 / band[0]  # the C solve multiplies by the diagonal's reciprocal
         _, comp = connected_components(pattern, directed=False)
         full_to_free = -np.ones(nB, dtype=np.int32)
         full_to_free[f] = np.arange(nF)

@@ -60,8 +60,9 @@ static void veh_z(work3d_t* W, int w, double* z, double* zd, double* zdd) {
   }
 }
 
-/* rows of every wheelset at the iterate (dq, the span at the contact DOFs uc) */
-int iterate_rows3(work3d_t* W, const state3d_t* X, const double* uc, const double* xi, const double* irr) {
+/* rows of every wheelset at the iterate (dq, the span at the contact DOFs uc): those of use */
+int iterate_rows3(work3d_t* W, const state3d_t* X, const double* uc, const double* xi, const double* irr,
+                  int use) {
   const setup3d_t* S = W->S;
   double z[NZ3], zd[NZ3], zdd[NZ3];
   int i, w, st = 0;
@@ -73,7 +74,7 @@ int iterate_rows3(work3d_t* W, const state3d_t* X, const double* uc, const doubl
   for (w = 0; w < S->nW; ++w) {
     veh_z(W, w, z, zd, zdd);
     deck_z(W, w, uc, z, zd, zdd);
-    st |= rows3(W, w, z, zd, zdd, xi[w], irr + 9 * w);
+    st |= rows_needed3(W, w, z, zd, zdd, xi[w], irr + 9 * w, use);
   }
   return st ? S3_KERNEL : S3_OK;
 }
@@ -183,7 +184,7 @@ int interface3(work3d_t* W, const state3d_t* X, const int* el, const double* xi,
   for (it = 0; it < NEWTON_ITERATIONS3; ++it) {
     double change = 0.0, size;
     W->iterations++;
-    st = iterate_rows3(W, X, W->ucn, xi, irr);
+    st = iterate_rows3(W, X, W->ucn, xi, irr, ROWS_ITERATE);
     if (st) return st;
     /* the interface matrix over the active constraints, and its right-hand side */
     for (a = 0; a < na; ++a) {
@@ -203,31 +204,40 @@ int interface3(work3d_t* W, const state3d_t* X, const int* el, const double* xi,
       for (k = 0; k < 4; ++k) rows += W->act_of[4 * w + k] >= 0;
       if (!rows) continue;
       for (v = 0; v < nW; ++v) {
-        double T[NZ3 * 4]; /* C_wv G_v^T: 16 x 4 */
-        int flag = W->pair[w * nW + v], cols = 0;
+        double T[NZ3 * 4]; /* C_wv G_v^T: 16 x 4 (the active columns) */
+        int flag = W->pair[w * nW + v], lc[4], nl = 0, m;
         if (!flag) continue;
-        for (l = 0; l < 4; ++l) cols += W->act_of[4 * v + l] >= 0;
-        if (!cols) continue;
+        for (l = 0; l < 4; ++l)
+          if (W->act_of[4 * v + l] >= 0) lc[nl++] = l;
+        if (!nl) continue;
         memset(T, 0, sizeof T);
         if (flag & 1) {
           const int *dw = S->ws_dofs + 4 * w, *dv = S->ws_dofs + 4 * v;
           int blk = S->ws_blk[w], s0 = S->blk_start[blk], nb = S->blk_start[blk + 1] - s0;
           const double* AB = S->AV + S->blk_off[blk];
           for (i = 0; i < 4; ++i)
-            for (l = 0; l < 4; ++l) {
+            for (m = 0; m < nl; ++m) {
+              const double* g = W->grad + (4 * v + lc[m]) * NZ3;
               double s = 0.0;
-              for (j = 0; j < 4; ++j) s += AB[(long)(dw[i] - s0) * nb + (dv[j] - s0)] * W->grad[(4 * v + l) * NZ3 + j];
-              T[i * 4 + l] = s;
+              for (j = 0; j < 4; ++j) s += AB[(long)(dw[i] - s0) * nb + (dv[j] - s0)] * g[j];
+              T[i * 4 + lc[m]] = s;
             }
         }
         if (flag & 2) {
           const double* B = W->Sblk + 144 * (w * nW + v);
+          int nz[12], nj = 0;
+          for (j = 0; j < 12; ++j)
+            for (m = 0; m < nl; ++m)
+              if (W->grad[(4 * v + lc[m]) * NZ3 + 4 + j] != 0.0) {
+                nz[nj++] = j;
+                break;
+              }
           for (i = 0; i < 12; ++i)
-            for (l = 0; l < 4; ++l) {
-              const double* g = W->grad + (4 * v + l) * NZ3 + 4;
+            for (m = 0; m < nl; ++m) {
+              const double* g = W->grad + (4 * v + lc[m]) * NZ3 + 4;
               double s = 0.0;
-              for (j = 0; j < 12; ++j) s += B[12 * i + j] * g[j];
-              T[(4 + i) * 4 + l] = s;
+              for (j = 0; j < nj; ++j) s += B[12 * i + nz[j]] * g[nz[j]];
+              T[(4 + i) * 4 + lc[m]] = s;
             }
         }
         for (k = 0; k < 4; ++k) {
@@ -235,12 +245,10 @@ int interface3(work3d_t* W, const state3d_t* X, const int* el, const double* xi,
           const double* ra;
           if (ra_ < 0) continue;
           ra = W->landing[ia] ? W->grad + ia * NZ3 : W->jac + ia * NZ3;
-          for (l = 0; l < 4; ++l) {
-            int cb = W->act_of[4 * v + l];
+          for (m = 0; m < nl; ++m) {
             double s = 0.0;
-            if (cb < 0) continue;
-            for (i = 0; i < NZ3; ++i) s += ra[i] * T[i * 4 + l];
-            W->A[(long)ra_ * na + cb] = s;
+            for (i = 0; i < NZ3; ++i) s += ra[i] * T[i * 4 + lc[m]];
+            W->A[(long)ra_ * na + W->act_of[4 * v + lc[m]]] = s;
           }
         }
       }

@@ -7,12 +7,13 @@
 
 #include "loop3d.h"
 
-/* L L^T x = b in place; L(j + r, j) at L[j (p + 1) + r]. */
+/* L L^T x = b in place; L(j + r, j) at L[j (p + 1) + r], except the diagonal: its reciprocal
+ * (multiplications, not divisions, in the solve's chain). */
 void band_solve3(const double* L, int n, int p, double* b) {
   int j, r;
   for (j = 0; j < n; ++j) {
     const double* c = L + (long)j * (p + 1);
-    double x = b[j] / c[0];
+    double x = b[j] * c[0];
     int m = (j + p < n) ? p : n - 1 - j;
     b[j] = x;
     for (r = 1; r <= m; ++r) b[j + r] -= c[r] * x;
@@ -22,7 +23,7 @@ void band_solve3(const double* L, int n, int p, double* b) {
     double s = b[j];
     int m = (j + p < n) ? p : n - 1 - j;
     for (r = 1; r <= m; ++r) s -= c[r] * b[j + r];
-    b[j] = s / c[0];
+    b[j] = s * c[0];
   }
 }
 

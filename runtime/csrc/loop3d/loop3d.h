@@ -51,7 +51,8 @@ typedef struct {
   const int* comp;         /* nF: connected part of the structure */
   const double* S;         /* nF x nF: compliance K^_ff^-1 */
   const double* MBi;       /* nF x nF: M_ff^-1 */
-  const double* band;      /* nF x (p + 1): Cholesky factor of K^_ff in perm order, L(j+r, j) at [j (p+1) + r] */
+  const double* band; /* nF x (p + 1): Cholesky factor of K^_ff in perm order, L(j+r, j) at [j (p+1) + r],
+                      * the diagonal as its reciprocal */
   const int* perm;         /* nF: free index at band position k */
   const int *M_ptr, *M_idx;
   const double* M_val; /* nB x nB CSR: span mass */
@@ -158,6 +159,10 @@ int kcall3(work3d_t* W, int k, int w, const double* z, const double* zd, const d
            const double* irr, const double* coef, double* out0, double* out1);
 int rows3(work3d_t* W, int w, const double* z, const double* zd, const double* zdd, double xi,
           const double* irr);
+#define ROWS_ITERATE 0
+#define ROWS_CHECK 1
+int rows_needed3(work3d_t* W, int w, const double* z, const double* zd, const double* zdd, double xi,
+                 const double* irr, int use);
 void zvec3(const work3d_t* W, int w, const double* q, const double* u, const double* ground, double* z);
 /* vehicle3d.c */
 void veh_mul3(const setup3d_t* S, const double* blocks, const double* x, double* y, int add);
@@ -166,7 +171,8 @@ void csr_mul3(int n, const int* ptr, const int* idx, const double* val, const do
 void span_solve3(work3d_t* W, double* bfree);
 void span_rates3(work3d_t* W, const double* u, double* ud, double* udd);
 /* interface3d.c */
-int iterate_rows3(work3d_t* W, const state3d_t* X, const double* uc, const double* xi, const double* irr);
+int iterate_rows3(work3d_t* W, const state3d_t* X, const double* uc, const double* xi, const double* irr,
+                  int use);
 int interface3(work3d_t* W, const state3d_t* X, const int* el, const double* xi, const double* irr);
 /* active3d.c */
 void pivot_reset3(pivot3_t* P, int n);

@@ -74,3 +74,51 @@ int rows3(work3d_t* W, int w, const double* z, const double* zd, const double* z
   st |= kcall3(W, SVBI_CONTACT3D_K_FLANGE_GAPS, w, z, zd, zdd, xi, irr, c, gp + 2, 0);
   return st ? S3_KERNEL : S3_OK;
 }
+
+/* Only the rows a use needs (rows3 evaluates all): ITERATE, the rows of the active constraints
+ * (gradients; the stabilised residual and its Jacobian, or the gap of a landing one; the inactive
+ * ones' gradients zero: they carry no force); CHECK, what the active set reads of the inactive ones
+ * (the stabilised residual of one in contact at t_n, the gap of one that was not). */
+int rows_needed3(work3d_t* W, int w, const double* z, const double* zd, const double* zdd, double xi,
+                 const double* irr, int use) {
+  const setup3d_t* S = W->S;
+  double c[4] = {S->c1, S->c0, 0.0, 0.0}, cj[4] = {S->c1, S->c0, S->a1, S->a0};
+  double* g = W->grad + 4 * NZ3 * w;
+  double* j = W->jac + 4 * NZ3 * w;
+  double* r = W->res + 4 * w;
+  double* gp = W->gap + 4 * w;
+  const int* act = W->active + 4 * w;
+  const int* land = W->landing + 4 * w;
+  const int* in = W->in_contact + 4 * w;
+  int st = 0, h;
+  for (h = 0; h < 2; ++h) { /* normal pair, flange pair */
+    const int a0 = act[2 * h], a1 = act[2 * h + 1];
+    int need_res, need_gap, need_grad;
+    if (use == ROWS_ITERATE) {
+      need_grad = a0 || a1;
+      need_res = (a0 && !land[2 * h]) || (a1 && !land[2 * h + 1]);
+      need_gap = (a0 && land[2 * h]) || (a1 && land[2 * h + 1]);
+    } else {
+      need_grad = 0;
+      need_res = (!a0 && in[2 * h]) || (!a1 && in[2 * h + 1]);
+      need_gap = (!a0 && !in[2 * h]) || (!a1 && !in[2 * h + 1]);
+    }
+    if (need_grad)
+      st |= kcall3(W, h ? SVBI_CONTACT3D_K_FLANGE_GAP_GRADIENTS : SVBI_CONTACT3D_K_NORMAL_GAP_GRADIENTS, w, z, zd,
+                   zdd, xi, irr, c, g + 2 * h * NZ3, 0);
+    else if (use == ROWS_ITERATE)
+      memset(g + 2 * h * NZ3, 0, sizeof(double) * 2 * NZ3);
+    if (need_res) {
+      st |= kcall3(W, h ? SVBI_CONTACT3D_K_FLANGE_RESIDUALS : SVBI_CONTACT3D_K_NORMAL_RESIDUALS, w, z, zd, zdd, xi,
+                   irr, c, r + 2 * h, 0);
+      if (use == ROWS_ITERATE)
+        st |= kcall3(W,
+                     h ? SVBI_CONTACT3D_K_FLANGE_RESIDUAL_JACOBIANS : SVBI_CONTACT3D_K_NORMAL_RESIDUAL_JACOBIANS,
+                     w, z, zd, zdd, xi, irr, cj, j + 2 * h * NZ3, 0);
+    }
+    if (need_gap)
+      st |= kcall3(W, h ? SVBI_CONTACT3D_K_FLANGE_GAPS : SVBI_CONTACT3D_K_NORMAL_GAPS, w, z, zd, zdd, xi, irr, c,
+                   gp + 2 * h, 0);
+  }
+  return st ? S3_KERNEL : S3_OK;
+}

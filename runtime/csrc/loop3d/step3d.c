@@ -93,7 +93,7 @@ static int step(work3d_t* W, state3d_t* X, long n, const int* el, const double* 
     for (w = 0; w < nW; ++w)
       for (j = 0; j < 12; ++j)
         if (W->fidx[12 * w + j] >= 0) W->ucn[12 * w + j] = W->uk[S->el_dofs[12 * W->ondeck[w] + j]];
-    if ((st = iterate_rows3(W, X, W->ucn, xi, irr))) return st;
+    if ((st = iterate_rows3(W, X, W->ucn, xi, irr, ROWS_CHECK))) return st;
     for (i = 0; i < nC; ++i) {
       double f = W->lam[i], g = W->in_contact[i] ? W->res[i] / S->scale : W->gap[i];
       if (S->bilateral && i % 4 < 2) f = fabs(f) + 1.0;
