@@ -298,3 +298,32 @@ def test_vehicle_blocks_are_the_cars() -> None:
     blocks = vehicle_blocks(train.M, train.C, train.K, together=[w.dofs for w in train.wheelsets])
     assert [b for b in blocks if b[0] % n == 0 and b[1] % n == 0] == blocks
     assert {s // n for s, _ in blocks} == {0, 1, 2}
+
+
+def test_a_non_finite_state_stops_the_loop_at_its_step() -> None:
+    """A NaN in the state: the loop stops at the first step, the chunk is empty and ``stopped``
+    names the step and the reason (as the 2D loop's guard)."""
+    bridge = Bridge3D([Girder((10.0,), DECK)], 4, [section3d(DECK, 10.0, 5.0)])
+    system = System3D(car(), bridge, Track3D(conicity=LAM), speed=10.0, start=4.0)
+    stepper = LocalizedDynamic3DC(system, static_state(system), 1e-3)
+    good = stepper.advance(0, 5, np.zeros((5, 1, 9)), 1)
+    assert len(good) == 5 and stepper.stopped is None
+    stepper.state.q[0] = np.nan
+    chunk = stepper.advance(5, 5, np.zeros((5, 1, 9)), 1)
+    assert len(chunk) == 0
+    assert stepper.stopped == "the 3D C loop stopped at step 6 (t = 0.006 s): non-finite state"
+
+
+def test_refusals(monkeypatch) -> None:
+    import svbi.runtime.backends.c.stepper3d as s3
+
+    bridge = Bridge3D([Girder((10.0,), DECK)], 4, [section3d(DECK, 10.0, 5.0)])
+    system = System3D(train3d([car(), car()], 6.0), bridge, Track3D(conicity=LAM), speed=10.0, start=9.0)
+    state = static_state(system)
+    monkeypatch.setattr(s3, "MAX_WHEELSETS", 1)
+    with pytest.raises(ValueError, match="at most 1 wheelsets .* this train has 2"):
+        LocalizedDynamic3DC(system, copy(state), 1e-3)
+    monkeypatch.setattr(s3, "MAX_WHEELSETS", 256)
+    monkeypatch.setattr(s3, "MAX_FREE_DOFS", 10)
+    with pytest.raises(ValueError, match="at most 10 free DOFs"):
+        LocalizedDynamic3DC(system, copy(state), 1e-3)

@@ -39,7 +39,7 @@ int lu_solve3(double* A, int n, double* b, int* piv) {
         m = i;
       }
     piv[k] = m;
-    if (!(big > 0.0)) return S3_SINGULAR;
+    if (big == 0.0) return S3_SINGULAR; /* a NaN goes on: the guard reports the state */
     if (m != k) {
       double t;
       for (j = 0; j < n; ++j) {
