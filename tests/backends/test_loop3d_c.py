@@ -327,3 +327,30 @@ def test_refusals(monkeypatch) -> None:
     monkeypatch.setattr(s3, "MAX_FREE_DOFS", 10)
     with pytest.raises(ValueError, match="at most 10 free DOFs"):
         LocalizedDynamic3DC(system, copy(state), 1e-3)
+
+
+@pytest.mark.parametrize("wave", [None, 300.0])
+def test_the_excitation_of_a_chunk_is_the_steps_own(wave) -> None:
+    """The excitation a chunk hands to C, vectorised over its steps for the ground of a scenario
+    (synthetic three-component record, synchronous or travelling): the same numbers, bit for bit,
+    as the NumPy step's ``contact_location``, ``ground_under`` and ``support_targets`` step by step."""
+    from pathlib import Path
+
+    from svbi.runtime.run.simulate3d import build_run3d
+    from svbi.runtime.scenario.schema import load_scenario
+
+    example = Path(__file__).resolve().parents[2] / "examples" / "paper-2020-3d.toml"
+    overrides = {"bridge.spans": 3, "train.cars": 1, "train.start_position": 40.0, "solver.duration": 0.01}
+    if wave:
+        overrides |= {"earthquake.apparent_velocity": wave, "earthquake.arrival": 0.0}
+    run = build_run3d(load_scenario(example, overrides=overrides))
+    stepper = LocalizedDynamic3DC(run.system, static_state(run.system), 1e-4)
+    n0, k = (1500 if wave else 7), 30  # the wave reaches the train (40 m on) at 0.13 s
+    ex = stepper.excitation(n0, k, np.zeros((k, 4, 9)))
+    ground, support = stepper._quake_loop(ex.t)
+    assert np.array_equal(ex.ground, ground) and np.array_equal(ex.support, support)
+    assert np.abs(ground).max() > 0 and np.abs(support).max() > 0
+    for s, t in enumerate(ex.t):
+        assert t == (n0 + s + 1) * 1e-4
+        loc = run.system.contact_location(float(t))
+        assert ex.element[s].tolist() == [e for e, _ in loc] and ex.xi[s].tolist() == [x for _, x in loc]

@@ -36,6 +36,9 @@ from ....codegen.c_flags import CASADI_WARNING_EXCEPTION, STRICT_FLAGS
 from ... import toolchain as kernel_cache
 from ...methods.chunk3d import Chunk3D, Excitation3D
 from ...methods.coupled3d import PER_WHEELSET, State3D, _Step3D
+from ...model.bridge3d import GROUND_DIRECTIONS
+from ...model.ground import RecordGround, seen_moving
+from ...model.system import newmark_targets, support_hat
 from ...model.system3d import GROUND, NIRREGULARITY, System3D
 from ...toolchain import generated_root
 from .build import CSRC, CSRC_3D, simd_flags
@@ -413,14 +416,79 @@ class LocalizedDynamic3DC(_Step3D):
         t = (n0 + 1 + np.arange(k)) * self.dt
         element, xi = self._locations(t)
         ground = support = None
-        if self.quake:
-            nW = self.asm.nW
-            ground = np.empty((k, 3, nW, 12))
-            support = np.empty((k, 3, len(self.held)))
-            for s, ts in enumerate(t):  # a loop over the chunk's steps, in Python (outside the C loop)
-                ground[s] = np.stack(sys_.ground_under(float(ts)))
-                support[s] = np.stack(self.support_targets(float(ts)))
+        if self.quake and isinstance(sys_.ground, RecordGround) and hasattr(sys_.span, "supports"):
+            ground, support = self._quake_many(n0, k, t)
+        elif self.quake:  # another ground: a loop over the chunk's steps, in Python
+            ground, support = self._quake_loop(t)
         return Excitation3D(t, element, xi, _f64(irregularity), ground, support)
+
+    def _quake_loop(self, t: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """The ground under the wheelsets and the supports' targets step by step (any ground)."""
+        ground = np.empty((t.size, 3, self.asm.nW, 12))
+        support = np.empty((t.size, 3, len(self.held)))
+        for s, ts in enumerate(t):
+            ground[s] = np.stack(self.system.ground_under(float(ts)))
+            support[s] = np.stack(self.support_targets(float(ts)))
+        return ground, support
+
+    def _component_many(self, name: str, t: np.ndarray, x: np.ndarray) -> tuple[np.ndarray, ...]:
+        """:meth:`RecordGround.component` at the times ``t`` (k,) and points ``x`` (k, points) at once,
+        element by element the same operations."""
+        g = self.system.ground
+        comp = g.components[name]
+        if comp is None:
+            z = np.zeros(x.shape)
+            return z, z, z
+        if comp.positions is None:
+            history = comp.histories[0]
+            if g.apparent_velocity is None:
+                q = history.evaluate(np.asarray(t, dtype=float))
+                return tuple(np.broadcast_to(np.asarray(v, dtype=float)[:, None], x.shape).copy() for v in q)
+            return tuple(history.evaluate(t[:, None] - (x - g.reference_position) / g.apparent_velocity))
+        index = RecordGround.nearest_support(comp, x)
+        out = (np.zeros(x.shape), np.zeros(x.shape), np.zeros(x.shape))
+        tt = np.broadcast_to(t[:, None], x.shape)
+        for j in np.unique(index):
+            sel = index == j
+            q = comp.histories[int(j)].evaluate(tt[sel])
+            for o, v in zip(out, q, strict=True):
+                o[sel] = v
+        return out
+
+    def _motion_many(self, t: np.ndarray, x: np.ndarray) -> list[np.ndarray]:
+        """:meth:`System3D.ground_motion` at many times: ``(q, q', q'')``, each (k, points, 3)."""
+        parts = [self._component_many(n, t, x) for n in ("longitudinal", "lateral", "vertical")]
+        return [np.stack([p[d] for p in parts], axis=-1) for d in range(3)]
+
+    def _quake_many(self, n0: int, k: int, t: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """The ground under the wheelsets and the supports' targets at the chunk's steps, vectorised
+        (:meth:`System3D.ground_under`, :meth:`_Step3D.support_targets`)."""
+        sys_, span, dt = self.system, self.system.span, self.dt
+        nW = self.asm.nW
+        offsets = np.array([w.offset for w in sys_.vehicle.wheelsets])
+        x = sys_.start + sys_.speed * t[:, None] - offsets[None, :]
+        q = self._motion_many(t, x)
+        moving = seen_moving(*q, getattr(sys_.ground, "apparent_velocity", None), sys_.speed)
+        ground = np.zeros((k, 3, nW, 12))
+        for d in range(3):
+            ground[:, d, :, 0:3] = moving[d]
+            ground[:, d, :, 6:9] = moving[d]
+        # the supports: h = q - dt^2/4 q'' at steps n0 .. n0 + k + 1, then the three-point targets
+        m = np.arange(n0, n0 + k + 2)
+        times = m * dt
+        lines = np.asarray(span.line_x, dtype=float)
+        lq = self._motion_many(times, np.broadcast_to(lines, (times.size, lines.size)))
+        line = np.array([s.line for s in span.supports])
+        direction = np.array(
+            [
+                GROUND_DIRECTIONS.index(s.direction) if s.direction in GROUND_DIRECTIONS else -1
+                for s in span.supports
+            ]
+        )
+        take = lambda a: np.where(direction >= 0, a[:, line, np.maximum(direction, 0)], 0.0)  # noqa: E731
+        h = support_hat(take(lq[0]), take(lq[2]), dt)
+        support = np.stack(newmark_targets(h[:-2], h[1:-1], h[2:], dt), axis=1)
+        return _f64(ground), _f64(support)
 
     def _locations(self, t: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """``contact_location`` at every time of ``t``, vectorised (``GROUND``, xi 0, off the deck)."""

@@ -7,11 +7,11 @@
  *
  * until the update is round-off (coupled3d.Convergence). Only what the interface needs is formed:
  * the 4 x 4 blocks of two wheelsets of the same car (A_V) or on the same part of the structure (the
- * compliance S between their elements' DOFs); the span's displacements are followed at the contact
- * elements' DOFs during the iteration, and solved for all DOFs once at the end. The change of the
- * convergence rule is measured at the vehicle's DOFs and the contact elements' span DOFs, its size
- * from the vehicle, the predictor and the contact DOFs (the span's other DOFs follow the same
- * forces linearly).
+ * compliance S between their elements' DOFs, gathered when an element changes), over the active
+ * constraints; the span's displacements are followed at the contact elements' DOFs during the
+ * iteration. The convergence rule's update is measured at the vehicle's DOFs and the contact
+ * elements' span DOFs; when it is met there, the new iterate is solved at every span DOF (a band
+ * solve) and the rule is taken again over every DOF, as the NumPy step takes it.
  */
 #include <math.h>
 #include <string.h>
