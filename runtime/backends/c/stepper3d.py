@@ -82,11 +82,17 @@ class Setup3D(ctypes.Structure):
             for n in (
                 "blk_start",
                 "blk_off",
-                "MV",
-                "CV",
-                "KV",
                 "AV",
                 "MVi",
+                "MV_ptr",
+                "MV_idx",
+                "CV_ptr",
+                "CV_idx",
+                "KV_ptr",
+                "KV_idx",
+                "MV_val",
+                "CV_val",
+                "KV_val",
                 "ws_dofs",
                 "ws_blk",
                 "geom",
@@ -373,7 +379,9 @@ class LocalizedDynamic3DC(_Step3D):
         S.c1, S.c0, S.scale = self.c1, self.c0, self.scale
         S.blk_start = P(_i32([s for s, _ in blocks] + [nV]))
         S.blk_off = P(np.ascontiguousarray(offsets, dtype=np.int64))
-        S.MV, S.CV, S.KV = P(packed(veh.M)), P(packed(veh.C)), P(packed(veh.K))
+        S.MV_ptr, S.MV_idx, S.MV_val = (P(a) for a in _csr(veh.M, nV, nV))
+        S.CV_ptr, S.CV_idx, S.CV_val = (P(a) for a in _csr(veh.C, nV, nV))
+        S.KV_ptr, S.KV_idx, S.KV_val = (P(a) for a in _csr(veh.K, nV, nV))
         S.AV, S.MVi = P(packed(k_hat_V, True)), P(packed(veh.M, True))
         S.ws_dofs = P(_i32(np.array([ws.dofs for ws in veh.wheelsets])))
         S.ws_blk = P(_i32(ws_blk))

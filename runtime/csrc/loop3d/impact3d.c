@@ -101,7 +101,7 @@ int impact3(work3d_t* W, state3d_t* X, const int* el, const double* xi, const do
   for (i = 0; i < nV; ++i) X->qd[i] += W->tV[i];
   for (i = 0; i < nF; ++i) X->ud[S->free_dofs[i]] += W->tF[i];
   /* the damping forces follow the velocity jump */
-  veh_mul3(S, S->CV, W->tV, W->gv, 0);
+  csr_mul3(S->nV, S->CV_ptr, S->CV_idx, S->CV_val, W->tV, W->gv, 0);
   veh_mul3(S, S->MVi, W->gv, W->dqn, 0);
   for (i = 0; i < nV; ++i) X->qdd[i] -= W->dqn[i];
   memset(W->tB, 0, sizeof(double) * (size_t)S->nB);

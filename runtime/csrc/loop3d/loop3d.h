@@ -36,10 +36,13 @@ typedef struct {
   int nV, nW, nF, nB, nS, nE, nblk, p;
   int quake, creep, bilateral, pad;
   double dt, a0, a1, a2, c1, c0, scale;
-  /* vehicle: blocks [blk_start[b], blk_start[b + 1]) of the DOFs, dense blocks at blk_off[b] */
+  /* vehicle: blocks [blk_start[b], blk_start[b + 1]) of the DOFs, dense blocks at blk_off[b] (its
+   * compliance and inverse mass); M, C, K sparse (nV x nV CSR) */
   const int* blk_start;
   const long* blk_off;
-  const double *MV, *CV, *KV, *AV, *MVi;
+  const double *AV, *MVi;
+  const int *MV_ptr, *MV_idx, *CV_ptr, *CV_idx, *KV_ptr, *KV_idx;
+  const double *MV_val, *CV_val, *KV_val;
   const int* ws_dofs; /* nW x 4: [y, z, phi, psi] of each wheelset */
   const int* ws_blk;  /* nW */
   const double* geom;     /* nW x 8: the kernels' geometry argument */

@@ -43,10 +43,10 @@ static void loads(work3d_t* W, const state3d_t* X) {
     W->QtV[i] = X->qd[i];
     W->fV[i] = X->load[i] + X->creep_V[i];
   }
-  veh_mul3(S, S->KV, X->q, W->tV, 0);
+  csr_mul3(S->nV, S->KV_ptr, S->KV_idx, S->KV_val, X->q, W->tV, 0);
   for (i = 0; i < S->nV; ++i) W->fV[i] -= W->tV[i];
-  veh_mul3(S, S->MV, W->PtV, W->fV, 1);
-  veh_mul3(S, S->CV, W->QtV, W->fV, 1);
+  csr_mul3(S->nV, S->MV_ptr, S->MV_idx, S->MV_val, W->PtV, W->fV, 1);
+  csr_mul3(S->nV, S->CV_ptr, S->CV_idx, S->CV_val, W->QtV, W->fV, 1);
   for (i = 0; i < S->nB; ++i) {
     W->PB[i] = S->a0 * X->u[i] + S->a2 * X->ud[i] + X->udd[i];
     W->QB[i] = S->a1 * X->u[i] + X->ud[i];

@@ -1,6 +1,6 @@
 /*
- * The vehicle's matrices, block-diagonal by car (checked at set-up): y (+)= B x, B one of the
- * per-block dense arrays (M, C, K, the compliance K^^-1, M^-1).
+ * The vehicle's dense per-car blocks (block-diagonal by car, found at set-up): y (+)= B x, B the
+ * compliance K^^-1 or M^-1 (M, C, K themselves are sparse: csr_mul3).
  */
 #include "loop3d.h"
 
