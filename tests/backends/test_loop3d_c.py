@@ -169,6 +169,30 @@ def test_train_over_a_chain_with_irregularities_and_creep(normal) -> None:
     agree(system, a, b)
 
 
+def test_wheelsets_on_one_span_one_on_its_first_element() -> None:
+    """Two cars on the second span of a chain, one wheelset on the span's first element (whose node
+    on the support line has its translations and twist held), the other further on: the bridge's
+    compliance couples them (the two elements' free DOFs lie in the same part of the structure,
+    although the straight girder's axial, lateral, vertical and torsional DOFs do not couple in its
+    stiffness). Rough rails, creep, unilateral contact."""
+    train = train3d([car(), car()], 3.0)
+    bridge = Bridge3D([Girder((10.0,), DECK)] * 2, 4, [section3d(DECK, 10.0, 5.0)] * 2)
+    system = System3D(
+        train,
+        bridge,
+        Track3D(conicity=LAM, eccentricity=0.2, rail_height=0.8),
+        speed=20.0,
+        start=13.9,
+        bridge_damping=bridge.C,
+        creep=CreepParameters(),
+    )
+    assert [e for e, _ in system.contact_location(0.03)] == [5, 4]
+    state = static_state(system)
+    a = run_numpy(system, state, 1e-4, 300, "unilateral", rough=True)
+    b = run_c(system, state, 1e-4, 300, "unilateral", rough=True)
+    agree(system, a, b)
+
+
 WEIGHT_PULL = 1.5
 
 

@@ -351,11 +351,19 @@ class LocalizedDynamic3DC(_Step3D):
             ab[r, : nF - r] = np.diagonal(kp, -r)
         band = sla.cholesky_banded(ab, lower=True)
         band[0] = 1.0 / band[0]  # the C solve multiplies by the diagonal's reciprocal
-        _, comp = connected_components(pattern, directed=False)
         full_to_free = -np.ones(nB, dtype=np.int32)
         full_to_free[f] = np.arange(nF)
         nE = int(span.n_elements)
         el_dofs = np.array([span.element_dofs(e) for e in range(nE)], dtype=np.int32)
+        # the parts of the structure: the stiffness graph with each deck element's free DOFs joined
+        # (axial, lateral, vertical and torsional DOFs decouple in the stiffness of a straight
+        # girder, but a wheelset on the element loads them all): the compliance between two
+        # elements in different parts is zero
+        joins = [full_to_free[d][full_to_free[d] >= 0] for d in el_dofs]
+        rows_j = np.concatenate([j[:-1] for j in joins if j.size > 1] + [np.zeros(0, dtype=int)])
+        cols_j = np.concatenate([j[1:] for j in joins if j.size > 1] + [np.zeros(0, dtype=int)])
+        joined = pattern + sp.csr_matrix((np.ones(rows_j.size), (rows_j, cols_j)), shape=(nF, nF))
+        _, comp = connected_components(joined, directed=False)
         M_csr = _csr(span.M, nB, nB)
         C_csr = _csr(self.CB, nB, nB)
         if self.quake:
