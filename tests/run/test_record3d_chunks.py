@@ -216,7 +216,9 @@ def test_the_results_do_not_depend_on_the_chunk_size(topology: str, whole, monke
 
 
 @pytest.mark.parametrize("failure", ["interrupt", "singular", "non-finite"])
-def test_a_stop_in_the_middle_of_a_chunk_keeps_the_steps_before_it(topology, whole, failure, monkeypatch) -> None:
+def test_a_stop_in_the_middle_of_a_chunk_keeps_the_steps_before_it(
+    topology, whole, failure, monkeypatch
+) -> None:
     real = LocalizedDynamic3D.step
     bad = 41  # step n = 41 (t_42) fails: 42 states recorded (t = 0 to t_41)
 
@@ -237,7 +239,8 @@ def test_a_stop_in_the_middle_of_a_chunk_keeps_the_steps_before_it(topology, who
         with pytest.raises(RunInterrupted) as info:
             svbi.simulate(scenario(topology))
         ds = info.value.results
-        assert ds.attrs["incomplete"] == f"interrupted by SIGINT at t = {bad * DT:.6g} s (step {bad} of {STEPS})"
+        at = f"interrupted by SIGINT at t = {bad * DT:.6g} s (step {bad} of {STEPS})"
+        assert ds.attrs["incomplete"] == at
     else:
         with pytest.warns(SimulationIncomplete) as caught:
             ds = svbi.simulate(scenario(topology))
@@ -246,7 +249,8 @@ def test_a_stop_in_the_middle_of_a_chunk_keeps_the_steps_before_it(topology, who
             assert message == f"the 3D step failed at step {bad + 1} of {STEPS}: Singular matrix"
         else:
             assert message == (
-                f"the 3D step diverged at t = {(bad + 1) * DT:.6g} s (step {bad + 1} of {STEPS}): non-finite state"
+                f"the 3D step diverged at t = {(bad + 1) * DT:.6g} s (step {bad + 1} of {STEPS}): "
+                "non-finite state"
             )
     assert ds.attrs["complete"] == 0 and ds.attrs["steps"] == bad
     stored = bad // EVERY + 1  # t = 0, 3 dt, ..., 39 dt
