@@ -6,11 +6,13 @@ included), a train of ``train.cars`` 3D cars (:func:`~svbi.runtime.model.system3
 :func:`~svbi.runtime.model.train3d.train3d`, spaced by the vehicle's ``car_length`` as 2D trains
 are), the cone-and-knife-edge track of :func:`~svbi.runtime.scenario.build.track_geometry_3d` and a
 :class:`~svbi.runtime.model.system3d.System3D`. The steps are those of
-:mod:`svbi.runtime.methods.localized3d` and :mod:`svbi.runtime.methods.coupled3d`, called through
-their public interface (constructor, ``step(n)``, the state's ``t``, ``q``, ``qdd``, ``u``, ``udd``,
-``P``, ``gaps()``). Every step fills a row of :class:`~svbi.runtime.run.results3d.Histories3D`; the
-vertical variables of the 2D results (``midspan_uz``, ``deck_acceleration``, ``carbody_az``, ...)
-are recorded every ``output_every`` steps and given to
+:mod:`svbi.runtime.methods.localized3d` and :mod:`svbi.runtime.methods.coupled3d`, advanced a chunk
+of steps at a time through the chunk interface (``advance(n0, k, irregularity, every)`` returning a
+:class:`~svbi.runtime.methods.chunk3d.Chunk3D`; :class:`~svbi.runtime.methods.chunk3d.SteppedChunks`
+for the NumPy steps). Each chunk fills its rows of
+:class:`~svbi.runtime.run.results3d.Histories3D` at once (``_Recorder3D.record_chunk``, vectorised
+over the steps and the wheelsets); the vertical variables of the 2D results (``midspan_uz``,
+``deck_acceleration``, ``carbody_az``, ...) are recorded every ``output_every`` steps and given to
 :func:`~svbi.runtime.run.results3d.dataset3d` as its ``base``.
 
 The ground of ``[earthquake]`` (vertical, longitudinal and lateral components, per support line or
@@ -24,10 +26,10 @@ bilateral, flange contact at ``contact.flange_clearance``, and with ``contact.cr
 forces with Shen-Hedrick-Elkins saturation (``[contact]``'s material and friction, as in 2D).
 
 Rail irregularities (``[track]``) are set on the step's contact kernels (their ``irregularity``
-argument) under each wheelset at t_{n+1} before each step: a German spectrum gives the vertical
-profile (the 2D run's table), the alignment and the cross-level; a measured profile its vertical
-column. The static state at t = 0 is on level track (a spectral profile's onset ramp starts at the
-leading wheelset, so every wheel stands on level rail then).
+argument) under each wheelset at t_{n+1} before each step (evaluated for a whole chunk at once): a
+German spectrum gives the vertical profile (the 2D run's table), the alignment and the cross-level;
+a measured profile its vertical column. The static state at t = 0 is on level track (a spectral
+profile's onset ramp starts at the leading wheelset, so every wheel stands on level rail then).
 """
 
 from __future__ import annotations
