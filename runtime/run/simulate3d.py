@@ -6,7 +6,8 @@ included), a train of ``train.cars`` 3D cars (:func:`~svbi.runtime.model.system3
 :func:`~svbi.runtime.model.train3d.train3d`, spaced by the vehicle's ``car_length`` as 2D trains
 are), the cone-and-knife-edge track of :func:`~svbi.runtime.scenario.build.track_geometry_3d` and a
 :class:`~svbi.runtime.model.system3d.System3D`. The steps are those of
-:mod:`svbi.runtime.methods.localized3d` and :mod:`svbi.runtime.methods.coupled3d`, advanced a chunk
+:mod:`svbi.runtime.methods.localized3d`, :mod:`svbi.runtime.methods.coupled3d` and
+:mod:`svbi.runtime.methods.classic3d`, advanced a chunk
 of steps at a time through the chunk interface (``advance(n0, k, irregularity, every)`` returning a
 :class:`~svbi.runtime.methods.chunk3d.Chunk3D`; :class:`~svbi.runtime.methods.chunk3d.SteppedChunks`
 for the NumPy steps). Each chunk fills its rows of
@@ -18,7 +19,7 @@ over the steps and the wheelsets); the vertical variables of the 2D results (``m
 The ground of ``[earthquake]`` (vertical, longitudinal and lateral components, per support line or
 travelling) moves the 3D bridge's supports; wheelsets before and after the deck run on rigid track
 moving with the ground. What the 3D step cannot do yet is refused before anything is built, in one
-line naming the key (:class:`NotRun3D`): ``coupled-classic``, a braking or accelerating train,
+line naming the key (:class:`NotRun3D`): a braking or accelerating train,
 ``train.initial = "rigid-track"``, spans whose elements differ in length. A ``solver.backend`` other
 than ``numpy`` runs on NumPy with a :class:`~svbi.runtime.backends.base.BackendFallback` warning. The
 contact is the step's: ``contact.normal`` unilateral (lift-off and landing, the default) or
@@ -52,6 +53,7 @@ from ..excitation.irregularity import (
     measured_profile_3d,
 )
 from ..methods.chunk3d import Chunk3D, ChunkStopped, SteppedChunks, chunk_head, first_non_finite
+from ..methods.classic3d import CoupledClassic3D
 from ..methods.coupled3d import CoupledDynamic3D, State3D, static_state
 from ..methods.localized3d import LocalizedDynamic3D
 from ..model.bridge3d import Bridge3D
@@ -80,11 +82,14 @@ if TYPE_CHECKING:
 
 CHUNK_STEPS = 256
 """About how many steps a 3D loop advances between two recordings (:func:`chunk_steps`)."""
-STEPS_3D = {"localized-dynamic": LocalizedDynamic3D, "coupled-dynamic": CoupledDynamic3D}
+STEPS_3D = {
+    "localized-dynamic": LocalizedDynamic3D,
+    "coupled-dynamic": CoupledDynamic3D,
+    "coupled-classic": CoupledClassic3D,
+}
 """The 3D step of each ``solver.method`` that has one."""
 CONTACT_MODEL = "coned wheels on knife-edge rails: {normal} normal contact, flange contact, {creep}"
 """The results' ``contact_model`` attribute (filled in per run)."""
-"""The ``contact_model`` attribute of a 3D run's results."""
 COMPONENTS = ("vertical", "alignment", "cross-level")
 """The irregularity components, in the order of the contact kernels' ``[r_v, r_a, r_c]``."""
 RAMP_LENGTH = 20.0
@@ -157,7 +162,7 @@ def refuse(scenario: Scenario) -> None:
     if ss.method not in STEPS_3D:
         raise no(
             "solver.method",
-            f"{ss.method!r} has no 3D step: use 'localized-dynamic' or 'coupled-dynamic'",
+            f"{ss.method!r} has no 3D step: use one of {', '.join(map(repr, STEPS_3D))}",
         )
     if t.acceleration != 0.0:
         raise no("train.acceleration", "the 3D step runs trains at constant speed: remove it (or set 0)")

@@ -198,7 +198,7 @@ def test_an_earthquake_and_the_approach_track_run(tmp_path: Path) -> None:
 @pytest.mark.parametrize(
     ("sets", "extra", "key"),
     [
-        (["solver.method=coupled-classic"], "", "solver.method: 'coupled-classic' has no 3D step"),
+        (["train.initial=rigid-track"], "", "train.initial: 'rigid-track': a 3D run starts from the static"),
         (["train.acceleration=-1.0"], "", "train.acceleration: the 3D step runs trains at constant speed"),
     ],
 )
