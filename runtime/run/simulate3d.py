@@ -55,6 +55,7 @@ from ..excitation.irregularity import (
 from ..methods.chunk3d import Chunk3D, ChunkStopped, SteppedChunks, chunk_head, first_non_finite
 from ..methods.classic3d import CoupledClassic3D
 from ..methods.coupled3d import CoupledDynamic3D, State3D, static_state
+from ..methods.guard import FORCE_LIMIT_FACTOR
 from ..methods.localized3d import LocalizedDynamic3D
 from ..model.bridge3d import Bridge3D
 from ..model.ground import Ground, ground_from_scenario
@@ -699,6 +700,54 @@ class _Recorder3D:
         return xr.Dataset(data_vars=data, coords=coords)
 
 
+def divergence3d(
+    chunk: Chunk3D, max_gap: float, force_limit: float, per_car: int, method: str
+) -> tuple[int, str] | None:
+    """The first step of ``chunk`` at which the run has gone unstable, and why (None: none), as
+    the 2D guard (:mod:`svbi.runtime.methods.guard`): a normal gap of a wheel in contact beyond
+    ``solver.max_gap`` (read at the steps whose gaps were evaluated, the output steps), a wheel
+    flying higher than that, or a normal force beyond ``force_limit``."""
+    k = len(chunk)
+    closed = chunk.contact.reshape(k, -1, 4)[:, :, :2].reshape(k, -1).astype(bool)
+    gaps = np.nan_to_num(chunk.gaps, nan=0.0)
+    drift = np.where(closed, np.abs(gaps), 0.0) > max_gap
+    flight = np.where(closed, 0.0, gaps) > max_gap
+    force = np.abs(chunk.P) > force_limit
+    rows = np.flatnonzero(drift.any(axis=1) | flight.any(axis=1) | force.any(axis=1))
+    if not rows.size:
+        return None
+    j = int(rows[0])
+
+    def wheel(i: int) -> str:
+        car, ws = divmod(i // 2, per_car)
+        return f"car {car + 1}, wheelset {ws + 1}, {('left', 'right')[i % 2]}"
+
+    if method == "coupled-classic":
+        cause = (
+            "coupled-classic imposes the constraints at acceleration level only, so the gaps drift "
+            "(use localized-dynamic or coupled-dynamic)"
+        )
+    else:
+        cause = "the time step may be too large for this model; try a smaller one"
+    if drift[j].any():
+        i = int(np.argmax(np.where(drift[j], np.abs(gaps[j]), 0.0)))
+        return j, (
+            f"the normal gap of the wheel in contact at {wheel(i)} is {gaps[j, i]:.4g} m, beyond "
+            f"solver.max_gap = {max_gap:g} m; likely cause: {cause}"
+        )
+    if flight[j].any():
+        i = int(np.argmax(np.where(flight[j], gaps[j], 0.0)))
+        return j, (
+            f"the wheel at {wheel(i)} flies {gaps[j, i]:.4g} m above its rail (more than "
+            f"solver.max_gap = {max_gap:g} m): derailment is likely"
+        )
+    i = int(np.argmax(np.abs(chunk.P[j])))
+    return j, (
+        f"the normal force at {wheel(i)} is {chunk.P[j, i]:.4g} N, beyond {force_limit:.3g} N "
+        f"({FORCE_LIMIT_FACTOR:g} x the static wheel load); likely cause: {cause}"
+    )
+
+
 def simulate3d(
     scenario: Scenario,
     *,
@@ -733,6 +782,7 @@ def simulate3d(
     chunks = SteppedChunks(stepper)
     recorder.record_chunk(chunks.current(run.irregularity_at(0.0)))
     size = chunk_steps(every)
+    force_limit = FORCE_LIMIT_FACTOR * max(float(np.abs(recorder.static_wheel_load).max(initial=0.0)), 1.0)
     bar = _Progress(run.steps) if progress else None
     message = ""
     interrupted: KeyboardInterrupt | None = None
@@ -754,6 +804,14 @@ def simulate3d(
                 message = (
                     f"the 3D step diverged at t = {chunk.t[bad]:.6g} s (step {n + bad + 1} of "
                     f"{run.steps}): non-finite state"
+                )
+                break
+            stop = divergence3d(chunk, ss.max_gap, force_limit, run.per_car, ss.method)
+            if stop is not None:  # recorded up to the step that stops the run
+                j, why = stop
+                recorder.record_chunk(chunk_head(chunk, j + 1))
+                message = (
+                    f"the 3D run diverged at t = {chunk.t[j]:.6g} s (step {n + j + 1} of {run.steps}): {why}"
                 )
                 break
             recorder.record_chunk(chunk)
