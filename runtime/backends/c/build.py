@@ -172,6 +172,9 @@ def loop_spec(train: Any) -> LoopSpec:
     return LoopSpec(name, int(train.ndof), int(train.wheels))
 
 
+CSRC_3D = "loop3d"
+"""Subfolder of ``runtime/csrc/`` holding the 3D loop (its own library, beside the 2D loop's layers:
+:mod:`svbi.runtime.backends.c.stepper3d`)."""
 CSRC_LAYERS = ("core", "step", "methods", "loop")
 """Subfolders of ``runtime/csrc/``, bottom to top: a file calls only files of its own layer or below
 (docs/c-backend.md; tests/architecture/test_c_layers.py)."""

@@ -1,0 +1,137 @@
+/*
+ * The plastic impact of landing (closing) constraints at t_{n+1} (_Step3D._impact): the mass
+ * flexibility G = G_V M_V^-1 G_V^T + G_B M_B^-1 G_B^T over every constraint, the impulses that stop
+ * the landing ones (complementary3), the velocity jump and the damping's share of the accelerations,
+ * then the force jump that makes the accelerations consistent. Rare (a landing step): dense where
+ * it is simplest.
+ */
+#include <string.h>
+
+#include "loop3d.h"
+
+/* the state's z, z', z'' of wheelset w */
+static void state_z(work3d_t* W, const state3d_t* X, int w, double* z, double* zd, double* zdd) {
+  const double* g = W->gz;
+  int nW = W->S->nW;
+  zvec3(W, w, X->q, X->u, g, z);
+  zvec3(W, w, X->qd, X->ud, g ? g + 12 * nW : 0, zd);
+  zvec3(W, w, X->qdd, X->udd, g ? g + 24 * nW : 0, zdd);
+}
+
+/* g'' (c1 = c0 = 0) of every constraint at the state, and g'' + g' (c1 = 1) into t1 */
+static int gap_rates(work3d_t* W, const state3d_t* X, const double* xi, const double* irr, double* tt,
+                     double* t1) {
+  double z[NZ3], zd[NZ3], zdd[NZ3], c0[4] = {0.0, 0.0, 0.0, 0.0}, c1[4] = {1.0, 0.0, 0.0, 0.0};
+  int w, st = 0;
+  for (w = 0; w < W->S->nW; ++w) {
+    state_z(W, X, w, z, zd, zdd);
+    st |= kcall3(W, SVBI_CONTACT3D_K_NORMAL_RESIDUALS, w, z, zd, zdd, xi[w], irr + 9 * w, c0, tt + 4 * w, 0);
+    st |= kcall3(W, SVBI_CONTACT3D_K_FLANGE_RESIDUALS, w, z, zd, zdd, xi[w], irr + 9 * w, c0, tt + 4 * w + 2, 0);
+    if (t1) {
+      st |= kcall3(W, SVBI_CONTACT3D_K_NORMAL_RESIDUALS, w, z, zd, zdd, xi[w], irr + 9 * w, c1, t1 + 4 * w, 0);
+      st |= kcall3(W, SVBI_CONTACT3D_K_FLANGE_RESIDUALS, w, z, zd, zdd, xi[w], irr + 9 * w, c1, t1 + 4 * w + 2, 0);
+    }
+  }
+  return st ? S3_KERNEL : S3_OK;
+}
+
+/* vehicle += sum_i AVt[i] x_i, span (free) += sum_i ABt[i] x_i */
+static void respond(work3d_t* W, const double* x, double* veh, double* span) {
+  const setup3d_t* S = W->S;
+  int i, j, nC = 4 * S->nW;
+  for (i = 0; i < nC; ++i) {
+    if (x[i] == 0.0) continue;
+    for (j = 0; j < S->nV; ++j) veh[j] += W->AVm[(long)i * S->nV + j] * x[i];
+    for (j = 0; j < S->nF; ++j) span[j] += W->ABm[(long)i * S->nF + j] * x[i];
+  }
+}
+
+int impact3(work3d_t* W, state3d_t* X, const int* el, const double* xi, const double* irr, int* dropped) {
+  const setup3d_t* S = W->S;
+  const int nW = S->nW, nC = 4 * nW, nV = S->nV, nF = S->nF;
+  double z[NZ3], zd[NZ3], zdd[NZ3];
+  int i, j, w, st;
+  (void)el;
+  /* the directions G_V, G_B at the state, their mass responses and the flexibility */
+  for (w = 0; w < nW; ++w) {
+    state_z(W, X, w, z, zd, zdd);
+    if ((st = rows3(W, w, z, zd, zdd, xi[w], irr + 9 * w))) return st;
+  }
+  memset(W->GV, 0, sizeof(double) * (size_t)nC * nV);
+  memset(W->GB, 0, sizeof(double) * (size_t)nC * nF);
+  for (i = 0; i < nC; ++i) {
+    int wi = i / 4;
+    const double* g = W->grad + i * NZ3;
+    for (j = 0; j < 4; ++j) W->GV[(long)i * nV + S->ws_dofs[4 * wi + j]] = g[j];
+    for (j = 0; j < 12; ++j)
+      if (W->fidx[12 * wi + j] >= 0) W->GB[(long)i * nF + W->fidx[12 * wi + j]] = g[4 + j];
+    veh_mul3(S, S->MVi, W->GV + (long)i * nV, W->AVm + (long)i * nV, 0);
+    memset(W->ABm + (long)i * nF, 0, sizeof(double) * (size_t)nF);
+    for (j = 0; j < 12; ++j) {
+      int f = W->fidx[12 * wi + j], r;
+      const double* row;
+      if (f < 0) continue;
+      row = S->MBi + (long)f * nF; /* M_B^-1 is symmetric: its row f is its column f */
+      for (r = 0; r < nF; ++r) W->ABm[(long)i * nF + r] += row[r] * g[4 + j];
+    }
+  }
+  for (i = 0; i < nC; ++i)
+    for (j = 0; j < nC; ++j) {
+      double s = 0.0;
+      int k, wi = i / 4;
+      const double* g = W->grad + i * NZ3;
+      for (k = 0; k < 4; ++k) s += g[k] * W->AVm[(long)j * nV + S->ws_dofs[4 * wi + k]];
+      for (k = 0; k < 12; ++k)
+        if (W->fidx[12 * wi + k] >= 0) s += g[4 + k] * W->ABm[(long)j * nF + W->fidx[12 * wi + k]];
+      W->G[(long)i * nC + j] = s;
+    }
+  /* the impulses: landing constraints lose their relative velocity */
+  if ((st = gap_rates(W, X, xi, irr, W->gtt, W->gt))) return st;
+  for (i = 0; i < nC; ++i) {
+    double lam = (i % 4 < 2) ? X->P[2 * (i / 4) + i % 4] : X->flange[2 * (i / 4) + i % 4 - 2];
+    W->gt[i] -= W->gtt[i];
+    W->force[i] = lam;
+    W->x0[i] = W->active[i] ? 0.5 * S->dt * (W->start[i] + lam) : 0.0;
+    W->want[i] = W->landing[i] ? -W->gt[i] : 0.0;
+  }
+  if ((st = complementary3(W, W->G, nC, W->want, W->x0, W->active, W->imp, W->held2, S3_IMPULSE))) return st;
+  memset(W->tV, 0, sizeof(double) * (size_t)nV);
+  memset(W->tF, 0, sizeof(double) * (size_t)nF);
+  respond(W, W->imp, W->tV, W->tF); /* dqd, dud */
+  for (i = 0; i < nV; ++i) X->qd[i] += W->tV[i];
+  for (i = 0; i < nF; ++i) X->ud[S->free_dofs[i]] += W->tF[i];
+  /* the damping forces follow the velocity jump */
+  csr_mul3(S->nV, S->CV_ptr, S->CV_idx, S->CV_val, W->tV, W->gv, 0);
+  veh_mul3(S, S->MVi, W->gv, W->dqn, 0);
+  for (i = 0; i < nV; ++i) X->qdd[i] -= W->dqn[i];
+  memset(W->tB, 0, sizeof(double) * (size_t)S->nB);
+  for (i = 0; i < nF; ++i) W->tB[S->free_dofs[i]] = W->tF[i];
+  csr_mul3(S->nB, S->C_ptr, S->C_idx, S->C_val, W->tB, W->fBfull, 0);
+  for (i = 0; i < nF; ++i) W->bw[i] = W->fBfull[S->free_dofs[i]];
+  for (i = 0; i < nF; ++i) {
+    const double* row = S->MBi + (long)i * nF;
+    double s = 0.0;
+    int k;
+    for (k = 0; k < nF; ++k) s += row[k] * W->bw[k];
+    X->udd[S->free_dofs[i]] -= s;
+  }
+  /* the force jump: consistent accelerations (landing: g'' = 0, the others unchanged) */
+  if ((st = gap_rates(W, X, xi, irr, W->gtt2, 0))) return st;
+  for (i = 0; i < nC; ++i) W->want[i] = W->landing[i] ? -W->gtt2[i] : -(W->gtt2[i] - W->gtt[i]);
+  if ((st = complementary3(W, W->G, nC, W->want, W->force, W->held2, W->jump, W->cand, S3_FORCE_JUMP)))
+    return st;
+  memset(W->tV, 0, sizeof(double) * (size_t)nV);
+  memset(W->tF, 0, sizeof(double) * (size_t)nF);
+  respond(W, W->jump, W->tV, W->tF);
+  for (i = 0; i < nV; ++i) X->qdd[i] += W->tV[i];
+  for (i = 0; i < nF; ++i) X->udd[S->free_dofs[i]] += W->tF[i];
+  for (i = 0; i < nC; ++i) {
+    double lam = W->cand[i] ? W->force[i] + W->jump[i] : 0.0;
+    if (i % 4 < 2)
+      X->P[2 * (i / 4) + i % 4] = lam;
+    else
+      X->flange[2 * (i / 4) + i % 4 - 2] = lam;
+    dropped[i] = W->active[i] && !W->cand[i];
+  }
+  return S3_OK;
+}

@@ -1,0 +1,334 @@
+/*
+ * The interface iteration of LocalizedDynamic3D._solve: predictors of the vehicle (its per-car
+ * compliance) and of the span (a band solve), then, with the gradients G and the constraint rows
+ * J at the iterate, the contact forces of the active constraints from
+ *
+ *     (J_V A_V G_V^T + J_B S G_B^T) P = -E + J_V (dq - dq~) + J_B (u - u~),
+ *
+ * until the update is round-off (coupled3d.Convergence). Only what the interface needs is formed:
+ * the 4 x 4 blocks of two wheelsets of the same car (A_V) or on the same part of the structure (the
+ * compliance S between their elements' DOFs, gathered when an element changes), over the active
+ * constraints; the span's displacements are followed at the contact elements' DOFs during the
+ * iteration. The convergence rule's update is measured at the vehicle's DOFs and the contact
+ * elements' span DOFs; when it is met there, the new iterate is solved at every span DOF (a band
+ * solve) and the rule is taken again over every DOF, as the NumPy step takes it.
+ */
+#include <math.h>
+#include <string.h>
+
+#include "loop3d.h"
+
+/* the deck part of z, z', z'' of wheelset w from the span's iterate (held DOFs: their targets) */
+static void deck_z(work3d_t* W, int w, const double* uc, double* z, double* zd, double* zdd) {
+  const setup3d_t* S = W->S;
+  int j;
+  if (W->ondeck[w] < 0) {
+    for (j = 0; j < 12; ++j) {
+      z[4 + j] = W->gz ? W->gz[12 * w + j] : 0.0;
+      zd[4 + j] = W->gz ? W->gz[12 * (S->nW + w) + j] : 0.0;
+      zdd[4 + j] = W->gz ? W->gz[12 * (2 * S->nW + w) + j] : 0.0;
+    }
+    return;
+  }
+  for (j = 0; j < 12; ++j) {
+    int d = S->el_dofs[12 * W->ondeck[w] + j];
+    double u = W->fidx[12 * w + j] >= 0 ? uc[12 * w + j] : W->uk[d];
+    z[4 + j] = u;
+    zd[4 + j] = S->a1 * u - W->QB[d];
+    zdd[4 + j] = S->a0 * u - W->PB[d];
+  }
+  if (W->Q0)
+    for (j = 0; j < 12; ++j)
+      if (W->fidx[12 * w + j] < 0) {
+        int d = S->el_dofs[12 * W->ondeck[w] + j], s;
+        for (s = 0; s < S->nS; ++s)
+          if (S->held[s] == d) {
+            zd[4 + j] = W->Q1[s];
+            zdd[4 + j] = W->Q2[s];
+          }
+      }
+}
+
+/* the vehicle part of z, z', z'' of wheelset w from the vehicle's iterate */
+static void veh_z(work3d_t* W, int w, double* z, double* zd, double* zdd) {
+  const int* d = W->S->ws_dofs + 4 * w;
+  int j;
+  for (j = 0; j < 4; ++j) {
+    z[j] = W->qk[d[j]];
+    zd[j] = W->qdk[d[j]];
+    zdd[j] = W->qddk[d[j]];
+  }
+}
+
+/* rows of every wheelset at the iterate (dq, the span at the contact DOFs uc): those of use */
+int iterate_rows3(work3d_t* W, const state3d_t* X, const double* uc, const double* xi, const double* irr,
+                  int use) {
+  const setup3d_t* S = W->S;
+  double z[NZ3], zd[NZ3], zdd[NZ3];
+  int i, w, st = 0;
+  for (i = 0; i < S->nV; ++i) {
+    W->qk[i] = X->q[i] + W->dq[i];
+    W->qdk[i] = S->a1 * W->dq[i] - W->QtV[i];
+    W->qddk[i] = S->a0 * W->dq[i] - W->PtV[i];
+  }
+  for (w = 0; w < S->nW; ++w) {
+    veh_z(W, w, z, zd, zdd);
+    deck_z(W, w, uc, z, zd, zdd);
+    st |= rows_needed3(W, w, z, zd, zdd, xi[w], irr + 9 * w, use);
+  }
+  return st ? S3_KERNEL : S3_OK;
+}
+
+/* h_w = G_B,w^T lam_w (12 per wheelset): the contact forces' load on the element */
+static void element_loads(const work3d_t* W, const double* lam, double* h) {
+  int w, j, k;
+  for (w = 0; w < W->S->nW; ++w)
+    for (j = 0; j < 12; ++j) {
+      double s = 0.0;
+      for (k = 0; k < PER_WS; ++k) s += W->grad[(4 * w + k) * NZ3 + 4 + j] * lam[4 * w + k];
+      h[12 * w + j] = s;
+    }
+}
+
+/* the span's response to element loads h into W->tF (free DOFs); with u, u = predictor + it (all
+ * DOFs; the held ones as set) */
+static void full_span(work3d_t* W, const double* h, double* u) {
+  const setup3d_t* S = W->S;
+  int w, j, i;
+  memset(W->tF, 0, sizeof(double) * (size_t)S->nF);
+  for (w = 0; w < S->nW; ++w)
+    for (j = 0; j < 12; ++j) {
+      int f = W->fidx[12 * w + j];
+      if (f >= 0) W->tF[f] += h[12 * w + j];
+    }
+  span_solve3(W, W->tF);
+  if (u == W->uk)
+    for (i = 0; i < S->nF; ++i) W->uk[S->free_dofs[i]] = W->uf0[i] + W->tF[i];
+}
+
+static int span_coupled(const work3d_t* W, int a, int b) {
+  int i, j;
+  if (W->ondeck[a] < 0 || W->ondeck[b] < 0) return 0;
+  for (i = 0; i < 12; ++i)
+    if (W->fidx[12 * a + i] >= 0)
+      for (j = 0; j < 12; ++j)
+        if (W->fidx[12 * b + j] >= 0)
+          return W->S->comp[W->fidx[12 * a + i]] == W->S->comp[W->fidx[12 * b + j]];
+  return 0;
+}
+
+/* The couplings of the step's wheelsets and the S blocks between their elements (gathered when an
+ * element changes: the workspace keeps them from step to step; sel holds element + 1, 0 none). */
+static void couple(work3d_t* W) {
+  const setup3d_t* S = W->S;
+  const int nW = S->nW, nF = S->nF;
+  int w, v, i, j;
+  for (w = 0; w < nW; ++w)
+    for (v = 0; v < nW; ++v) {
+      int flag = (S->ws_blk[w] == S->ws_blk[v]) | (span_coupled(W, w, v) << 1);
+      int* sel = W->sel + 2 * (w * nW + v);
+      W->pair[w * nW + v] = flag;
+      if ((flag & 2) && (sel[0] != W->ondeck[w] + 1 || sel[1] != W->ondeck[v] + 1)) {
+        double* B = W->Sblk + 144 * (w * nW + v);
+        for (i = 0; i < 12; ++i) {
+          int fi = W->fidx[12 * w + i];
+          for (j = 0; j < 12; ++j) {
+            int fj = W->fidx[12 * v + j];
+            B[12 * i + j] = (fi >= 0 && fj >= 0) ? S->S[(long)fi * nF + fj] : 0.0;
+          }
+        }
+        sel[0] = W->ondeck[w] + 1;
+        sel[1] = W->ondeck[v] + 1;
+      }
+    }
+}
+
+int interface3(work3d_t* W, const state3d_t* X, const int* el, const double* xi, const double* irr) {
+  const setup3d_t* S = W->S;
+  const int nW = S->nW, nC = 4 * nW, nV = S->nV, nF = S->nF;
+  double last = INFINITY, size0 = 0.0;
+  double* hh = W->hw;
+  int i, j, a, k, l, w, na = 0, it, st, full = 0;
+  (void)el;
+  /* predictors */
+  veh_mul3(S, S->AV, W->fV, W->dq0, 0);
+  memcpy(W->uf0, W->fB, sizeof(double) * (size_t)nF);
+  span_solve3(W, W->uf0);
+  memcpy(W->dq, W->dq0, sizeof(double) * (size_t)nV);
+  memset(W->uk, 0, sizeof(double) * (size_t)S->nB);
+  if (W->Q0)
+    for (i = 0; i < S->nS; ++i) W->uk[S->held[i]] = W->Q0[i];
+  for (i = 0; i < nF; ++i) {
+    W->uk[S->free_dofs[i]] = W->uf0[i];
+    if (fabs(W->uf0[i]) > size0) size0 = fabs(W->uf0[i]);
+  }
+  if (W->Q0)
+    for (i = 0; i < S->nS; ++i)
+      if (fabs(W->Q0[i]) > size0) size0 = fabs(W->Q0[i]);
+  for (w = 0; w < nW; ++w)
+    for (j = 0; j < 12; ++j) {
+      int f = W->fidx[12 * w + j];
+      W->uc0[12 * w + j] = f >= 0 ? W->uf0[f] : 0.0;
+    }
+  memcpy(W->ucn, W->uc0, sizeof(double) * (size_t)(12 * nW));
+  memset(W->hwp, 0, sizeof(double) * (size_t)(12 * nW));
+  for (i = 0; i < nC; ++i) {
+    W->lam[i] = 0.0;
+    W->act_of[i] = -1;
+    if (W->active[i]) {
+      W->act_of[i] = na;
+      W->idx[na++] = i;
+    }
+  }
+  couple(W);
+  for (it = 0; it < NEWTON_ITERATIONS3; ++it) {
+    double change = 0.0, size;
+    W->iterations++;
+    st = iterate_rows3(W, X, W->ucn, xi, irr, ROWS_ITERATE);
+    if (st) return st;
+    /* the interface matrix over the active constraints, and its right-hand side */
+    for (a = 0; a < na; ++a) {
+      int ia = W->idx[a], wa = ia / 4;
+      const double* ra = W->landing[ia] ? W->grad + ia * NZ3 : W->jac + ia * NZ3;
+      double Ea = W->landing[ia] ? W->gap[ia] : W->res[ia];
+      double r = -Ea;
+      const int* da = S->ws_dofs + 4 * wa;
+      for (k = 0; k < 4; ++k) r += ra[k] * (W->dq[da[k]] - W->dq0[da[k]]);
+      for (k = 0; k < 12; ++k)
+        if (W->fidx[12 * wa + k] >= 0) r += ra[4 + k] * (W->ucn[12 * wa + k] - W->uc0[12 * wa + k]);
+      W->rhs[a] = r;
+    }
+    for (a = 0; a < na * na; ++a) W->A[a] = 0.0;
+    for (w = 0; w < nW; ++w) {
+      int v, rows = 0;
+      for (k = 0; k < 4; ++k) rows += W->act_of[4 * w + k] >= 0;
+      if (!rows) continue;
+      for (v = 0; v < nW; ++v) {
+        double T[NZ3 * 4]; /* C_wv G_v^T: 16 x 4 (the active columns) */
+        int flag = W->pair[w * nW + v], lc[4], nl = 0, m;
+        if (!flag) continue;
+        for (l = 0; l < 4; ++l)
+          if (W->act_of[4 * v + l] >= 0) lc[nl++] = l;
+        if (!nl) continue;
+        memset(T, 0, sizeof T);
+        if (flag & 1) {
+          const int *dw = S->ws_dofs + 4 * w, *dv = S->ws_dofs + 4 * v;
+          int blk = S->ws_blk[w], s0 = S->blk_start[blk], nb = S->blk_start[blk + 1] - s0;
+          const double* AB = S->AV + S->blk_off[blk];
+          for (i = 0; i < 4; ++i)
+            for (m = 0; m < nl; ++m) {
+              const double* g = W->grad + (4 * v + lc[m]) * NZ3;
+              double s = 0.0;
+              for (j = 0; j < 4; ++j) s += AB[(long)(dw[i] - s0) * nb + (dv[j] - s0)] * g[j];
+              T[i * 4 + lc[m]] = s;
+            }
+        }
+        if (flag & 2) {
+          const double* B = W->Sblk + 144 * (w * nW + v);
+          int nz[12], nj = 0;
+          for (j = 0; j < 12; ++j)
+            for (m = 0; m < nl; ++m)
+              if (W->grad[(4 * v + lc[m]) * NZ3 + 4 + j] != 0.0) {
+                nz[nj++] = j;
+                break;
+              }
+          for (i = 0; i < 12; ++i)
+            for (m = 0; m < nl; ++m) {
+              const double* g = W->grad + (4 * v + lc[m]) * NZ3 + 4;
+              double s = 0.0;
+              for (j = 0; j < nj; ++j) s += B[12 * i + nz[j]] * g[nz[j]];
+              T[(4 + i) * 4 + lc[m]] = s;
+            }
+        }
+        for (k = 0; k < 4; ++k) {
+          int ia = 4 * w + k, ra_ = W->act_of[ia];
+          const double* ra;
+          if (ra_ < 0) continue;
+          ra = W->landing[ia] ? W->grad + ia * NZ3 : W->jac + ia * NZ3;
+          for (m = 0; m < nl; ++m) {
+            double s = 0.0;
+            for (i = 0; i < NZ3; ++i) s += ra[i] * T[i * 4 + lc[m]];
+            W->A[(long)ra_ * na + W->act_of[4 * v + lc[m]]] = s;
+          }
+        }
+      }
+    }
+    if (na && lu_solve3(W->A, na, W->rhs, W->piv)) return S3_SINGULAR;
+    for (i = 0; i < nC; ++i) W->lamn[i] = 0.0;
+    for (a = 0; a < na; ++a) W->lamn[W->idx[a]] = W->rhs[a];
+    /* the responses: vehicle (all DOFs), span at the contact DOFs */
+    memset(W->gv, 0, sizeof(double) * (size_t)nV);
+    for (w = 0; w < nW; ++w)
+      for (k = 0; k < 4; ++k)
+        for (j = 0; j < 4; ++j) W->gv[S->ws_dofs[4 * w + j]] += W->grad[(4 * w + k) * NZ3 + j] * W->lamn[4 * w + k];
+    memcpy(W->dqn, W->dq0, sizeof(double) * (size_t)nV);
+    veh_mul3(S, S->AV, W->gv, W->dqn, 1);
+    element_loads(W, W->lamn, hh);
+    size = 0.0;
+    for (w = 0; w < nW; ++w) {
+      double un[12];
+      if (W->ondeck[w] < 0) continue;
+      for (i = 0; i < 12; ++i) un[i] = W->uc0[12 * w + i];
+      for (k = 0; k < nW; ++k) {
+        const double* B = W->Sblk + 144 * (w * nW + k);
+        const double* hk = hh + 12 * k;
+        if (!(W->pair[w * nW + k] & 2)) continue;
+        for (i = 0; i < 12; ++i) {
+          double s = 0.0;
+          for (j = 0; j < 12; ++j) s += B[12 * i + j] * hk[j];
+          un[i] += s;
+        }
+      }
+      for (i = 0; i < 12; ++i) {
+        double d;
+        if (W->fidx[12 * w + i] < 0) continue;
+        d = fabs(un[i] - W->ucn[12 * w + i]);
+        if (d > change) change = d;
+        W->ucn[12 * w + i] = un[i];
+        if (fabs(un[i]) > size) size = fabs(un[i]);
+      }
+    }
+    for (i = 0; i < nV; ++i) {
+      double d = fabs(W->dqn[i] - W->dq[i]), q = fabs(X->q[i] + W->dqn[i]);
+      if (d > change) change = d;
+      if (q > size) size = q;
+      W->dq[i] = W->dqn[i];
+    }
+    memcpy(W->lam, W->lamn, sizeof(double) * (size_t)nC);
+    if (size0 > size) size = size0;
+    if (size < 1e-300) size = 1e-300;
+    if (change <= NEWTON_TOLERANCE3 * size || (change <= STAGNATION3 * size && change > 0.5 * last)) {
+      /* stopping by the contact DOFs: the rule again over every DOF of the span, as the NumPy step
+       * (the new iterate in full by one band solve, its change from the last by another) */
+      double cu = 0.0, su = 0.0;
+      full_span(W, hh, W->uk);
+      for (w = 0; w < 12 * nW; ++w) W->hwp[w] = hh[w] - W->hwp[w];
+      full_span(W, W->hwp, 0);
+      for (i = 0; i < nF; ++i) {
+        if (fabs(W->tF[i]) > cu) cu = fabs(W->tF[i]);
+      }
+      for (i = 0; i < S->nB; ++i)
+        if (fabs(W->uk[i]) > su) su = fabs(W->uk[i]);
+      if (cu > change) change = cu;
+      size = su;
+      for (i = 0; i < nV; ++i)
+        if (fabs(X->q[i] + W->dq[i]) > size) size = fabs(X->q[i] + W->dq[i]);
+      if (size < 1e-300) size = 1e-300;
+      memcpy(W->hwp, hh, sizeof(double) * (size_t)(12 * nW));
+      if (change <= NEWTON_TOLERANCE3 * size || (change <= STAGNATION3 * size && change > 0.5 * last)) {
+        last = change;
+        full = 1;
+        break;
+      }
+    } else {
+      memcpy(W->hwp, hh, sizeof(double) * (size_t)(12 * nW));
+    }
+    last = change;
+  }
+  /* the span's displacements at every DOF: the predictor and the response to the contact loads */
+  if (!full) {
+    element_loads(W, W->lam, hh);
+    full_span(W, hh, W->uk);
+  }
+  return S3_OK;
+}

@@ -1,0 +1,74 @@
+/*
+ * The 3D loop's linear algebra: the solve with a band Cholesky factor (the span's effective
+ * matrix, factored once by SciPy at set-up) and a small dense LU with partial pivoting (the
+ * interface and the complementarity problems, as numpy.linalg.solve).
+ */
+#include <math.h>
+
+#include "loop3d.h"
+
+/* L L^T x = b in place; L(j + r, j) at L[j (p + 1) + r], except the diagonal: its reciprocal
+ * (multiplications, not divisions, in the solve's chain). */
+void band_solve3(const double* L, int n, int p, double* b) {
+  int j, r;
+  for (j = 0; j < n; ++j) {
+    const double* c = L + (long)j * (p + 1);
+    double x = b[j] * c[0];
+    int m = (j + p < n) ? p : n - 1 - j;
+    b[j] = x;
+    for (r = 1; r <= m; ++r) b[j + r] -= c[r] * x;
+  }
+  for (j = n - 1; j >= 0; --j) {
+    const double* c = L + (long)j * (p + 1);
+    double s = b[j];
+    int m = (j + p < n) ? p : n - 1 - j;
+    for (r = 1; r <= m; ++r) s -= c[r] * b[j + r];
+    b[j] = s * c[0];
+  }
+}
+
+/* A x = b (A n x n row-major, overwritten by its factors; b by x). S3_SINGULAR on a zero pivot. */
+int lu_solve3(double* A, int n, double* b, int* piv) {
+  int i, j, k;
+  for (k = 0; k < n; ++k) {
+    int m = k;
+    double big = fabs(A[(long)k * n + k]);
+    for (i = k + 1; i < n; ++i)
+      if (fabs(A[(long)i * n + k]) > big) {
+        big = fabs(A[(long)i * n + k]);
+        m = i;
+      }
+    piv[k] = m;
+    if (big == 0.0) return S3_SINGULAR; /* a NaN goes on: the guard reports the state */
+    if (m != k) {
+      double t;
+      for (j = 0; j < n; ++j) {
+        t = A[(long)k * n + j];
+        A[(long)k * n + j] = A[(long)m * n + j];
+        A[(long)m * n + j] = t;
+      }
+      t = b[k];
+      b[k] = b[m];
+      b[m] = t;
+    }
+    {
+      const double* rk = A + (long)k * n;
+      double inv = 1.0 / rk[k];
+      for (i = k + 1; i < n; ++i) {
+        double* ri = A + (long)i * n;
+        double f = ri[k] * inv;
+        if (f == 0.0) continue;
+        ri[k] = f;
+        for (j = k + 1; j < n; ++j) ri[j] -= f * rk[j];
+        b[i] -= f * b[k];
+      }
+    }
+  }
+  for (i = n - 1; i >= 0; --i) {
+    const double* ri = A + (long)i * n;
+    double s = b[i];
+    for (j = i + 1; j < n; ++j) s -= ri[j] * b[j];
+    b[i] = s / ri[i];
+  }
+  return S3_OK;
+}
