@@ -45,6 +45,8 @@ import numpy as np
 
 from ... import __version__
 from ..backends.base import BackendFallback
+from ..backends.c.stepper3d import STATUS as STATUS_3D
+from ..backends.c.stepper3d import LocalizedDynamic3DC
 from ..excitation.irregularity import (
     GermanSpectrum,
     Irregularity,
@@ -700,6 +702,33 @@ class _Recorder3D:
         return xr.Dataset(data_vars=data, coords=coords)
 
 
+def stepper3d(scenario: Scenario, system: System3D, state: State3D) -> tuple[str, Any]:
+    """``(backend, step)``: the 3D step of ``solver.method`` on ``solver.backend``. The C loop has
+    the localized-dynamic step (:class:`~svbi.runtime.backends.c.stepper3d.LocalizedDynamic3DC`);
+    every other method, backend or a train or bridge beyond the C loop's sizes steps on NumPy,
+    with a :class:`~svbi.runtime.backends.base.BackendFallback` warning that says why."""
+    ss = scenario.solver
+    args = (system, state, ss.time_step, ss.constraint_kappa, ss.constraint_zeta)
+    normal = scenario.contact.normal
+    why = ""
+    if ss.backend == "c" and ss.method == "localized-dynamic":
+        try:
+            return "c", LocalizedDynamic3DC(*args, normal=normal)
+        except ValueError as exc:
+            if not str(exc).startswith("the 3D C loop"):
+                raise  # the model's own error (an unstable explicit creep step): NumPy says the same
+            why = str(exc)
+    elif ss.backend != "numpy":
+        why = f"the {ss.backend} backend has no 3D step; the C loop has localized-dynamic"
+    if why:
+        warnings.warn(
+            f"solver.backend = {ss.backend!r}: {why}; this 3D run of {ss.method} steps on the NumPy backend",
+            BackendFallback,
+            stacklevel=3,
+        )
+    return "numpy", STEPS_3D[ss.method](*args, normal=normal)
+
+
 def divergence3d(
     chunk: Chunk3D, max_gap: float, force_limit: float, per_car: int, method: str
 ) -> tuple[int, str] | None:
@@ -765,22 +794,13 @@ def simulate3d(
     t_start = time.perf_counter() if clock_start is None else clock_start
     ss = scenario.solver
     run = build_run3d(scenario, hold_train)
-    backend = "numpy"
-    if ss.backend != "numpy":
-        warnings.warn(
-            f"solver.backend = {ss.backend!r}: 3D scenarios run on the NumPy backend only for now",
-            BackendFallback,
-            stacklevel=2,
-        )
     system = run.system
     state = static_state(system)
-    stepper = STEPS_3D[ss.method](
-        system, state, ss.time_step, ss.constraint_kappa, ss.constraint_zeta, normal=scenario.contact.normal
-    )
+    backend, stepper = stepper3d(scenario, system, state)
     every = ss.output_every
     recorder = _Recorder3D(run, state, run.steps + 1, every)
-    chunks = SteppedChunks(stepper)
-    recorder.record_chunk(chunks.current(run.irregularity_at(0.0)))
+    chunks = stepper if backend == "c" else SteppedChunks(stepper)
+    recorder.record_chunk(SteppedChunks(stepper).current(run.irregularity_at(0.0)))
     size = chunk_steps(every)
     force_limit = FORCE_LIMIT_FACTOR * max(float(np.abs(recorder.static_wheel_load).max(initial=0.0)), 1.0)
     bar = _Progress(run.steps) if progress else None
@@ -798,6 +818,13 @@ def simulate3d(
                 chunk = chunks.advance(n, k, level, every)
             except ChunkStopped as stop:  # record the steps finished before the failure
                 chunk, cause = stop.chunk, stop.cause
+            stopped = getattr(chunks, "stopped", None)
+            if stopped:  # the C loop stopped short: its finished steps are the chunk
+                recorder.record_chunk(chunk)
+                message = f"the 3D step failed at t = {(n + len(chunk) + 1) * ss.time_step:.6g} s " + (
+                    f"(step {n + len(chunk) + 1} of {run.steps}): {STATUS_3D.get(chunks.status, stopped)}"
+                )
+                break
             bad = first_non_finite(chunk)
             if bad is not None:
                 recorder.record_chunk(chunk_head(chunk, bad))
