@@ -20,8 +20,10 @@ The ground of ``[earthquake]`` (vertical, longitudinal and lateral components, p
 travelling) moves the 3D bridge's supports; wheelsets before and after the deck run on rigid track
 moving with the ground. What the 3D step cannot do yet is refused before anything is built, in one
 line naming the key (:class:`NotRun3D`): a braking or accelerating train,
-``train.initial = "rigid-track"``, spans whose elements differ in length. A ``solver.backend`` other
-than ``numpy`` runs on NumPy with a :class:`~svbi.runtime.backends.base.BackendFallback` warning. The
+``train.initial = "rigid-track"``, spans whose elements differ in length. With
+``solver.backend = "c"`` localized-dynamic steps on the compiled 3D loop (:func:`stepper3d`); other
+methods and backends step on NumPy with a :class:`~svbi.runtime.backends.base.BackendFallback`
+warning. The
 contact is the step's: ``contact.normal`` unilateral (lift-off and landing, the default) or
 bilateral, flange contact at ``contact.flange_clearance``, and with ``contact.creep`` Kalker's creep
 forces with Shen-Hedrick-Elkins saturation (``[contact]``'s material and friction, as in 2D).
