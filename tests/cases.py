@@ -115,6 +115,48 @@ lateral = "-0.75"
 radius = "r0"
 """
 
+SHORT_SPAN_3D = """\
+title = "the sprung wheelset on one short span under three ground components"
+[bridge]
+spans = 1
+span_length = 10.0
+mass_per_length = 2303.0
+youngs_modulus = 2.87e9
+area = 1.0
+second_moment = 2.9
+lateral_second_moment = 10.0
+torsion_constant = 5.0
+damping_ratio = 0.02
+elements_per_span = 4
+[train]
+vehicle = "sw3d.toml"
+speed_kmh = 100.0
+start_position = 2.0
+[contact]
+creep = false
+[solver]
+backend = "numpy"
+time_step = 1e-3
+duration = 0.01
+[earthquake]
+vertical = "synthetic"
+longitudinal = "synthetic"
+lateral = "synthetic"
+arrival = 0.0
+"""
+"""A 3D scenario that runs in a moment (ten steps of one car on one 10 m span of four elements, the
+ground moving from t = 0): the vehicle file ``sw3d.toml`` beside it is :data:`SPRUNG_WHEELSET_3D`
+(:func:`write_short_span_3d`)."""
+
+
+def write_short_span_3d(folder, name: str = "base.toml", earthquake: bool = True):
+    """Write :data:`SHORT_SPAN_3D` (without its ``[earthquake]`` when ``earthquake`` is false) and its
+    vehicle file into ``folder``; returns the scenario's path."""
+    (folder / "sw3d.toml").write_text(SPRUNG_WHEELSET_3D, encoding="utf-8")
+    path = folder / name
+    path.write_text(SHORT_SPAN_3D if earthquake else SHORT_SPAN_3D.split("[earthquake]")[0], encoding="utf-8")
+    return path
+
 
 def histories3d(
     normal: float = 50e3,

@@ -336,6 +336,17 @@ class Bridge3D:
         e = min(int(math.floor(local)), self.elements - 1)
         return int(self.span_elements[span][e]), float(local - e)
 
+    def deck_locations(self, x: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """:meth:`deck_location` of many points at once: ``(element, xi)`` arrays shaped like ``x``
+        (int, float), for points on the deck (not checked)."""
+        x = np.asarray(x, dtype=float)
+        span = np.minimum(np.searchsorted(self.line_x, x, side="right") - 1, self.spans - 1)
+        le = np.asarray(self.span_lengths, dtype=float)[span] / self.elements
+        local = (x - np.asarray(self.line_x, dtype=float)[span]) / le
+        e = np.minimum(np.floor(local).astype(np.intp), self.elements - 1)
+        element = np.asarray(self.span_elements, dtype=np.intp)[span, e]
+        return element, local - e
+
     def midspan(self, span: int) -> tuple[int, float]:
         """``(deck element, xi)`` of the middle of ``span``."""
         return self.deck_location(float(self.line_x[span] + 0.5 * self.span_lengths[span]))

@@ -71,3 +71,47 @@ def load_path(path: Path) -> types.ModuleType:
 def frame2d() -> types.ModuleType:
     """The bridge element's kernels: element matrices, contact-row tables, constraint masses, creep."""
     return load(FRAME2D)
+
+
+class _BroadcastingNumpy:
+    """NumPy for a generated module whose kernels are evaluated at arrays of their scalar inputs:
+    ``array`` broadcasts the entries of the nested lists it is given (a kernel builds a matrix
+    output from scalar expressions and constant zeros) and stacks them on the last axes, so that a
+    matrix kernel of ``(r, c)`` called with inputs of shape ``s`` returns ``s + (r, c)``; the rest is
+    NumPy's."""
+
+    def __getattr__(self, name: str) -> object:
+        import numpy
+
+        return getattr(numpy, name)
+
+    @staticmethod
+    def array(obj: object, dtype: object = None) -> object:
+        import numpy
+
+        def shape_of(o: object) -> tuple[int, ...]:
+            return (len(o), *shape_of(o[0])) if isinstance(o, list | tuple) else ()  # type: ignore[index]
+
+        def flat(o: object) -> list:
+            return [v for item in o for v in flat(item)] if isinstance(o, list | tuple) else [o]  # type: ignore[union-attr]
+
+        outer = shape_of(obj)
+        entries = numpy.broadcast_arrays(*(numpy.asarray(e, dtype=dtype) for e in flat(obj)))
+        batch = entries[0].shape
+        return numpy.stack(entries, axis=-1).reshape(*batch, *outer)
+
+
+@cache
+def load_broadcasting(model: str) -> types.ModuleType:
+    """The generated module of ``model`` (:func:`load`) in a namespace in which its kernels take
+    arrays for their scalar inputs: a matrix output ``(r, c)`` comes back as ``input shape + (r,
+    c)``, each entry the same expression as :func:`load`'s kernel evaluates at one point."""
+    path = module_path(model)
+    source = path.read_text(encoding="utf-8")
+    module = types.ModuleType(
+        f"svbi.generated.broadcasting.{re.sub(r'[^A-Za-z0-9_]', '_', path.parent.name)}"
+    )
+    module.__file__ = str(path)
+    exec(compile(source, str(path), "exec"), module.__dict__)  # noqa: S102 - our own generated code
+    module.__dict__["numpy"] = _BroadcastingNumpy()
+    return module

@@ -455,6 +455,17 @@ class System3D:
             out.append(self.span.deck_location(x) if 0.0 <= x < self.span.length else (GROUND, 0.0))
         return out
 
+    def contact_locations(self, t: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """:meth:`contact_location` at many times at once: ``(element, xi)``, each ``(len(t),
+        wheelsets)`` (int, float), ``element`` :data:`GROUND` and ``xi`` 0 off the deck."""
+        offsets = np.array([w.offset for w in self.vehicle.wheelsets])
+        x = self.start + self.speed * np.asarray(t, dtype=float)[:, None] - offsets[None, :]
+        on = (x >= 0.0) & (x < self.span.length)
+        element = np.full(x.shape, GROUND, dtype=np.intp)
+        xi = np.zeros(x.shape)
+        element[on], xi[on] = self.span.deck_locations(x[on])
+        return element, xi
+
     def ground_motion(self, t: float, x: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """``(q, q', q'')`` of the ground at fixed points ``x``, each ``(len(x), 3)``: the ``x``
         (longitudinal), ``y`` (lateral) and ``z`` (vertical) components (partial time

@@ -29,7 +29,7 @@ from ..study.en1990 import COMFORT_LEVELS, DECK_ACCELERATION_LIMIT, UNLOADING_LI
 
 DPI = 150
 WORST_IS_MIN = {"min_contact_force_filtered"}
-PER_RUN_DIMS = ("span", "car", "wheel", "end", "joint", "pier")
+PER_RUN_DIMS = ("span", "car", "wheel", "side", "end", "joint", "pier")
 INTENSITY_KEYS = ("earthquake.scale", "earthquake.target_pga", "earthquake.vertical_scale")
 """Axes taken as the intensity of a fragility curve when none is named."""
 SPEED_KEYS = ("train.speed_kmh", "train.speed")
@@ -72,7 +72,8 @@ def _find(store: xr.Dataset, keys: tuple[str, ...], exclude: tuple[str | None, .
 
 
 def worst(store: xr.Dataset, metric: str) -> xr.DataArray:
-    """The metric's worst value per run: max (min for a minimum force) over spans, cars, wheels."""
+    """The metric's worst value per run: max (min for a minimum force) over spans, cars, wheels (and
+    sides, of a 3D run)."""
     if metric not in store:
         known = [v for v in store.data_vars if not v.endswith("_time") and v not in ("status", "message")]
         raise ValueError(f"metric {metric!r} is not in the store (it has {', '.join(known)})")

@@ -6,28 +6,33 @@ included), a train of ``train.cars`` 3D cars (:func:`~svbi.runtime.model.system3
 :func:`~svbi.runtime.model.train3d.train3d`, spaced by the vehicle's ``car_length`` as 2D trains
 are), the cone-and-knife-edge track of :func:`~svbi.runtime.scenario.build.track_geometry_3d` and a
 :class:`~svbi.runtime.model.system3d.System3D`. The steps are those of
-:mod:`svbi.runtime.methods.localized3d` and :mod:`svbi.runtime.methods.coupled3d`, called through
-their public interface (constructor, ``step(n)``, the state's ``t``, ``q``, ``qdd``, ``u``, ``udd``,
-``P``, ``gaps()``). Every step fills a row of :class:`~svbi.runtime.run.results3d.Histories3D`; the
-vertical variables of the 2D results (``midspan_uz``, ``deck_acceleration``, ``carbody_az``, ...)
-are recorded every ``output_every`` steps and given to
+:mod:`svbi.runtime.methods.localized3d`, :mod:`svbi.runtime.methods.coupled3d` and
+:mod:`svbi.runtime.methods.classic3d`, advanced a chunk
+of steps at a time through the chunk interface (``advance(n0, k, irregularity, every)`` returning a
+:class:`~svbi.runtime.methods.chunk3d.Chunk3D`; :class:`~svbi.runtime.methods.chunk3d.SteppedChunks`
+for the NumPy steps). Each chunk fills its rows of
+:class:`~svbi.runtime.run.results3d.Histories3D` at once (``_Recorder3D.record_chunk``, vectorised
+over the steps and the wheelsets); the vertical variables of the 2D results (``midspan_uz``,
+``deck_acceleration``, ``carbody_az``, ...) are recorded every ``output_every`` steps and given to
 :func:`~svbi.runtime.run.results3d.dataset3d` as its ``base``.
 
 The ground of ``[earthquake]`` (vertical, longitudinal and lateral components, per support line or
 travelling) moves the 3D bridge's supports; wheelsets before and after the deck run on rigid track
 moving with the ground. What the 3D step cannot do yet is refused before anything is built, in one
-line naming the key (:class:`NotRun3D`): ``coupled-classic``, a braking or accelerating train,
-``train.initial = "rigid-track"``, spans whose elements differ in length. A ``solver.backend`` other
-than ``numpy`` runs on NumPy with a :class:`~svbi.runtime.backends.base.BackendFallback` warning. The
+line naming the key (:class:`NotRun3D`): a braking or accelerating train,
+``train.initial = "rigid-track"``, spans whose elements differ in length. With
+``solver.backend = "c"`` localized-dynamic steps on the compiled 3D loop (:func:`stepper3d`); other
+methods and backends step on NumPy with a :class:`~svbi.runtime.backends.base.BackendFallback`
+warning. The
 contact is the step's: ``contact.normal`` unilateral (lift-off and landing, the default) or
 bilateral, flange contact at ``contact.flange_clearance``, and with ``contact.creep`` Kalker's creep
 forces with Shen-Hedrick-Elkins saturation (``[contact]``'s material and friction, as in 2D).
 
 Rail irregularities (``[track]``) are set on the step's contact kernels (their ``irregularity``
-argument) under each wheelset at t_{n+1} before each step: a German spectrum gives the vertical
-profile (the 2D run's table), the alignment and the cross-level; a measured profile its vertical
-column. The static state at t = 0 is on level track (a spectral profile's onset ramp starts at the
-leading wheelset, so every wheel stands on level rail then).
+argument) under each wheelset at t_{n+1} before each step (evaluated for a whole chunk at once): a
+German spectrum gives the vertical profile (the 2D run's table), the alignment and the cross-level;
+a measured profile its vertical column. The static state at t = 0 is on level track (a spectral
+profile's onset ramp starts at the leading wheelset, so every wheel stands on level rail then).
 """
 
 from __future__ import annotations
@@ -42,6 +47,8 @@ import numpy as np
 
 from ... import __version__
 from ..backends.base import BackendFallback
+from ..backends.c.stepper3d import STATUS as STATUS_3D
+from ..backends.c.stepper3d import LocalizedDynamic3DC
 from ..excitation.irregularity import (
     GermanSpectrum,
     Irregularity,
@@ -49,11 +56,14 @@ from ..excitation.irregularity import (
     SpectralIrregularity,
     measured_profile_3d,
 )
+from ..methods.chunk3d import Chunk3D, ChunkStopped, SteppedChunks, chunk_head, first_non_finite
+from ..methods.classic3d import CoupledClassic3D
 from ..methods.coupled3d import CoupledDynamic3D, State3D, static_state
+from ..methods.guard import FORCE_LIMIT_FACTOR
 from ..methods.localized3d import LocalizedDynamic3D
 from ..model.bridge3d import Bridge3D
 from ..model.ground import Ground, ground_from_scenario
-from ..model.kernels import FRAME3D, load
+from ..model.kernels import FRAME3D, load, load_broadcasting
 from ..model.system3d import GROUND, System3D, Track3D, Vehicle3DNumeric, vehicle3d
 from ..model.train3d import train3d
 from ..scenario.build import (
@@ -75,11 +85,16 @@ from .results3d import SIDE_SIGN, Histories3D, dataset3d
 if TYPE_CHECKING:
     import xarray as xr
 
-STEPS_3D = {"localized-dynamic": LocalizedDynamic3D, "coupled-dynamic": CoupledDynamic3D}
+CHUNK_STEPS = 256
+"""About how many steps a 3D loop advances between two recordings (:func:`chunk_steps`)."""
+STEPS_3D = {
+    "localized-dynamic": LocalizedDynamic3D,
+    "coupled-dynamic": CoupledDynamic3D,
+    "coupled-classic": CoupledClassic3D,
+}
 """The 3D step of each ``solver.method`` that has one."""
 CONTACT_MODEL = "coned wheels on knife-edge rails: {normal} normal contact, flange contact, {creep}"
 """The results' ``contact_model`` attribute (filled in per run)."""
-"""The ``contact_model`` attribute of a 3D run's results."""
 COMPONENTS = ("vertical", "alignment", "cross-level")
 """The irregularity components, in the order of the contact kernels' ``[r_v, r_a, r_c]``."""
 RAMP_LENGTH = 20.0
@@ -116,18 +131,29 @@ class Run3D:
     """The rail's irregularities by component (``vertical``, ``alignment``, ``cross-level``: those
     the track has; empty without)."""
 
-    def irregularity_at(self, t: float) -> np.ndarray:
-        """``(wheelsets, 9)``: ``[r_v, r_a, r_c]``, their slopes and curvatures along x under each
-        wheelset at ``t`` (the contact kernels' irregularity argument)."""
+    def irregularity_at(self, t: float | np.ndarray) -> np.ndarray:
+        """``[r_v, r_a, r_c]``, their slopes and curvatures along x under each wheelset at ``t`` (the
+        contact kernels' irregularity argument): ``(wheelsets, 9)`` for one time, ``(len(t),
+        wheelsets, 9)`` for an array of times (one evaluation of each profile for all of them)."""
         sys_ = self.system
-        x = sys_.start + sys_.speed * t - np.array([w.offset for w in sys_.vehicle.wheelsets])
-        out = np.zeros((x.size, 9))
+        times = np.asarray(t, dtype=float)
+        offsets = np.array([w.offset for w in sys_.vehicle.wheelsets])
+        x = sys_.start + sys_.speed * times.reshape(-1)[:, None] - offsets[None, :]
+        out = np.zeros((*x.shape, 9))
         for j, name in enumerate(COMPONENTS):
             if name in self.irregularity:
                 r = self.irregularity[name].evaluate(x)
                 for d in range(3):
-                    out[:, 3 * d + j] = r[d]
-        return out
+                    out[..., 3 * d + j] = r[d]
+        return out[0] if times.ndim == 0 else out
+
+
+def chunk_steps(every: int) -> int:
+    """The steps of one chunk of a 3D run: the multiple of ``output_every`` nearest to
+    :data:`CHUNK_STEPS` (at least one output interval), so that every chunk but the last ends on a
+    stored step."""
+    every = max(1, int(every))
+    return every * max(1, round(CHUNK_STEPS / every))
 
 
 def refuse(scenario: Scenario) -> None:
@@ -141,7 +167,7 @@ def refuse(scenario: Scenario) -> None:
     if ss.method not in STEPS_3D:
         raise no(
             "solver.method",
-            f"{ss.method!r} has no 3D step: use 'localized-dynamic' or 'coupled-dynamic'",
+            f"{ss.method!r} has no 3D step: use one of {', '.join(map(repr, STEPS_3D))}",
         )
     if t.acceleration != 0.0:
         raise no("train.acceleration", "the 3D step runs trains at constant speed: remove it (or set 0)")
@@ -324,13 +350,28 @@ def deck_rows(bridge: Bridge3D, element: int, xi: float) -> dict[str, tuple[np.n
     return {name: (dofs, rows[k]) for k, name in enumerate(("u", "v", "w", "phi"))}
 
 
-def _point_matrix(bridge: Bridge3D, points: list[tuple[int, float]], name: str) -> np.ndarray:
-    """``R`` (points x bridge DOFs): ``R @ u`` is DOF ``name`` of the deck at each point."""
-    out = np.zeros((len(points), bridge.ndof))
-    for i, (e, xi) in enumerate(points):
-        dofs, weights = deck_rows(bridge, e, xi)[name]
-        np.add.at(out[i], dofs, weights)
-    return out
+def deck_rows_many(bridge: Bridge3D, element: np.ndarray, xi: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """:func:`deck_rows` at many points at once: ``(dofs, weights)``, ``dofs`` ``(m, 12)`` the DOFs
+    of deck element ``element[i]`` and ``weights`` ``(m, 4, 12)`` the rows of ``u``, ``v``, ``w``
+    and ``phi`` at ``xi[i]`` (the same generated shape functions, evaluated at all the points)."""
+    element = np.asarray(element, dtype=np.intp).reshape(-1)
+    weights = load_broadcasting(FRAME3D).shape_functions(
+        bridge.element_length, np.asarray(xi, dtype=float).reshape(-1)
+    )
+    first = np.asarray(bridge.deck_element_nodes, dtype=np.intp)[element]
+    dofs = np.asarray(bridge.global_dof)[np.stack([first, first + 1], axis=1)].reshape(element.size, -1)
+    return dofs, weights.reshape(element.size, 4, -1)
+
+
+def _point_rows(
+    bridge: Bridge3D, points: list[tuple[int, float]], name: str
+) -> tuple[np.ndarray, np.ndarray]:
+    """``(dofs, weights)``, each ``(points, 12)``: DOF ``name`` (``u``, ``v``, ``w`` or ``phi``) of
+    the deck at each point is ``weights[i] @ u[dofs[i]]``."""
+    element = np.array([e for e, _ in points], dtype=np.intp)
+    xi = np.array([x for _, x in points], dtype=float)
+    dofs, weights = deck_rows_many(bridge, element, xi)
+    return dofs, weights[:, ("u", "v", "w", "phi").index(name)]
 
 
 # --------------------------------------------------------------------------------------------------
@@ -348,7 +389,7 @@ class _Recorder3D:
         self.static_wheel_load = q0.reshape(run.cars, run.per_car, 2)
         spans = b.spans
         mids = [b.midspan(s) for s in range(spans)]
-        self.mid = {n: _point_matrix(b, mids, n) for n in ("u", "v", "w", "phi")}
+        self.mid = {n: _point_rows(b, mids, n) for n in ("u", "v", "w", "phi")}
         self.ends = np.array(
             [
                 [b.dof(int(b.span_nodes[s][0]), "theta"), b.dof(int(b.span_nodes[s][-1]), "theta")]
@@ -366,6 +407,8 @@ class _Recorder3D:
         self.pier_v = np.array([b.dof(b.pier_top(i), "v") for i in range(len(b.piers))], dtype=np.intp)
         self.pier_u = np.array([b.dof(b.pier_top(i), "u") for i in range(len(b.piers))], dtype=np.intp)
         self.ground: Ground = sys_.ground if sys_.ground is not None else Ground()
+        self.moves = sys_.ground is not None
+        """Whether the ground moves (else its displacements are zeros, not evaluated)."""
         self.lines = np.asarray(b.line_x, dtype=float)
         self.pier_line = np.array([p.support for p in b.piers], dtype=np.intp)
         self.lam = math.atan(sys_.track.conicity)
@@ -373,6 +416,8 @@ class _Recorder3D:
         self.ws = veh.wheelsets
         self.start = sys_.start
         self.offsets = np.array([w.offset for w in veh.wheelsets])
+        self.ws_y = np.array([w.dofs[0] for w in veh.wheelsets], dtype=np.intp)
+        self.ws_phi = np.array([w.dofs[2] for w in veh.wheelsets], dtype=np.intp)
         nw = len(self.ws)
         c, a = run.cars, run.per_car
         self.steps = 0
@@ -414,77 +459,105 @@ class _Recorder3D:
         }
         self.shape = (c, a)
 
-    def record(self, st: State3D, gaps: Any, irregularity: np.ndarray) -> None:
-        """Row ``self.steps`` of the histories from the state; ``gaps`` (a callable) at outputs;
-        ``irregularity`` (wheelsets x 9) under the wheelsets at the state's time."""
-        i = self.steps
+    def record_chunk(self, chunk: Chunk3D) -> None:
+        """Rows ``self.steps`` to ``self.steps + len(chunk) - 1`` of the histories from a chunk of
+        consecutive states (the first may be the initial state, t = 0): vectorised over the steps
+        and the wheelsets. The vertical variables at the rows whose index is a multiple of
+        ``every`` (the chunk's gaps must be there)."""
+        k = len(chunk)
+        if k == 0:
+            return
+        i0 = self.steps
+        rows = slice(i0, i0 + k)
         sys_, run = self.run.system, self.run
         b = run.bridge
-        self.time[i] = st.t
-        self.normal[i] = st.P
-        if st.flange is not None:
-            self.flange[i] = st.flange
-        if st.creep is not None:
-            self.fx[i] = st.creep[:, :, 0].reshape(-1)
-            self.fy[i] = st.creep[:, :, 1].reshape(-1)
-        if st.contact is not None:  # 4 per wheelset: normal left, right, flange left, right
-            closed = np.asarray(st.contact, dtype=bool).reshape(-1, 4)
-            self.tread[i] = closed[:, :2].reshape(-1)
-            self.flange_closed[i] = closed[:, 2:].reshape(-1)
-        for w, (ws, (e, xi)) in enumerate(zip(self.ws, sys_.contact_location(st.t), strict=True)):
-            if e == GROUND:  # on the approach track: the ground under the wheelset
-                phi_d = 0.0
-                x = self.start + sys_.speed * st.t - self.offsets[w]
-                y_r = float(self.ground.lateral(st.t, np.array([x]))[0][0]) + irregularity[w, 1]
-            else:
-                rows = deck_rows(b, e, xi)
-                dofs, rv = rows["v"]
-                _, rphi = rows["phi"]
-                ue = st.u[dofs]
-                phi_d = float(rphi @ ue)
-                y_r = float(rv @ ue) - self.h_t * phi_d + irregularity[w, 1]  # the track centreline
-            phi_t = phi_d + irregularity[w, 2]  # the track plane's roll: the deck's and the cross-level
-            self.lateral[i, w] = st.q[ws.dofs[0]] - y_r
-            self.angle[i, 2 * w : 2 * w + 2] = self.lam + SIDE_SIGN * (st.q[ws.dofs[2]] - phi_t)
-        for k, body in enumerate(run.carbody):
+        t = np.asarray(chunk.t, dtype=float)
+        u, q, qdd = chunk.u, chunk.q, chunk.qdd
+        irr = chunk.irregularity
+        self.time[rows] = t
+        self.normal[rows] = chunk.P
+        self.flange[rows] = chunk.flange
+        self.fx[rows] = chunk.creep[..., 0].reshape(k, -1)
+        self.fy[rows] = chunk.creep[..., 1].reshape(k, -1)
+        closed = np.asarray(chunk.contact, dtype=bool).reshape(k, -1, 4)  # normal l, r, flange l, r
+        self.tread[rows] = closed[:, :, :2].reshape(k, -1)
+        self.flange_closed[rows] = closed[:, :, 2:].reshape(k, -1)
+        # the track under every wheelset at every time: the deck's, or the ground's on the approach
+        element, xi = sys_.contact_locations(t)
+        on = element != GROUND
+        phi_d = np.zeros(element.shape)
+        y_d = np.zeros(element.shape)
+        if on.any():
+            dofs, weights = deck_rows_many(b, element[on], xi[on])
+            step = np.broadcast_to(np.arange(k)[:, None], element.shape)[on]
+            ue = u[step[:, None], dofs]
+            v = np.einsum("mj,mj->m", weights[:, 1], ue)
+            phi_d[on] = np.einsum("mj,mj->m", weights[:, 3], ue)
+            y_d[on] = v - self.h_t * phi_d[on]  # the track centreline on the deck
+        if (~on).any() and self.moves:
+            x = self.start + sys_.speed * t[:, None] - self.offsets[None, :]
+            y_d = np.where(on, y_d, self.ground.displacements("lateral", t, x))
+        y_r = y_d + irr[:, :, 1]
+        phi_t = phi_d + irr[:, :, 2]  # the track plane's roll: the deck's and the cross-level
+        self.lateral[rows] = q[:, self.ws_y] - y_r
+        roll = q[:, self.ws_phi] - phi_t
+        self.angle[rows] = (self.lam + SIDE_SIGN[None, None, :] * roll[:, :, None]).reshape(k, -1)
+        for c, body in enumerate(run.carbody):
             if "y" in body:
-                self.ay[i, k] = st.qdd[body["y"]]
+                self.ay[rows, c] = qdd[:, body["y"]]
             if "phi" in body:
-                self.roll[i, k] = st.q[body["phi"]] - self.q_rigid[body["phi"]]
-        self.mid_v[i] = self.mid["v"] @ st.u
-        self.mid_phi[i] = self.mid["phi"] @ st.u
+                self.roll[rows, c] = q[:, body["phi"]] - self.q_rigid[body["phi"]]
+        self.mid_v[rows] = self._at(self.mid["v"], u)
+        self.mid_phi[rows] = self._at(self.mid["phi"], u)
         # relative to the ground the span moves with as a rigid body: the mean of its two support
         # lines' motion at midspan (the ground does not rotate)
-        gy = self.ground.lateral(st.t, self.lines)[0]
-        self.mid_v_rel[i] = self.mid_v[i] - 0.5 * (gy[:-1] + gy[1:])
+        gy = self._lines("lateral", t)
+        self.mid_v_rel[rows] = self.mid_v[rows] - 0.5 * (gy[:, :-1] + gy[:, 1:])
         if len(self.pier_v):
-            self.pier_uy[i] = st.u[self.pier_v]
-            self.pier_uy_rel[i] = self.pier_uy[i] - gy[self.pier_line]
-        if i % self.every == 0:
-            k = self.count
+            self.pier_uy[rows] = u[:, self.pier_v]
+            self.pier_uy_rel[rows] = self.pier_uy[rows] - gy[:, self.pier_line]
+        out = np.flatnonzero((np.arange(i0, i0 + k) % self.every) == 0)  # stored rows of the chunk
+        if out.size:
+            k0, m = self.count, out.size
+            o = slice(k0, k0 + m)
+            uo, to = u[out], t[out]
             d = self.v
-            d["midspan_uz"][k] = self.mid["w"] @ st.u
-            d["midspan_ux"][k] = self.mid["u"] @ st.u
-            d["deck_acceleration"][k] = self.mid["w"] @ st.udd
-            d["end_rotation"][k] = st.u[self.ends]
-            d["deck_twist"][k] = st.u[self.twist_dofs]
+            d["midspan_uz"][o] = self._at(self.mid["w"], uo)
+            d["midspan_ux"][o] = self._at(self.mid["u"], uo)
+            d["deck_acceleration"][o] = self._at(self.mid["w"], chunk.udd[out])
+            d["end_rotation"][o] = uo[:, self.ends]
+            d["deck_twist"][o] = uo[:, self.twist_dofs]
             for c, body in enumerate(run.carbody):
                 if "z" in body:
-                    d["carbody_uz"][k, c] = st.q[body["z"]] - self.q_rigid[body["z"]]
-                    d["carbody_az"][k, c] = st.qdd[body["z"]]
+                    d["carbody_uz"][o, c] = q[out, body["z"]] - self.q_rigid[body["z"]]
+                    d["carbody_az"][o, c] = qdd[out, body["z"]]
                 if "theta" in body:
-                    d["carbody_pitch"][k, c] = st.q[body["theta"]] - self.q_rigid[body["theta"]]
-            d["normal_gap"][k] = gaps()
-            d["wheelset_position"][k] = self.start + sys_.speed * st.t - self.offsets
-            (gz, _, _), (gx, _, _) = self.ground.motion(st.t, self.lines)
-            d["midspan_uz_rel"][k] = d["midspan_uz"][k] - 0.5 * (gz[:-1] + gz[1:])
-            d["midspan_ux_rel"][k] = d["midspan_ux"][k] - 0.5 * (gx[:-1] + gx[1:])
-            d["ground_uz"][k], d["ground_ux"][k] = gz[0], gx[0]
+                    d["carbody_pitch"][o, c] = q[out, body["theta"]] - self.q_rigid[body["theta"]]
+            d["normal_gap"][o] = chunk.gaps[out]
+            d["wheelset_position"][o] = self.start + sys_.speed * to[:, None] - self.offsets[None, :]
+            gz, gx = self._lines("vertical", to), self._lines("longitudinal", to)
+            d["midspan_uz_rel"][o] = d["midspan_uz"][o] - 0.5 * (gz[:, :-1] + gz[:, 1:])
+            d["midspan_ux_rel"][o] = d["midspan_ux"][o] - 0.5 * (gx[:, :-1] + gx[:, 1:])
+            d["ground_uz"][o], d["ground_ux"][o] = gz[:, 0], gx[:, 0]
             if len(self.pier_u):
-                d["pier_top_ux"][k] = st.u[self.pier_u]
-                d["pier_drift"][k] = d["pier_top_ux"][k] - gx[self.pier_line]
-            self.count += 1
-        self.steps += 1
+                d["pier_top_ux"][o] = uo[:, self.pier_u]
+                d["pier_drift"][o] = d["pier_top_ux"][o] - gx[:, self.pier_line]
+            self.count += m
+        self.steps += k
+
+    @staticmethod
+    def _at(point: tuple[np.ndarray, np.ndarray], u: np.ndarray) -> np.ndarray:
+        """``(steps, points)``: a DOF of the deck at fixed points (:func:`_point_rows`) from the
+        span's DOF vectors ``u`` (steps x bridge DOFs)."""
+        dofs, weights = point
+        return np.einsum("kpj,pj->kp", u[:, dofs], weights)
+
+    def _lines(self, component: str, t: np.ndarray) -> np.ndarray:
+        """``(len(t), support lines)``: the ground's displacement ``component`` at the support
+        lines at the times ``t`` (zeros when the ground is at rest)."""
+        if not self.moves:
+            return np.zeros((t.size, self.lines.size))
+        return self.ground.displacements(component, t, self.lines)
 
     def histories(self, speed: float) -> Histories3D:
         n = self.steps
@@ -631,6 +704,81 @@ class _Recorder3D:
         return xr.Dataset(data_vars=data, coords=coords)
 
 
+def stepper3d(scenario: Scenario, system: System3D, state: State3D) -> tuple[str, Any]:
+    """``(backend, step)``: the 3D step of ``solver.method`` on ``solver.backend``. The C loop has
+    the localized-dynamic step (:class:`~svbi.runtime.backends.c.stepper3d.LocalizedDynamic3DC`);
+    every other method, backend or a train or bridge beyond the C loop's sizes steps on NumPy,
+    with a :class:`~svbi.runtime.backends.base.BackendFallback` warning that says why."""
+    ss = scenario.solver
+    args = (system, state, ss.time_step, ss.constraint_kappa, ss.constraint_zeta)
+    normal = scenario.contact.normal
+    why = ""
+    if ss.backend == "c" and ss.method == "localized-dynamic":
+        try:
+            return "c", LocalizedDynamic3DC(*args, normal=normal)
+        except ValueError as exc:
+            if not str(exc).startswith("the 3D C loop"):
+                raise  # the model's own error (an unstable explicit creep step): NumPy says the same
+            why = str(exc)
+    elif ss.backend != "numpy":
+        why = f"the {ss.backend} backend has no 3D step; the C loop has localized-dynamic"
+    if why:
+        warnings.warn(
+            f"solver.backend = {ss.backend!r}: {why}; this 3D run of {ss.method} steps on the NumPy backend",
+            BackendFallback,
+            stacklevel=3,
+        )
+    return "numpy", STEPS_3D[ss.method](*args, normal=normal)
+
+
+def divergence3d(
+    chunk: Chunk3D, max_gap: float, force_limit: float, per_car: int, method: str
+) -> tuple[int, str] | None:
+    """The first step of ``chunk`` at which the run has gone unstable, and why (None: none), as
+    the 2D guard (:mod:`svbi.runtime.methods.guard`): a normal gap of a wheel in contact beyond
+    ``solver.max_gap`` (read at the steps whose gaps were evaluated, the output steps), a wheel
+    flying higher than that, or a normal force beyond ``force_limit``."""
+    k = len(chunk)
+    closed = chunk.contact.reshape(k, -1, 4)[:, :, :2].reshape(k, -1).astype(bool)
+    gaps = np.nan_to_num(chunk.gaps, nan=0.0)
+    drift = np.where(closed, np.abs(gaps), 0.0) > max_gap
+    flight = np.where(closed, 0.0, gaps) > max_gap
+    force = np.abs(chunk.P) > force_limit
+    rows = np.flatnonzero(drift.any(axis=1) | flight.any(axis=1) | force.any(axis=1))
+    if not rows.size:
+        return None
+    j = int(rows[0])
+
+    def wheel(i: int) -> str:
+        car, ws = divmod(i // 2, per_car)
+        return f"car {car + 1}, wheelset {ws + 1}, {('left', 'right')[i % 2]}"
+
+    if method == "coupled-classic":
+        cause = (
+            "coupled-classic imposes the constraints at acceleration level only, so the gaps drift "
+            "(use localized-dynamic or coupled-dynamic)"
+        )
+    else:
+        cause = "the time step may be too large for this model; try a smaller one"
+    if drift[j].any():
+        i = int(np.argmax(np.where(drift[j], np.abs(gaps[j]), 0.0)))
+        return j, (
+            f"the normal gap of the wheel in contact at {wheel(i)} is {gaps[j, i]:.4g} m, beyond "
+            f"solver.max_gap = {max_gap:g} m; likely cause: {cause}"
+        )
+    if flight[j].any():
+        i = int(np.argmax(np.where(flight[j], gaps[j], 0.0)))
+        return j, (
+            f"the wheel at {wheel(i)} flies {gaps[j, i]:.4g} m above its rail (more than "
+            f"solver.max_gap = {max_gap:g} m): derailment is likely"
+        )
+    i = int(np.argmax(np.abs(chunk.P[j])))
+    return j, (
+        f"the normal force at {wheel(i)} is {chunk.P[j, i]:.4g} N, beyond {force_limit:.3g} N "
+        f"({FORCE_LIMIT_FACTOR:g} x the static wheel load); likely cause: {cause}"
+    )
+
+
 def simulate3d(
     scenario: Scenario,
     *,
@@ -648,44 +796,59 @@ def simulate3d(
     t_start = time.perf_counter() if clock_start is None else clock_start
     ss = scenario.solver
     run = build_run3d(scenario, hold_train)
-    backend = "numpy"
-    if ss.backend != "numpy":
-        warnings.warn(
-            f"solver.backend = {ss.backend!r}: 3D scenarios run on the NumPy backend only for now",
-            BackendFallback,
-            stacklevel=2,
-        )
     system = run.system
     state = static_state(system)
-    stepper = STEPS_3D[ss.method](
-        system, state, ss.time_step, ss.constraint_kappa, ss.constraint_zeta, normal=scenario.contact.normal
-    )
+    backend, stepper = stepper3d(scenario, system, state)
     every = ss.output_every
     recorder = _Recorder3D(run, state, run.steps + 1, every)
-    level = run.irregularity_at(0.0)
-    for kernel, r in zip(stepper.kernels, level, strict=True):
-        kernel.irregularity = r  # the kernels' irregularity argument (zero when the track has none)
-    recorder.record(stepper.state, stepper.gaps, level)
+    chunks = stepper if backend == "c" else SteppedChunks(stepper)
+    recorder.record_chunk(SteppedChunks(stepper).current(run.irregularity_at(0.0)))
+    size = chunk_steps(every)
+    force_limit = FORCE_LIMIT_FACTOR * max(float(np.abs(recorder.static_wheel_load).max(initial=0.0)), 1.0)
     bar = _Progress(run.steps) if progress else None
     message = ""
     interrupted: KeyboardInterrupt | None = None
     t_loop = time.perf_counter()
     try:
-        for n in range(run.steps):
-            if run.irregularity:  # under each wheelset at t_{n+1}, where the step imposes its gaps
-                level = run.irregularity_at((n + 1) * ss.time_step)
-                for kernel, r in zip(stepper.kernels, level, strict=True):
-                    kernel.irregularity = r
-            st = stepper.step(n)
-            if not (np.isfinite(st.q).all() and np.isfinite(st.u).all() and np.isfinite(st.P).all()):
-                message = (
-                    f"the 3D step diverged at t = {st.t:.6g} s (step {n + 1} of {run.steps}): "
-                    "non-finite state"
+        n = 0
+        while n < run.steps:
+            k = min(size, run.steps - n)
+            # under each wheelset at t_{n+1}, where the step imposes its gaps
+            level = run.irregularity_at((np.arange(n, n + k) + 1) * ss.time_step)
+            cause: BaseException | None = None
+            try:
+                chunk = chunks.advance(n, k, level, every)
+            except ChunkStopped as stop:  # record the steps finished before the failure
+                chunk, cause = stop.chunk, stop.cause
+            stopped = getattr(chunks, "stopped", None)
+            if stopped:  # the C loop stopped short: its finished steps are the chunk
+                recorder.record_chunk(chunk)
+                message = f"the 3D step failed at t = {(n + len(chunk) + 1) * ss.time_step:.6g} s " + (
+                    f"(step {n + len(chunk) + 1} of {run.steps}): {STATUS_3D.get(chunks.status, stopped)}"
                 )
                 break
-            recorder.record(st, stepper.gaps, level)
-            if bar is not None and (n + 1) % every == 0:
-                bar.update(every)
+            bad = first_non_finite(chunk)
+            if bad is not None:
+                recorder.record_chunk(chunk_head(chunk, bad))
+                message = (
+                    f"the 3D step diverged at t = {chunk.t[bad]:.6g} s (step {n + bad + 1} of "
+                    f"{run.steps}): non-finite state"
+                )
+                break
+            stop = divergence3d(chunk, ss.max_gap, force_limit, run.per_car, ss.method)
+            if stop is not None:  # recorded up to the step that stops the run
+                j, why = stop
+                recorder.record_chunk(chunk_head(chunk, j + 1))
+                message = (
+                    f"the 3D run diverged at t = {chunk.t[j]:.6g} s (step {n + j + 1} of {run.steps}): {why}"
+                )
+                break
+            recorder.record_chunk(chunk)
+            if cause is not None:
+                raise cause
+            n += len(chunk)
+            if bar is not None:
+                bar.update(len(chunk))
     except np.linalg.LinAlgError as exc:
         message = f"the 3D step failed at step {recorder.steps} of {run.steps}: {exc}"
     except KeyboardInterrupt as exc:

@@ -4,8 +4,8 @@ A file given to the wrong command (a study to ``svbi run``, a scenario to ``svbi
 what it is and which command takes it, instead of a list of unknown keys.
 
 A scenario is 2D or 3D: 3D when its ``train.vehicle`` is a 3D vehicle topology
-(:func:`vehicle_dimensions`, docs/three-d.md). `svbi run` and `svbi modes` take 3D scenarios;
-`svbi sweep` does not yet (:data:`NOT_RUN_3D`).
+(:func:`vehicle_dimensions`, docs/three-d.md). `svbi run`, `svbi sweep` and `svbi modes` take 3D
+scenarios (through ``svbi.simulate``); the 2D model (``build_model``) does not (:data:`NOT_RUN_3D`).
 """
 
 from __future__ import annotations
@@ -28,10 +28,10 @@ USES = {
 """What each kind of file is and which command takes it."""
 
 NOT_RUN_3D = (
-    "a 3D scenario (train.vehicle {vehicle!r} is a 3D vehicle): `svbi run {file}` runs it, but "
-    "`svbi sweep` does not take 3D scenarios yet (docs/three-d.md)"
+    "a 3D scenario (train.vehicle {vehicle!r} is a 3D vehicle): the 2D model does not take it; "
+    "`svbi.simulate` and `svbi run {file}` run it (docs/three-d.md)"
 )
-"""The one line of `svbi sweep` for a 3D scenario (and of ``build_model``, whose model is 2D)."""
+"""The one line of ``build_model``, whose model is 2D, for a 3D scenario."""
 
 LABELS = {"scenario": "scenario", "study": "study", "topology": "vehicle topology", "results": "results"}
 

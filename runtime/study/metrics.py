@@ -303,6 +303,8 @@ METRIC_INPUTS = (
     "midspan_twist_rel",
     "pier_top_uy",
     "pier_top_uy_rel",
+    "deck_twist",
+    "wheelset_position",
 )
 """The results variables :func:`compute_metrics` reads (with ``time`` and the attributes): a sweep
 worker builds only these (``Recorder.dataset(variables=...)``) when it keeps no history."""

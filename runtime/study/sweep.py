@@ -36,7 +36,7 @@ import threading
 import time
 import tomllib
 import warnings
-from collections.abc import Callable, Iterator, Mapping, Sequence
+from collections.abc import Callable, Iterator, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import TYPE_CHECKING, Annotated, Any
@@ -67,7 +67,7 @@ from ..run.atomic import write_atomic
 from ..run.output import folder_problem, same_file
 from ..run.results import write_netcdf
 from ..run.simulate import simulate
-from ..scenario.kinds import NOT_RUN_3D, wrong_kind
+from ..scenario.kinds import wrong_kind
 from ..scenario.schema import (
     Problem,
     ScenarioError,
@@ -315,9 +315,6 @@ def load_study(path: str | Path, sets: Sequence[str] | dict[str, Any] = ()) -> S
             raise StudyError(
                 [Problem(f"--set {p.key}", p.message, "--set") for p in exc.problems], source
             ) from None
-    three_d = _three_d(scenario_path, sets, where("scenario"))
-    if three_d:  # one line for the base scenario, not one per axis
-        raise StudyError(problems + three_d, source)
     # every value of every axis must make a valid scenario on its own (errors name the study line)
     for table, values in (("axes", spec.axes), ("zip", spec.zip)):
         for key, items in values.items():
@@ -337,19 +334,6 @@ def load_study(path: str | Path, sets: Sequence[str] | dict[str, Any] = ()) -> S
     study = Study(path, spec, scenario_path, scenario_path.read_text(encoding="utf-8-sig"), text, sets=sets)
     study.runs = grid_runs(study)
     return study
-
-
-def _three_d(scenario_path: Path, sets: Mapping[str, Any], where: str) -> list[Problem]:
-    """A study of a 3D scenario is refused: `svbi sweep` does not run 3D scenarios yet (docs/three-d.md)."""
-    try:
-        with warnings.catch_warnings():
-            warnings.simplefilter("ignore")
-            sc = load_scenario(scenario_path, overrides=sets)
-    except ScenarioError:
-        return []  # a base scenario that only the axes make valid: each run is checked on its own
-    if sc.dimensions != 3:
-        return []
-    return [Problem("scenario", NOT_RUN_3D.format(vehicle=sc.train.vehicle, file=scenario_path), where)]
 
 
 def grid_runs(study: Study) -> list[Run]:

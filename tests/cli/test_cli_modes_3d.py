@@ -141,29 +141,6 @@ def test_a_long_form_3d_bridge_lists_each_distinct_span(tmp_path: Path) -> None:
     )
 
 
-def test_svbi_run_of_a_3d_scenario_without_a_3d_step_is_one_line_and_exit_2(tmp_path: Path) -> None:
-    out = tmp_path / "out.nc"
-    result = runner.invoke(
-        app, ["run", str(EXAMPLE_3D), "-o", str(out), "--set", "solver.method=coupled-classic"]
-    )
-    assert result.exit_code == 2
-    lines = result.output.strip().splitlines()
-    assert len(lines) == 1, result.output
-    assert "solver.method: 'coupled-classic' has no 3D step" in lines[0]
-    assert "Traceback" not in result.output and not out.exists()
-
-
-def test_svbi_sweep_of_a_3d_scenario_is_refused(tmp_path: Path) -> None:
-    study = tmp_path / "study.toml"
-    study.write_text(
-        f'scenario = "{EXAMPLE_3D}"\n[axes]\n"train.speed_kmh" = [200.0, 250.0]\n', encoding="utf-8"
-    )
-    result = runner.invoke(app, ["sweep", str(study), "-o", str(tmp_path / "out.nc")])
-    assert result.exit_code == 2, result.output
-    assert "`svbi sweep` does not take 3D scenarios yet" in result.output
-    assert "Traceback" not in result.output
-
-
 def test_modes_of_a_3d_scenario_with_both_shear_keys_is_one_line(tmp_path: Path) -> None:
     result = runner.invoke(app, ["modes", str(EXAMPLE_3D), "--set", "bridge.shear_modulus=1.0e10"])
     assert result.exit_code == 2

@@ -147,11 +147,22 @@ def test_metrics_and_check_read_the_3d_results(results) -> None:
 
 
 def test_another_backend_runs_on_numpy_with_a_warning(tmp_path: Path) -> None:
+    """The C loop has the localized-dynamic step only: coupled-dynamic with backend c steps on NumPy
+    and the run says so."""
     out = tmp_path / "out.nc"
-    sets = ["--set", "solver.backend=c", "--set", "solver.duration=0.02"]
+    sets = [
+        "--set",
+        "solver.backend=c",
+        "--set",
+        "solver.method=coupled-dynamic",
+        "--set",
+        "solver.duration=0.02",
+    ]
     result = runner.invoke(app, ["run", str(write(tmp_path)), "-o", str(out), "-q", *sets])
     assert result.exit_code == 0, result.output
-    assert "3D scenarios run on the NumPy backend only for now" in result.output
+    assert (
+        "the C loop has localized-dynamic" in result.output and "steps on the NumPy backend" in result.output
+    )
     with xr.open_dataset(out) as ds:
         assert ds.attrs["backend"] == "numpy" and ds.attrs["backend_requested"] == "c"
 
@@ -198,7 +209,7 @@ def test_an_earthquake_and_the_approach_track_run(tmp_path: Path) -> None:
 @pytest.mark.parametrize(
     ("sets", "extra", "key"),
     [
-        (["solver.method=coupled-classic"], "", "solver.method: 'coupled-classic' has no 3D step"),
+        (["train.initial=rigid-track"], "", "train.initial: 'rigid-track': a 3D run starts from the static"),
         (["train.acceleration=-1.0"], "", "train.acceleration: the 3D step runs trains at constant speed"),
     ],
 )

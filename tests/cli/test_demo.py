@@ -48,3 +48,9 @@ def test_quick_demo_writes_results_figures_and_summary(tmp_path: Path) -> None:
         assert float(ds.contact_force.min()) >= 0.0
     assert (tmp_path / "strong-shaking-figures" / "wheel_lift_off.png").is_file()
     assert "wheel lift-offs" in summary
+    # the 3D run: the 3D example, its lateral running-safety figure and summary lines
+    with xr.open_dataset(tmp_path / "three-d.nc", engine="h5netcdf") as ds:
+        assert ds.attrs["dimensions"] == 3 and ds.attrs["complete"] == 1
+        assert set(ds.side.values) == {"left", "right"} and "derailment_quotient" in ds
+    assert (tmp_path / "three-d-figures" / "lateral_running_safety.png").is_file()
+    assert "derailment quotient Y/Q" in summary and "flange contacts" in summary

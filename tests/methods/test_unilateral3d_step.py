@@ -26,6 +26,7 @@ from scipy.linalg import eigh
 from scipy.optimize import brentq
 
 from svbi.codegen.topology3d import parse_topology3d
+from svbi.runtime.methods.classic3d import CoupledClassic3D
 from svbi.runtime.methods.coupled3d import CoupledDynamic3D, State3D, static_state
 from svbi.runtime.methods.localized3d import LocalizedDynamic3D
 from svbi.runtime.model.creep_law import CreepParameters
@@ -166,9 +167,11 @@ STEPS_TO_REST = 800
 PULL_STEPS, FREE_STEPS = 40, 160
 
 
-def test_lift_off_flight_and_landing(car):
+@pytest.mark.parametrize("method", [CoupledDynamic3D, CoupledClassic3D], ids=["dynamic", "classic"])
+def test_lift_off_flight_and_landing(car, method):
     """An upward pull of 1.5 times the car's weight on the wheelset of the car standing on the span,
-    for 40 steps, then released."""
+    for 40 steps, then released (coupled-dynamic, and coupled-classic, whose landing row is the same
+    position-level ``g_{n+1} = 0``)."""
     span = simply_supported_span(SECTION, LB, 4)
     track = Track3D(conicity=LAM, eccentricity=0.0, rail_height=H_T)
     system = System3D(car, span, track, speed=0.0, start=LB / 2)
@@ -179,7 +182,7 @@ def test_lift_off_flight_and_landing(car):
     z_cm = lambda q: (masses @ q[[car.index("z_body"), car.index("z_ws")]]) / m  # noqa: E731
     cm0 = z_cm(st.q)
     system.load = body_load(car, pull=1.5 * W)
-    stepper = CoupledDynamic3D(system, st, DT)
+    stepper = method(system, st, DT)
     P, flying, cm, gaps, z_w, w_rail = [], [], [], [], [], []
     for n in range(PULL_STEPS + FREE_STEPS):
         if n == PULL_STEPS:

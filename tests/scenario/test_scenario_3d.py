@@ -223,7 +223,9 @@ def test_long_form_girders_inherit_and_override_the_3d_section(tmp_path: Path) -
 
 def test_a_3d_scenario_is_not_built_into_a_2d_model(tmp_path: Path) -> None:
     sc = load(tmp_path, scenario_text())
-    with pytest.raises(ScenarioError, match="`svbi run .*` runs it, but `svbi sweep` does not"):
+    with pytest.raises(
+        ScenarioError, match="the 2D model does not take it; `svbi.simulate` and `svbi run .*` run it"
+    ):
         build_model(sc)
 
 
