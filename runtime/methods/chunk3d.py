@@ -152,8 +152,7 @@ class SteppedChunks:
         return _Rows(k, st.q.size, st.u.size, len(self.stepper.kernels))
 
     def _set(self, irregularity: np.ndarray) -> None:
-        for kernel, r in zip(self.stepper.kernels, irregularity, strict=True):
-            kernel.irregularity = r
+        self.stepper.set_irregularity(irregularity)
 
     def current(self, irregularity: np.ndarray) -> Chunk3D:
         """The stepper's present state as a chunk of one row, its gaps evaluated, after setting the

@@ -370,6 +370,14 @@ class _Step3D:
         self.iterations = 0
         self.passes = 0
 
+    def set_irregularity(self, level: np.ndarray) -> None:
+        """The rail's irregularity argument under each wheelset (``(wheelsets, 9)``: ``[r_v, r_a,
+        r_c]``, their slopes and curvatures) for every kernel of the step: the rows, the flange and
+        creep (which share each wheelset's contact kernel) and the impact's gap rates."""
+        for w, r in enumerate(np.asarray(level, dtype=float)):
+            for kernel in (self.pairs[w][0], self.rates_tt[w][0], self.rates_t[w][0]):
+                kernel.irregularity = r
+
     def _check_creep_stability(self) -> None:
         """Refuse a time step at which the explicit creep forces would be unstable. Lagged by one
         step, the creep force of a wheelset is a damper of rate ``k`` (lateral ``2 f22 / (m v)``,

@@ -77,17 +77,6 @@ def irregularity(system: System3D, t: float) -> np.ndarray:
     return out
 
 
-def set_irregularity(stepper: LocalizedDynamic3D, level: np.ndarray) -> None:
-    # the step's kernels and those of its impact's gap rates: the same rail under the wheels
-    for kernels in (
-        [p[0] for p in stepper.pairs],
-        [p[0] for p in stepper.rates_t],
-        [p[0] for p in stepper.rates_tt],
-    ):
-        for kernel, r in zip(kernels, level, strict=True):
-            kernel.irregularity = r
-
-
 def run_numpy(system, state, dt, steps, normal, rough=False, loads=None):
     stepper = LocalizedDynamic3D(system, copy(state), dt, normal=normal)
     rows, contact, gaps = [], [], []
@@ -95,7 +84,7 @@ def run_numpy(system, state, dt, steps, normal, rough=False, loads=None):
         if loads is not None:
             system.load = loads(n)
         if rough:
-            set_irregularity(stepper, irregularity(system, (n + 1) * dt))
+            stepper.set_irregularity(irregularity(system, (n + 1) * dt))
         s = stepper.step(n)
         rows.append(np.concatenate([s.q, s.u, s.P, s.flange, s.creep.reshape(-1)]))
         contact.append(s.contact.copy())

@@ -585,9 +585,8 @@ class LocalizedDynamic3DC(_Step3D):
         st.contact = self._contact.astype(bool)
         done = int(info.steps)
         last = irregularity[done - 1] if done else None
-        if last is not None:
-            for kernel, r in zip(self.kernels, last, strict=True):
-                kernel.irregularity = r.copy()
+        if last is not None:  # the NumPy kernels (gaps(), step()) at the state's rail
+            self.set_irregularity(last.copy())
         self.stopped = None
         if status:
             n = int(info.step)
