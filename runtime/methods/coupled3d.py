@@ -562,8 +562,6 @@ class _Step3D:
             r = slice(PER_WHEELSET * w, PER_WHEELSET * (w + 1))
             k0, f0 = self.rates_tt[w]
             k1, f1 = self.rates_t[w]
-            # the rail under the wheel: the irregularity a run sets on the step's kernel
-            k0.irregularity = k1.irregularity = self.kernels[w].irregularity
             tt = np.concatenate([k0.residual(z, zd, zdd, xi), f0.flange_residual(z, zd, zdd, xi)])
             t1 = np.concatenate([k1.residual(z, zd, zdd, xi), f1.flange_residual(z, zd, zdd, xi)])
             gtt[r], gt[r] = tt, t1 - tt
