@@ -195,8 +195,7 @@ def test_free_longitudinal_vibration_of_the_pier_in_the_time_loop():
         {
             "bridge": pier_bridge_dict(),
             "train": dict(vehicle="moving-load", speed=0.0, start_position=-50.0),
-            # the C loop: piers and ground motion in C = NumPy, tests/backends/test_c_general_bridges.py
-            "solver": dict(backend="c", time_step=1e-3, duration=3.0),
+            "solver": dict(backend="numpy", time_step=1e-3, duration=3.0),
         }
     )
     model = build_model(sc)
@@ -216,7 +215,6 @@ def test_free_longitudinal_vibration_of_the_pier_in_the_time_loop():
 
     model.ground = FunctionGround(longitudinal=pulse)
     ds = svbi.simulate(sc, model=model)
-    assert ds.attrs["backend"] == ("c" if c_compiler_works() else "numpy")
     t = ds.time.values
     top = ds.pier_top_ux.values[:, 0]
     free = t > 0.5
