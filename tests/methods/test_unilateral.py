@@ -12,6 +12,7 @@ perfectly plastic impact (the wheel takes the ground's velocity).
 
 from __future__ import annotations
 
+import functools
 import warnings
 
 import numpy as np
@@ -327,7 +328,10 @@ def test_nothing_separates_equals_bilateral(method):
 PIONEER_GROUND = sine_cubed(0.06, 2.5)
 
 
+@functools.cache
 def pioneer(method: str, speed_kmh: float, start: float, backend: str = "numpy", normal: str = "unilateral"):
+    """A Pioneer car on two spans under a strong vertical ground motion. One run per set of
+    arguments: the NumPy runs are the references of several tests below (the datasets are only read)."""
     sc = validate_scenario(
         {
             "bridge": dict(
