@@ -26,6 +26,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 import scipy.signal as sig
+from conftest import c_compiler_works
 from scipy.integrate import solve_ivp
 
 import svbi
@@ -293,7 +294,8 @@ def sprung_on_rigid_track(dt: float = 2e-4):
             "train": dict(vehicle="sprung-mass", speed_kmh=100.0),
             "track": dict(irregularity="german-high", seed=5, wavelength_min=2.0, wavelength_max=60.0),
             "contact": dict(creep=False),
-            "solver": dict(backend="numpy", time_step=dt, output_every=5),
+            # the C loop: the same irregularity table and steps as NumPy (tests/backends)
+            "solver": dict(backend="c", time_step=dt, output_every=5),
         }
     )
 
@@ -301,6 +303,7 @@ def sprung_on_rigid_track(dt: float = 2e-4):
 def test_irregularity_under_the_wheel_and_rigid_track_response():
     sc = sprung_on_rigid_track()
     ds = svbi.simulate(sc)
+    assert ds.attrs["backend"] == ("c" if c_compiler_works() else "numpy")
     t = ds.time.values
     v = 100.0 / 3.6
     exact = make_irregularity("german-high", seed=5, length=L, wavelength_min=2.0, wavelength_max=60.0)
@@ -364,10 +367,12 @@ def test_hslm_a1_is_the_superposition_of_single_axles():
         {
             "bridge": bridge(1, elements=16, damping_ratio=0.0),
             "train": dict(vehicle="moving-load", hslm="A1", speed=v),
-            "solver": dict(backend="numpy", time_step=5e-4, output_every=4),
+            # the C loop: HSLM trains in C = NumPy (tests/backends/test_c_backend.py)
+            "solver": dict(backend="c", time_step=5e-4, output_every=4),
         }
     )
     ds = svbi.simulate(sc)
+    assert ds.attrs["backend"] == ("c" if c_compiler_works() else "numpy")
     loads, offsets = hslm_train("A1")
     assert ds.sizes["wheel"] == 50  # the whole train, until its last axle has left the span:
     assert ds.attrs["steps"] * 5e-4 >= (L + offsets[-1]) / v

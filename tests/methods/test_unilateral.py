@@ -12,6 +12,7 @@ perfectly plastic impact (the wheel takes the ground's velocity).
 
 from __future__ import annotations
 
+import functools
 import warnings
 
 import numpy as np
@@ -155,7 +156,13 @@ def reference():
 
 @pytest.fixture(scope="module")
 def localized():
-    return run()
+    """The localized method's run against the reference, on the C loop: it keeps lift-offs, flights
+    and landings in C and gives the NumPy backend's results to 1e-9 of the peaks
+    (``test_c_localized_keeps_lift_offs_and_landings_in_c``), in a fraction of the time. The NumPy
+    backend's own steps through these impacts are checked by ``test_energy_never_increases_at_an_impact``."""
+    ds = run(backend="c")
+    assert ds.attrs["backend"] == "c" and ds.attrs["numpy_steps"] == 0
+    return ds
 
 
 # --------------------------------------------------------------------------------------------------
@@ -229,7 +236,10 @@ def test_localized_flights_match_event_driven_reference(localized, reference):
 
 @pytest.mark.parametrize("method", ["coupled-dynamic", "coupled-classic"])
 def test_coupled_flights_match_event_driven_reference(method, reference):
-    ds = run(method=method, dt=2e-4, duration=1.0)
+    # the C loop runs the steps in contact; the steps around each event are the NumPy stepper's, as
+    # in a NumPy run (test_c_coupled_methods_hand_lift_offs_to_numpy_steps_and_back)
+    ds = run(method=method, dt=2e-4, duration=1.0, backend="c")
+    assert ds.attrs["backend"] == "c" and ds.attrs["numpy_steps"] > 0
     compare_flights(ds, [f for f in reference if f[1] < 1.0])
 
 
@@ -286,7 +296,7 @@ def test_flight_time_converges_with_the_time_step(reference, localized):
     ref = reference[:2]
     peak_errors = []
     for dt in (8e-4, 4e-4, 2e-4, 1e-4):
-        ds = localized if dt == 1e-4 else run(dt=dt, duration=1.0)
+        ds = localized if dt == 1e-4 else run(dt=dt, duration=1.0, backend="c")  # as `localized`
         got = flights_of(ds)[:2]
         for (a, b, _), (ra, rb, _) in zip(got, ref, strict=True):
             assert -1e-6 <= a - ra < dt and -1e-6 <= b - rb < dt, (dt, a - ra, b - rb)
@@ -318,7 +328,10 @@ def test_nothing_separates_equals_bilateral(method):
 PIONEER_GROUND = sine_cubed(0.06, 2.5)
 
 
+@functools.cache
 def pioneer(method: str, speed_kmh: float, start: float, backend: str = "numpy", normal: str = "unilateral"):
+    """A Pioneer car on two spans under a strong vertical ground motion. One run per set of
+    arguments: the NumPy runs are the references of several tests below (the datasets are only read)."""
     sc = validate_scenario(
         {
             "bridge": dict(
@@ -437,12 +450,12 @@ def test_plot_draws_lift_off_panels_and_summary_rows(tmp_path):
     from svbi.runtime.plots import results as plots
     from svbi.runtime.run.results import write_netcdf
 
-    path = write_netcdf(run(dt=4e-4, duration=0.4), tmp_path / "lift.nc")
+    path = write_netcdf(run(dt=4e-4, duration=0.4, backend="c"), tmp_path / "lift.nc")  # any backend
     ds = plots.read_results(path)
     assert ds.contact_state.dtype.kind in "iu" and ds.attrs["liftoffs"] == 1
     written = plots.plot_results({"lift": ds}, tmp_path / "fig")
     assert tmp_path / "fig" / f"{plots.CONTACT}.png" in written
     text = plots.summary_text({"lift": ds})
     assert "wheel lift-offs" in text and "peak uplift (mm)" in text
-    calm = run(ground=WEAK, dt=5e-4, duration=0.2)
+    calm = run(ground=WEAK, dt=5e-4, duration=0.2, backend="c")
     assert plots.CONTACT not in plots.make_figures({"calm": calm})

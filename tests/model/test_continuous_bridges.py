@@ -13,11 +13,13 @@
 
 from __future__ import annotations
 
+import functools
 import warnings
 
 import numpy as np
 import pytest
 from cases import A_P, AREA, E_P, I_P, MU, MU_P, VIADUCT, E, H, Iy, L, bridge_dict
+from conftest import c_compiler_works
 from scipy.integrate import solve_ivp
 from scipy.optimize import brentq
 
@@ -32,25 +34,35 @@ C_BEND = np.sqrt(E * Iy / MU)
 DECK = Section(MU, E, AREA, Iy, 0.0)
 
 
-def exact_two_span_modes(count: int) -> list[tuple[float, object]]:
-    """Circular frequency and shape of the vertical modes of two equal continuous spans."""
+def exact_two_span_modes(count: int) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """The vertical modes of two equal continuous spans, by increasing frequency: circular
+    frequencies ``w`` and the parameters of :func:`two_span_shapes`, ``(w, b, c, symmetric)``."""
     modes = []
     for n in range(1, count + 1):
         k = n * np.pi / L
-        modes.append((k * k * C_BEND, lambda x, k=k: np.sin(k * x)))
+        modes.append((k * k * C_BEND, k, 0.0, False))
         z = brentq(lambda z: np.tan(z) - np.tanh(z), n * np.pi + 1e-9, n * np.pi + np.pi / 2 - 1e-9)
         b = z / L
+        modes.append((b * b * C_BEND, b, np.sin(z) / np.sinh(z), True))
+    w, b, c, symmetric = (np.array(column) for column in zip(*sorted(modes, key=lambda m: m[0]), strict=True))
+    return w, b, c, symmetric
 
-        def shape(x, b=b, z=z):
-            y = np.where(x <= L, x, 2 * L - x)
-            return np.sin(b * y) - np.sin(z) / np.sinh(z) * np.sinh(b * y)
 
-        modes.append((b * b * C_BEND, shape))
-    return sorted(modes, key=lambda m: m[0])
+def two_span_shapes(x: float | np.ndarray, b: np.ndarray, c: np.ndarray, symmetric: np.ndarray) -> np.ndarray:
+    """The shapes of :func:`exact_two_span_modes` at ``x`` (modes along the last axis): the spans'
+    own modes ``sin(b x)`` and the symmetric ones ``sin(b y) - c sinh(b y)``, ``y`` the distance from
+    the nearer end. Every mode at once: the modal reference evaluates them at each stage."""
+    x = np.asarray(x, dtype=float)[..., None]
+    y = np.where(symmetric & (x > L), 2 * L - x, x)
+    return np.sin(b * y) - c * np.sinh(b * y)
 
 
 def moving_force(bridge: dict, speed_kmh: float, dt: float = 1e-4):
-    return svbi.simulate(
+    """A force crossing ``bridge``, on the C loop: these tests verify the bridge (its modes, joints,
+    piers) against closed forms, and the C loop gives the NumPy backend's results to round-off on
+    continuous girders, unequal spans and piers under moving loads
+    (tests/backends/test_c_general_bridges.py), in a fraction of the time."""
+    ds = svbi.simulate(
         validate_scenario(
             {
                 "bridge": bridge,
@@ -59,15 +71,17 @@ def moving_force(bridge: dict, speed_kmh: float, dt: float = 1e-4):
                     speed_kmh=speed_kmh,
                     parameters=dict(axle_loads=[P], axle_offsets=[0.0]),
                 ),
-                "solver": dict(backend="numpy", time_step=dt, output_every=1),
+                "solver": dict(backend="c", time_step=dt, output_every=1),
             }
         )
     )
+    assert ds.attrs["backend"] == ("c" if c_compiler_works() else "numpy")
+    return ds
 
 
 def test_two_span_continuous_beam_has_the_exact_frequencies():
     b = Bridge(0, 0.0, 1, 1, 1, 1, 0.0, 16, 0.0, [Girder((L, L), DECK)], [])
-    vertical = np.array([w / (2 * np.pi) for w, _ in exact_two_span_modes(4)])
+    vertical = exact_two_span_modes(4)[0] / (2 * np.pi)
     c_axial = np.sqrt(E * AREA / MU)
     axial = np.array([(2 * m - 1) * c_axial / (4 * 2 * L) for m in range(1, 4)])
     vertical = vertical[vertical < 60.0]  # six modes; Hermite cubics: within 2e-4 up to here
@@ -90,21 +104,22 @@ def test_force_crossing_a_two_span_continuous_beam_matches_the_modal_solution(sp
     t = ds.time.values
     on = t <= 2 * L / v
     # modal solution: q'' + w^2 q = -P phi(v t) / M_n, M_n = mu * integral of phi^2
-    modes = exact_two_span_modes(10)
+    omega, *shape = exact_two_span_modes(10)
     x = np.linspace(0.0, 2 * L, 40001)
-    norms = [MU * np.trapezoid(shape(x) ** 2, x) for _, shape in modes]
+    norms = MU * np.trapezoid(two_span_shapes(x, *shape) ** 2, x, axis=0)
+    w2 = omega * omega
+    n = len(omega)
 
     def rhs(time, y):
-        q, dq = y[: len(modes)], y[len(modes) :]
-        f = np.array([-P * shape(np.array(v * time)) / m for (_, shape), m in zip(modes, norms, strict=True)])
-        w2 = np.array([w * w for w, _ in modes])
+        q, dq = y[:n], y[n:]
+        f = -P * two_span_shapes(v * time, *shape) / norms
         return np.concatenate([dq, f - w2 * q])
 
     sol = solve_ivp(
-        rhs, (0.0, t[on][-1]), np.zeros(2 * len(modes)), t_eval=t[on], rtol=1e-10, atol=1e-14, method="DOP853"
+        rhs, (0.0, t[on][-1]), np.zeros(2 * n), t_eval=t[on], rtol=1e-10, atol=1e-14, method="DOP853"
     )
     for span, xm in ((0, 0.5 * L), (1, 1.5 * L)):
-        ref = sum(sol.y[i] * shape(np.array(xm)) for i, (_, shape) in enumerate(modes))
+        ref = two_span_shapes(xm, *shape) @ sol.y[:n]
         w = ds.midspan_uz.values[on, span]
         peak = np.abs(ref).max()
         assert np.abs(w - ref).max() < 5e-3 * peak, span
@@ -234,6 +249,13 @@ def viaduct(method: str, **sections):
         return svbi.simulate(validate_scenario(data))
 
 
+@functools.cache
+def bilateral_viaduct(method: str):
+    """The viaduct under its earthquake with bilateral contact: one run per method for the tests
+    that compare with it (the datasets are only read)."""
+    return viaduct(method, contact={"normal": "bilateral"})
+
+
 def assert_same(a, b, names, rtol):
     for name in names:
         peak = float(np.abs(a[name]).max())
@@ -242,8 +264,7 @@ def assert_same(a, b, names, rtol):
 
 
 def test_localized_equals_coupled_dynamic_on_a_viaduct_under_an_earthquake():
-    contact = {"normal": "bilateral"}
-    a, b = viaduct("localized-dynamic", contact=contact), viaduct("coupled-dynamic", contact=contact)
+    a, b = bilateral_viaduct("localized-dynamic"), bilateral_viaduct("coupled-dynamic")
     assert_same(a, b, ("midspan_uz", "contact_force", "pier_top_ux", "carbody_az", "support_reaction"), 1e-8)
     # supports follow the ground, the continuous girder stays continuous over its pier
     assert float(np.abs(a.gap_support).max()) < 1e-12
@@ -251,7 +272,7 @@ def test_localized_equals_coupled_dynamic_on_a_viaduct_under_an_earthquake():
     assert np.abs(rot[:, 1, 1] - rot[:, 2, 0]).max() < 1e-12 * np.abs(rot).max()
     assert np.abs(rot[:, 0, 1] - rot[:, 1, 0]).max() > 1e-3 * np.abs(rot).max()  # a joint, not continuous
     # classic multipliers drift in the contact gaps, not in the bridge's own constraints
-    c = viaduct("coupled-classic", contact=contact)
+    c = bilateral_viaduct("coupled-classic")
     assert float(np.abs(c.gap_bridge).max()) > 100 * float(np.abs(a.gap_bridge).max())
     assert float(np.abs(c.pier_top_ux - a.pier_top_ux).max()) < 1e-6 * float(np.abs(a.pier_top_ux).max())
 
@@ -333,7 +354,7 @@ def test_localized_equals_coupled_dynamic_with_bearing_springs():
             runs[method] = svbi.simulate(validate_scenario(data))
     a, b = runs["localized-dynamic"], runs["coupled-dynamic"]
     assert_same(a, b, ("midspan_uz", "contact_force", "pier_top_ux", "support_reaction"), 1e-8)
-    rigid = viaduct("localized-dynamic", contact=contact)
+    rigid = bilateral_viaduct("localized-dynamic")
     # the springs change the piers' response (softer: more sway relative to the deck)
     assert float(np.abs(a.pier_top_ux - rigid.pier_top_ux).max()) > 1e-3 * float(
         np.abs(rigid.pier_top_ux).max()
@@ -365,8 +386,6 @@ def test_the_viaduct_example_loads_prints_its_modes_and_runs(tmp_path):
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", UserWarning)
         ds = svbi.simulate(sc)
-    from conftest import c_compiler_works
-
     assert ds.attrs["backend"] == ("c" if c_compiler_works() else "numpy") and ds.sizes["pier"] == 7
     assert np.isfinite(ds.pier_drift.values).all()
 
