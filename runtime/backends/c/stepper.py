@@ -293,8 +293,8 @@ class ExcitationInput:
                 qz, qx = m.ground.recorded(float(tj), b)
                 if per_support:
                     rec[j, 0], rec[j, 1] = qz, qx
-                else:
-                    rec[j, 0, 0], rec[j, 1, 0] = qz, qx
+                else:  # one value each, where the loop's recording reads a uniform ground: [uz, ux]
+                    rec[j].reshape(-1)[:2] = qz, qx
             self._under, self._sup, self._rec = under, sup, rec
             e.s_under, e.s_sup, e.s_rec = under.ctypes.data, sup.ctypes.data, rec.ctypes.data
 
