@@ -134,6 +134,12 @@ typedef struct {
   int *pair, *sel, *act_of; /* nW x nW coupling (1: same car, 2: same structure), cached elements of
                              * each pair's S block, the active row of each constraint (-1) */
   double* Sblk;              /* nW x nW x 144: S between the elements of two wheelsets (0 at held DOFs) */
+  int *plist, *pstart; /* the coupled ordered pairs w nW + v (pair != 0), by w: [pstart[w], pstart[w + 1]) */
+  /* of an iteration, per wheelset: its active constraints (ncon, 4 each), the element DOFs (free)
+   * where their gradients (nzg, 12 each) and their rows (nzr) are nonzero, and those entries (gc,
+   * rc: 4 x 12 each); rv the rows' vehicle part (4 x 4) */
+  int *ncon, *con, *nng, *nzg, *nnr, *nzr;
+  double *gc, *rc, *rv;
   double *hw, *hwp; /* nW x 12: the contact forces' loads on their elements, now and before */
   pivot3_t pv; /* pivoting of the active set */
   long iterations, passes;
