@@ -90,20 +90,26 @@ __attribute__((noinline)) static void element_loads(const work3d_t* W, const dou
     }
 }
 
-/* the span's response to element loads h into W->tF (free DOFs); with u, u = predictor + it (all
- * DOFs; the held ones as set) */
-__attribute__((noinline)) static void full_span(work3d_t* W, const double* h, double* u) {
+/* the span's responses to element loads h (into W->tF: free DOFs) and, with h2, to h2 (into
+ * W->tB's first nF: both right-hand sides in one pass of the band solve); u = predictor + the
+ * first (all DOFs; the held ones as set) */
+__attribute__((noinline)) static void full_span(work3d_t* W, const double* h, const double* h2, double* u) {
   const setup3d_t* S = W->S;
   int w, j, i;
   memset(W->tF, 0, sizeof(double) * (size_t)S->nF);
+  if (h2) memset(W->tB, 0, sizeof(double) * (size_t)S->nF);
   for (w = 0; w < S->nW; ++w)
     for (j = 0; j < 12; ++j) {
       int f = W->fidx[12 * w + j];
-      if (f >= 0) W->tF[f] += h[12 * w + j];
+      if (f < 0) continue;
+      W->tF[f] += h[12 * w + j];
+      if (h2) W->tB[f] += h2[12 * w + j];
     }
-  span_solve3(W, W->tF);
-  if (u == W->uk)
-    for (i = 0; i < S->nF; ++i) W->uk[S->free_dofs[i]] = W->uf0[i] + W->tF[i];
+  if (h2)
+    span_solve3_2(W, W->tF, W->tB);
+  else
+    span_solve3(W, W->tF);
+  for (i = 0; i < S->nF; ++i) u[S->free_dofs[i]] = W->uf0[i] + W->tF[i];
 }
 
 static int span_coupled(const work3d_t* W, int a, int b) {
@@ -118,11 +124,18 @@ static int span_coupled(const work3d_t* W, int a, int b) {
 }
 
 /* The couplings of the step's wheelsets and the S blocks between their elements (gathered when an
- * element changes: the workspace keeps them from step to step; sel holds element + 1, 0 none). */
+ * element changes: the workspace keeps them from step to step; sel holds element + 1, 0 none), and
+ * the list of coupled pairs; nothing to do while every wheelset is on the elements of the last
+ * call (seen: 1 once set, then element + 2 of each wheelset). */
 __attribute__((noinline)) static void couple(work3d_t* W) {
   const setup3d_t* S = W->S;
   const int nW = S->nW, nF = S->nF;
   int w, v, i, j, np = 0;
+  for (w = 0; w < nW && W->seen[1 + w] == W->ondeck[w] + 2; ++w) {
+  }
+  if (w == nW && W->seen[0]) return; /* the elements of the last call: its couplings and blocks */
+  for (w = 0; w < nW; ++w) W->seen[1 + w] = W->ondeck[w] + 2;
+  W->seen[0] = 1;
   for (w = 0; w < nW; ++w) {
     W->pstart[w] = np;
     for (v = 0; v < nW; ++v) {
@@ -263,13 +276,14 @@ __attribute__((noinline)) static void contact_response(work3d_t* W, const double
       const double* hk = h + 12 * k;
       const int* jg = W->nzg + 12 * k;
       const int ng = W->nng[k];
+      double acc[12];
       if (!(W->pair[W->plist[l]] & 2) || !W->ncon[k]) continue;
-      for (i = 0; i < 12; ++i) {
-        const double* Bi = B + 12 * i;
-        double s = 0.0;
-        for (j = 0; j < ng; ++j) s += Bi[jg[j]] * hk[jg[j]];
-        un[i] += s;
+      for (i = 0; i < 12; ++i) acc[i] = 0.0;
+      for (j = 0; j < ng; ++j) { /* twelve independent sums (each in the order of j) */
+        const double a = hk[jg[j]];
+        for (i = 0; i < 12; ++i) acc[i] += B[12 * i + jg[j]] * a;
       }
+      for (i = 0; i < 12; ++i) un[i] += acc[i];
     }
     for (i = 0; i < 12; ++i) {
       double d;
@@ -365,11 +379,10 @@ int interface3(work3d_t* W, const state3d_t* X, const int* el, const double* xi,
       /* stopping by the contact DOFs: the rule again over every DOF of the span, as the NumPy step
        * (the new iterate in full by one band solve, its change from the last by another) */
       double cu = 0.0, su = 0.0;
-      full_span(W, hh, W->uk);
       for (w = 0; w < 12 * nW; ++w) W->hwp[w] = hh[w] - W->hwp[w];
-      full_span(W, W->hwp, 0);
+      full_span(W, hh, W->hwp, W->uk);
       for (i = 0; i < nF; ++i) {
-        if (fabs(W->tF[i]) > cu) cu = fabs(W->tF[i]);
+        if (fabs(W->tB[i]) > cu) cu = fabs(W->tB[i]);
       }
       for (i = 0; i < S->nB; ++i)
         if (fabs(W->uk[i]) > su) su = fabs(W->uk[i]);
@@ -392,7 +405,7 @@ int interface3(work3d_t* W, const state3d_t* X, const int* el, const double* xi,
   /* the span's displacements at every DOF: the predictor and the response to the contact loads */
   if (!full) {
     element_loads(W, W->lam, hh);
-    full_span(W, hh, W->uk);
+    full_span(W, hh, 0, W->uk);
   }
   return S3_OK;
 }

@@ -27,6 +27,33 @@ void band_solve3(const double* L, int n, int p, double* b) {
   }
 }
 
+/* band_solve3 of two right-hand sides at once (the same operations on each) */
+void band_solve3_2(const double* L, int n, int p, double* b, double* b2) {
+  int j, r;
+  for (j = 0; j < n; ++j) {
+    const double* c = L + (long)j * (p + 1);
+    double x = b[j] * c[0], x2 = b2[j] * c[0];
+    int m = (j + p < n) ? p : n - 1 - j;
+    b[j] = x;
+    b2[j] = x2;
+    for (r = 1; r <= m; ++r) {
+      b[j + r] -= c[r] * x;
+      b2[j + r] -= c[r] * x2;
+    }
+  }
+  for (j = n - 1; j >= 0; --j) {
+    const double* c = L + (long)j * (p + 1);
+    double s = b[j], s2 = b2[j];
+    int m = (j + p < n) ? p : n - 1 - j;
+    for (r = 1; r <= m; ++r) {
+      s -= c[r] * b[j + r];
+      s2 -= c[r] * b2[j + r];
+    }
+    b[j] = s * c[0];
+    b2[j] = s2 * c[0];
+  }
+}
+
 /* A x = b (A n x n row-major, overwritten by its factors; b by x). S3_SINGULAR on a zero pivot.
  * Gaussian elimination with partial pivoting (numpy.linalg.solve's), skipping exact zeros: each
  * row's last nonzero column is followed, so a matrix whose rows end early (the interface in track

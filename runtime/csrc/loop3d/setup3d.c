@@ -80,7 +80,7 @@ void w3_carve(const setup3d_t* S, work3d_t* W, double* work, int* iwork, long* n
   W->uk = take_d(&d, nB, &cd);
   W->udk = take_d(&d, nB, &cd);
   W->uddk = take_d(&d, nB, &cd);
-  W->bw = take_d(&d, nF, &cd);
+  W->bw = take_d(&d, 2 * nF, &cd);
   W->tF = take_d(&d, nF, &cd);
   W->tB = take_d(&d, nB, &cd);
   W->fidx = take_i(&i, nW * 12, &ci);
@@ -95,6 +95,7 @@ void w3_carve(const setup3d_t* S, work3d_t* W, double* work, int* iwork, long* n
   W->act_of = take_i(&i, nC, &ci);
   W->plist = take_i(&i, nW * nW, &ci);
   W->pstart = take_i(&i, nW + 1, &ci);
+  W->seen = take_i(&i, nW + 1, &ci);
   W->ncon = take_i(&i, nW, &ci);
   W->con = take_i(&i, 4 * nW, &ci);
   W->nng = take_i(&i, nW, &ci);
