@@ -80,7 +80,7 @@ int iterate_rows3(work3d_t* W, const state3d_t* X, const double* uc, const doubl
 }
 
 /* h_w = G_B,w^T lam_w (12 per wheelset): the contact forces' load on the element */
-__attribute__((noinline)) static void element_loads(const work3d_t* W, const double* lam, double* h) {
+static void element_loads(const work3d_t* W, const double* lam, double* h) {
   int w, j, k;
   for (w = 0; w < W->S->nW; ++w)
     for (j = 0; j < 12; ++j) {
@@ -93,7 +93,7 @@ __attribute__((noinline)) static void element_loads(const work3d_t* W, const dou
 /* the span's responses to element loads h (into W->tF: free DOFs) and, with h2, to h2 (into
  * W->tB's first nF: both right-hand sides in one pass of the band solve); u = predictor + the
  * first (all DOFs; the held ones as set) */
-__attribute__((noinline)) static void full_span(work3d_t* W, const double* h, const double* h2, double* u) {
+static void full_span(work3d_t* W, const double* h, const double* h2, double* u) {
   const setup3d_t* S = W->S;
   int w, j, i;
   memset(W->tF, 0, sizeof(double) * (size_t)S->nF);
@@ -127,7 +127,7 @@ static int span_coupled(const work3d_t* W, int a, int b) {
  * element changes: the workspace keeps them from step to step; sel holds element + 1, 0 none), and
  * the list of coupled pairs; nothing to do while every wheelset is on the elements of the last
  * call (seen: 1 once set, then element + 2 of each wheelset). */
-__attribute__((noinline)) static void couple(work3d_t* W) {
+static void couple(work3d_t* W) {
   const setup3d_t* S = W->S;
   const int nW = S->nW, nF = S->nF;
   int w, v, i, j, np = 0;
@@ -163,7 +163,7 @@ __attribute__((noinline)) static void couple(work3d_t* W) {
 /* Each wheelset's active constraints at the iterate and the nonzeros of their gradients and rows
  * at the element's free DOFs (compact: the interface's blocks and the span's response run over
  * these only; the entries left out multiply the compliance's zeros or are zero themselves). */
-__attribute__((noinline)) static void compact(work3d_t* W) {
+static void compact(work3d_t* W) {
   const setup3d_t* S = W->S;
   int w, l, m, j;
   for (w = 0; w < S->nW; ++w) {
@@ -199,7 +199,7 @@ __attribute__((noinline)) static void compact(work3d_t* W) {
 
 /* The interface matrix over the active constraints (na of them), by the coupled pairs: the block
  * of rows of w and columns of v is J_w A_V,wv G_v^T (same car) + J_w S_wv G_v^T (same part). */
-__attribute__((noinline)) static void assemble(work3d_t* W, int na) {
+static void assemble(work3d_t* W, int na) {
   const setup3d_t* S = W->S;
   const int nW = S->nW;
   int p, w, i, j, r, m;
@@ -262,7 +262,7 @@ __attribute__((noinline)) static void assemble(work3d_t* W, int na) {
 
 /* The span's displacements at the contact elements' free DOFs under the element loads h (the
  * predictor's plus the compliance blocks' response) into ucn; the largest change and size. */
-__attribute__((noinline)) static void contact_response(work3d_t* W, const double* h, double* change, double* size) {
+static void contact_response(work3d_t* W, const double* h, double* change, double* size) {
   const setup3d_t* S = W->S;
   const int nW = S->nW;
   int w, i, j, l;
