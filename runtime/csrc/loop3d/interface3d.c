@@ -7,9 +7,12 @@
  *
  * until the update is round-off (coupled3d.Convergence). Only what the interface needs is formed:
  * the 4 x 4 blocks of two wheelsets of the same car (A_V) or on the same part of the structure (the
- * compliance S between their elements' DOFs, gathered when an element changes), over the active
- * constraints; the span's displacements are followed at the contact elements' DOFs during the
- * iteration. The convergence rule's update is measured at the vehicle's DOFs and the contact
+ * compliance S between their elements' DOFs, gathered when an element changes), over a list of the
+ * coupled pairs and, in each block, the active constraints and the element DOFs where their rows
+ * and gradients are not zero (couple, compact, assemble); it is solved by lu_solve3, which follows
+ * the rows' profile (a band: the wheelsets are numbered along the train). The span's
+ * displacements are followed at the contact elements' DOFs during the iteration (contact_response:
+ * the blocks S_wk of the pair as they are, S being the NumPy step's inverse, not exactly symmetric). The convergence rule's update is measured at the vehicle's DOFs and the contact
  * elements' span DOFs; when it is met there, the new iterate is solved at every span DOF (a band
  * solve) and the rule is taken again over every DOF, as the NumPy step takes it.
  */
