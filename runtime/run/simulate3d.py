@@ -448,6 +448,7 @@ class _Recorder3D:
             "carbody_az": np.zeros((rows, c)),
             "carbody_pitch": np.zeros((rows, c)),
             "normal_gap": np.zeros((rows, nw * 2)),
+            "wheel_uplift": np.zeros((rows, nw * 2)),
             "wheelset_position": np.zeros((rows, nw)),
             "pier_top_ux": np.zeros((rows, len(self.pier_u))),
             "deck_twist": np.zeros((rows, self.twist_dofs.size)),
@@ -534,6 +535,9 @@ class _Recorder3D:
                 if "theta" in body:
                     d["carbody_pitch"][o, c] = q[out, body["theta"]] - self.q_rigid[body["theta"]]
             d["normal_gap"][o] = chunk.gaps[out]
+            # a wheel off its rail: its normal gap is its height above the rail (0 in contact, as 2D)
+            tread = chunk.contact[out].reshape(m, -1, 4)[:, :, :2].reshape(m, -1)
+            d["wheel_uplift"][o] = np.where(tread, 0.0, np.maximum(chunk.gaps[out], 0.0))
             d["wheelset_position"][o] = self.start + sys_.speed * to[:, None] - self.offsets[None, :]
             gz, gx = self._lines("vertical", to), self._lines("longitudinal", to)
             d["midspan_uz_rel"][o] = d["midspan_uz"][o] - 0.5 * (gz[:, :-1] + gz[:, 1:])
@@ -657,6 +661,14 @@ class _Recorder3D:
                 at(
                     "m",
                     "normal gap between the wheel's cone and its rail (held at 0 by the contact constraint)",
+                ),
+            ),
+            "wheel_uplift": (
+                ("time", "car", "wheel", "side"),
+                d["wheel_uplift"].reshape(k, c, a, 2),
+                at(
+                    "m",
+                    "height of an airborne wheel's contact point above its rail, normal to it (0 in contact)",
                 ),
             ),
             "ground_uz": (

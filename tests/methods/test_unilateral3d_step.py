@@ -26,12 +26,13 @@ from scipy.linalg import eigh
 from scipy.optimize import brentq
 
 from svbi.codegen.topology3d import parse_topology3d
+from svbi.runtime.methods.chunk3d import SteppedChunks
 from svbi.runtime.methods.classic3d import CoupledClassic3D
 from svbi.runtime.methods.coupled3d import CoupledDynamic3D, State3D, static_state
 from svbi.runtime.methods.localized3d import LocalizedDynamic3D
 from svbi.runtime.model.creep_law import CreepParameters
 from svbi.runtime.model.span3d import Section3D, simply_supported_span
-from svbi.runtime.model.system3d import System3D, Track3D, vehicle3d
+from svbi.runtime.model.system3d import ContactKernel3D, System3D, Track3D, vehicle3d
 from tests.cases import SPRUNG_WHEELSET_3D
 
 GRAVITY = 9.81
@@ -332,3 +333,48 @@ def test_the_flange_sees_the_alignment_the_run_sets(car):
     stepper.kernels[0].irregularity = rough
     after = np.array(stepper.flange_gaps())
     assert after - before == pytest.approx([shift, -shift], abs=1e-15)
+
+
+@pytest.mark.parametrize("method", [LocalizedDynamic3D, CoupledDynamic3D])
+def test_a_landing_on_a_rough_rail_stops_the_wheels_on_it(car, method):
+    """A run sets the rail irregularities only on the step's contact kernels
+    (:class:`SteppedChunks`); the impact of a landing must stop the wheels on that rail. The car at
+    20 m/s on a rail of constant slope ``r_v' = 2e-4`` and curvature ``r_v'' = 1e-4 1/m`` (the rail
+    rises at ``v r_v' = 4 mm/s``), its wheelset pulled up for 40 steps: both wheels land at the same
+    step, after which the plastic impact's conditions hold, ``g' = 0`` and ``g'' = 0`` at the
+    landing wheels, here written out with the gap rates of contact kernels of the test's own that
+    see the rail (``g''`` the residual with ``c1 = c0 = 0``, ``g'`` that with ``c1 = 1`` less it).
+    Measured with the rail unseen by the impact: ``g' = -4.0e-3 m/s`` (the rail's rise) and ``g'' =
+    -0.040 m/s^2``; seen: below 1e-11."""
+    span = simply_supported_span(SECTION, LB, 4)
+    system = System3D(
+        car, span, Track3D(conicity=LAM, eccentricity=E_T, rail_height=H_T), speed=20.0, start=3.0
+    )
+    weight = -(car.F[car.index("z_body")] + car.F[car.index("z_ws")])
+    rough = np.array([0.0, 0.0, 0.0, 2e-4, 0.0, 0.0, 1e-4, 0.0, 0.0])
+    stepper = method(system, static_state(system), 1e-4)
+    chunks = SteppedChunks(stepper)
+    ws = system.vehicle.wheelsets[0]
+    le = span.length / span.n_elements
+    rates = [ContactKernel3D(ws, system.track, le, system.speed, c1, 0.0) for c1 in (0.0, 1.0)]
+    for kernel in rates:
+        kernel.irregularity = rough
+    landings = 0
+    for n in range(200):
+        system.load = body_load(car, pull=1.5 * weight if 100 <= n < 140 else 0.0)
+        before = stepper.state.contact[:2].copy()
+        chunks.advance(n, 1, rough[None, None, :], 1)
+        st = stepper.state
+        if (before | ~st.contact[:2]).all():
+            continue
+        landings += 1
+        assert st.contact[:2].all() and not before.any()  # both wheels at once
+        (e, xi), ground = system.contact_location(st.t)[0], system.ground_under(st.t)
+        z, zd, zdd = (
+            stepper.asm.z(0, e, a, b, g)
+            for a, b, g in zip((st.q, st.qd, st.qdd), (st.u, st.ud, st.udd), ground, strict=True)
+        )
+        gtt, gt1 = (kernel.residual(z, zd, zdd, xi) for kernel in rates)
+        assert np.abs(gt1 - gtt).max() < 1e-11  # g' (m/s)
+        assert np.abs(gtt).max() < 1e-9  # g'' (m/s^2)
+    assert landings == 1

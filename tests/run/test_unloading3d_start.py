@@ -96,3 +96,19 @@ def test_starting_at_speed_on_a_sloping_deck_unloads_the_wheel(topology: str) ->
     level = run(topology, -1.0)  # on the approach track: level rail, no transient
     assert np.abs(raw_unloading(level)).max() < 1e-9
     assert abs(level.attrs["peak_unloading_ratio"]) < 1e-9
+
+
+def test_a_lifted_wheel_reports_its_uplift(topology: str) -> None:
+    """``wheel_uplift`` of a 3D run, as the 2D one: the normal gap of a wheel off its rail (above
+    it), zero in contact; ``svbi metrics``' peak_uplift reads it, so ``svbi check`` can hold it
+    against the flange height (the start's lift-off of the case above, 29 steps in the air)."""
+    from svbi.runtime.study.metrics import compute_metrics
+
+    deck = run(topology, 3.0)
+    state = deck.contact_state.values
+    up, gap = deck.wheel_uplift.values, deck.normal_gap.values
+    assert (state == 0).any() and (up[state == 1] == 0.0).all()
+    assert np.array_equal(up[state == 0], np.maximum(gap[state == 0], 0.0))
+    assert up.max() > 1e-6  # m: the wheel flies
+    metrics = compute_metrics(deck)
+    assert float(metrics["peak_uplift"].max()) == up.max()
