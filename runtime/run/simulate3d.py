@@ -829,7 +829,12 @@ def simulate3d(
             level = run.irregularity_at((np.arange(n, n + k) + 1) * ss.time_step)
             cause: BaseException | None = None
             try:
-                chunk = chunks.advance(n, k, level, every)
+                # the C loop's chunk in its own buffers (recorded before the next call)
+                chunk = (
+                    chunks.advance(n, k, level, every, reuse=True)
+                    if backend == "c"
+                    else chunks.advance(n, k, level, every)
+                )
             except ChunkStopped as stop:  # record the steps finished before the failure
                 chunk, cause = stop.chunk, stop.cause
             stopped = getattr(chunks, "stopped", None)

@@ -409,6 +409,7 @@ class LocalizedDynamic3DC(_Step3D):
         self.work = np.zeros(max(nd.value, 1))
         self.iwork = np.zeros(max(ni.value, 1), dtype=np.int32)
         self.iterations = self.passes = 0
+        self._kept: dict[str, np.ndarray] | None = None
 
     def _bind_state(self) -> None:
         """The state's arrays, contiguous and owned, that the C loop updates in place."""
@@ -534,31 +535,49 @@ class LocalizedDynamic3DC(_Step3D):
         xi = np.where(on, xi, 0.0)
         return np.ascontiguousarray(element), _f64(xi)
 
-    def advance(self, n0: int, k: int, irregularity: np.ndarray, every: int) -> Chunk3D:
+    def _outputs(self, k: int, reuse: bool) -> dict[str, np.ndarray]:
+        """The chunk's output arrays for ``k`` steps: fresh, or (``reuse``) the first ``k`` rows of
+        the stepper's buffers (grown when ``k`` exceeds them)."""
+        nW, nV, nB = self.asm.nW, self.asm.nV, self.state.u.size
+
+        def fresh(rows: int) -> dict[str, np.ndarray]:
+            return {
+                "t": np.empty(rows),
+                "q": np.empty((rows, nV)),
+                "qd": np.empty((rows, nV)),
+                "qdd": np.empty((rows, nV)),
+                "u": np.empty((rows, nB)),
+                "ud": np.empty((rows, nB)),
+                "udd": np.empty((rows, nB)),
+                "P": np.empty((rows, 2 * nW)),
+                "flange": np.empty((rows, 2 * nW)),
+                "contact": np.empty((rows, PER_WHEELSET * nW), dtype=np.int32),
+                "creep": np.empty((rows, nW, 2, 3)),
+                "gaps": np.empty((rows, 2 * nW)),
+            }
+
+        if not reuse:
+            return fresh(k)
+        kept = self._kept
+        if kept is None or len(kept["t"]) < k:
+            kept = self._kept = fresh(k)
+        return {name: a[:k] for name, a in kept.items()}
+
+    def advance(self, n0: int, k: int, irregularity: np.ndarray, every: int, reuse: bool = False) -> Chunk3D:
         """Steps ``n0 .. n0 + k - 1`` (step ``n``: t_n to t_{n+1}); ``irregularity`` ``(k, wheelsets,
         9)`` under each wheelset at each t_{n+1}. The normal gaps are evaluated at the steps with
         ``(n + 1) % every == 0`` (NaN at the others). A chunk shorter than ``k`` means the loop
         stopped (:attr:`stopped` says why, at which step); the state is then that of the step that
-        failed (non-finite) or of the last good step's solve in progress (a failed solve)."""
-        nW, nV = self.asm.nW, self.asm.nV
-        nB = self.state.u.size
+        failed (non-finite) or of the last good step's solve in progress (a failed solve).
+
+        With ``reuse``, the chunk's arrays are the stepper's own, kept from call to call (the loop
+        then writes to memory already mapped, not to fresh pages): they hold this chunk until the
+        next ``advance`` with ``reuse`` overwrites them; a caller that keeps a chunk copies it."""
+        nW = self.asm.nW
         irregularity = _f64(np.broadcast_to(irregularity, (k, nW, NIRREGULARITY)))
         ex = self.excitation(n0, k, irregularity)
         self._load[:] = self.system.vehicle_load()
-        out = {
-            "t": np.empty(k),
-            "q": np.empty((k, nV)),
-            "qd": np.empty((k, nV)),
-            "qdd": np.empty((k, nV)),
-            "u": np.empty((k, nB)),
-            "ud": np.empty((k, nB)),
-            "udd": np.empty((k, nB)),
-            "P": np.empty((k, 2 * nW)),
-            "flange": np.empty((k, 2 * nW)),
-            "contact": np.empty((k, PER_WHEELSET * nW), dtype=np.int32),
-            "creep": np.empty((k, nW, 2, 3)),
-            "gaps": np.empty((k, 2 * nW)),
-        }
+        out = self._outputs(k, reuse)
         C = CChunk3D()
         C.element, C.xi, C.irr = ex.element.ctypes.data, ex.xi.ctypes.data, ex.irregularity.ctypes.data
         C.ground = None if ex.ground is None else ex.ground.ctypes.data

@@ -7,9 +7,12 @@
  *
  * until the update is round-off (coupled3d.Convergence). Only what the interface needs is formed:
  * the 4 x 4 blocks of two wheelsets of the same car (A_V) or on the same part of the structure (the
- * compliance S between their elements' DOFs, gathered when an element changes), over the active
- * constraints; the span's displacements are followed at the contact elements' DOFs during the
- * iteration. The convergence rule's update is measured at the vehicle's DOFs and the contact
+ * compliance S between their elements' DOFs, gathered when an element changes), over a list of the
+ * coupled pairs and, in each block, the active constraints and the element DOFs where their rows
+ * and gradients are not zero (couple, compact, assemble); it is solved by lu_solve3, which follows
+ * the rows' profile (a band: the wheelsets are numbered along the train). The span's
+ * displacements are followed at the contact elements' DOFs during the iteration (contact_response:
+ * the blocks S_wk of the pair as they are, S being the NumPy step's inverse, not exactly symmetric). The convergence rule's update is measured at the vehicle's DOFs and the contact
  * elements' span DOFs; when it is met there, the new iterate is solved at every span DOF (a band
  * solve) and the rule is taken again over every DOF, as the NumPy step takes it.
  */
@@ -90,20 +93,26 @@ static void element_loads(const work3d_t* W, const double* lam, double* h) {
     }
 }
 
-/* the span's response to element loads h into W->tF (free DOFs); with u, u = predictor + it (all
- * DOFs; the held ones as set) */
-static void full_span(work3d_t* W, const double* h, double* u) {
+/* the span's responses to element loads h (into W->tF: free DOFs) and, with h2, to h2 (into
+ * W->tB's first nF: both right-hand sides in one pass of the band solve); u = predictor + the
+ * first (all DOFs; the held ones as set) */
+static void full_span(work3d_t* W, const double* h, const double* h2, double* u) {
   const setup3d_t* S = W->S;
   int w, j, i;
   memset(W->tF, 0, sizeof(double) * (size_t)S->nF);
+  if (h2) memset(W->tB, 0, sizeof(double) * (size_t)S->nF);
   for (w = 0; w < S->nW; ++w)
     for (j = 0; j < 12; ++j) {
       int f = W->fidx[12 * w + j];
-      if (f >= 0) W->tF[f] += h[12 * w + j];
+      if (f < 0) continue;
+      W->tF[f] += h[12 * w + j];
+      if (h2) W->tB[f] += h2[12 * w + j];
     }
-  span_solve3(W, W->tF);
-  if (u == W->uk)
-    for (i = 0; i < S->nF; ++i) W->uk[S->free_dofs[i]] = W->uf0[i] + W->tF[i];
+  if (h2)
+    span_solve3_2(W, W->tF, W->tB);
+  else
+    span_solve3(W, W->tF);
+  for (i = 0; i < S->nF; ++i) u[S->free_dofs[i]] = W->uf0[i] + W->tF[i];
 }
 
 static int span_coupled(const work3d_t* W, int a, int b) {
@@ -118,16 +127,25 @@ static int span_coupled(const work3d_t* W, int a, int b) {
 }
 
 /* The couplings of the step's wheelsets and the S blocks between their elements (gathered when an
- * element changes: the workspace keeps them from step to step; sel holds element + 1, 0 none). */
+ * element changes: the workspace keeps them from step to step; sel holds element + 1, 0 none), and
+ * the list of coupled pairs; nothing to do while every wheelset is on the elements of the last
+ * call (seen: 1 once set, then element + 2 of each wheelset). */
 static void couple(work3d_t* W) {
   const setup3d_t* S = W->S;
   const int nW = S->nW, nF = S->nF;
-  int w, v, i, j;
-  for (w = 0; w < nW; ++w)
+  int w, v, i, j, np = 0;
+  for (w = 0; w < nW && W->seen[1 + w] == W->ondeck[w] + 2; ++w) {
+  }
+  if (w == nW && W->seen[0]) return; /* the elements of the last call: its couplings and blocks */
+  for (w = 0; w < nW; ++w) W->seen[1 + w] = W->ondeck[w] + 2;
+  W->seen[0] = 1;
+  for (w = 0; w < nW; ++w) {
+    W->pstart[w] = np;
     for (v = 0; v < nW; ++v) {
       int flag = (S->ws_blk[w] == S->ws_blk[v]) | (span_coupled(W, w, v) << 1);
       int* sel = W->sel + 2 * (w * nW + v);
       W->pair[w * nW + v] = flag;
+      if (flag) W->plist[np++] = w * nW + v;
       if ((flag & 2) && (sel[0] != W->ondeck[w] + 1 || sel[1] != W->ondeck[v] + 1)) {
         double* B = W->Sblk + 144 * (w * nW + v);
         for (i = 0; i < 12; ++i) {
@@ -141,6 +159,144 @@ static void couple(work3d_t* W) {
         sel[1] = W->ondeck[v] + 1;
       }
     }
+  }
+  W->pstart[nW] = np;
+}
+
+/* Each wheelset's active constraints at the iterate and the nonzeros of their gradients and rows
+ * at the element's free DOFs (compact: the interface's blocks and the span's response run over
+ * these only; the entries left out multiply the compliance's zeros or are zero themselves). */
+static void compact(work3d_t* W) {
+  const setup3d_t* S = W->S;
+  int w, l, m, j;
+  for (w = 0; w < S->nW; ++w) {
+    int n = 0, ng = 0, nr = 0;
+    int* c = W->con + 4 * w;
+    for (l = 0; l < 4; ++l)
+      if (W->act_of[4 * w + l] >= 0) c[n++] = l;
+    W->ncon[w] = n;
+    if (!n) continue;
+    for (j = 0; j < 12; ++j) {
+      int gz = 0, rz = 0;
+      if (W->fidx[12 * w + j] < 0) continue;
+      for (m = 0; m < n; ++m) {
+        int ia = 4 * w + c[m];
+        const double* ra = W->landing[ia] ? W->grad + ia * NZ3 : W->jac + ia * NZ3;
+        gz |= W->grad[ia * NZ3 + 4 + j] != 0.0;
+        rz |= ra[4 + j] != 0.0;
+      }
+      if (gz) W->nzg[12 * w + ng++] = j;
+      if (rz) W->nzr[12 * w + nr++] = j;
+    }
+    W->nng[w] = ng;
+    W->nnr[w] = nr;
+    for (m = 0; m < n; ++m) {
+      int ia = 4 * w + c[m];
+      const double* ra = W->landing[ia] ? W->grad + ia * NZ3 : W->jac + ia * NZ3;
+      for (j = 0; j < ng; ++j) W->gc[48 * w + 12 * m + j] = W->grad[ia * NZ3 + 4 + W->nzg[12 * w + j]];
+      for (j = 0; j < nr; ++j) W->rc[48 * w + 12 * m + j] = ra[4 + W->nzr[12 * w + j]];
+      for (j = 0; j < 4; ++j) W->rv[16 * w + 4 * m + j] = ra[j];
+    }
+  }
+}
+
+/* The interface matrix over the active constraints (na of them), by the coupled pairs: the block
+ * of rows of w and columns of v is J_w A_V,wv G_v^T (same car) + J_w S_wv G_v^T (same part). */
+static void assemble(work3d_t* W, int na) {
+  const setup3d_t* S = W->S;
+  const int nW = S->nW;
+  int p, w, i, j, r, m;
+  memset(W->A, 0, sizeof(double) * (size_t)na * (size_t)na);
+  for (p = 0; p < W->pstart[nW]; ++p) {
+    const int wv = W->plist[p], w_ = wv / nW, v = wv % nW, flag = W->pair[wv];
+    const int nr = W->ncon[w_], nc = W->ncon[v];
+    double blk[16];
+    if (!nr || !nc) continue;
+    for (i = 0; i < 16; ++i) blk[i] = 0.0;
+    if (flag & 1) {
+      const int *dw = S->ws_dofs + 4 * w_, *dv = S->ws_dofs + 4 * v;
+      int b = S->ws_blk[w_], s0 = S->blk_start[b], nb = S->blk_start[b + 1] - s0;
+      const double* AB = S->AV + S->blk_off[b];
+      double T[16]; /* A_V,wv G_v,V^T: 4 x nc */
+      for (i = 0; i < 4; ++i)
+        for (m = 0; m < nc; ++m) {
+          const double* g = W->grad + (4 * v + W->con[4 * v + m]) * NZ3;
+          double s = 0.0;
+          for (j = 0; j < 4; ++j) s += AB[(long)(dw[i] - s0) * nb + (dv[j] - s0)] * g[j];
+          T[4 * i + m] = s;
+        }
+      for (r = 0; r < nr; ++r) {
+        const double* ra = W->rv + 16 * w_ + 4 * r;
+        for (m = 0; m < nc; ++m) {
+          double s = 0.0;
+          for (i = 0; i < 4; ++i) s += ra[i] * T[4 * i + m];
+          blk[4 * r + m] = s;
+        }
+      }
+    }
+    if (flag & 2) {
+      const double* B = W->Sblk + 144 * (long)wv;
+      const int nzr = W->nnr[w_], nzg = W->nng[v];
+      const int *ir = W->nzr + 12 * w_, *jg = W->nzg + 12 * v;
+      for (r = 0; r < nr; ++r) {
+        const double* rr = W->rc + 48 * w_ + 12 * r;
+        double y[12]; /* J_w,B S_wv: whole rows of the block (contiguous: vector operations) */
+        for (j = 0; j < 12; ++j) y[j] = 0.0;
+        for (i = 0; i < nzr; ++i) {
+          const double* Bi = B + 12 * ir[i];
+          const double a = rr[i];
+          for (j = 0; j < 12; ++j) y[j] += a * Bi[j];
+        }
+        for (m = 0; m < nc; ++m) {
+          const double* gg = W->gc + 48 * v + 12 * m;
+          double s = 0.0;
+          for (j = 0; j < nzg; ++j) s += y[jg[j]] * gg[j];
+          blk[4 * r + m] += s;
+        }
+      }
+    }
+    for (r = 0; r < nr; ++r) {
+      double* row = W->A + (long)W->act_of[4 * w_ + W->con[4 * w_ + r]] * na;
+      for (m = 0; m < nc; ++m) row[W->act_of[4 * v + W->con[4 * v + m]]] = blk[4 * r + m];
+    }
+  }
+  (void)w;
+}
+
+/* The span's displacements at the contact elements' free DOFs under the element loads h (the
+ * predictor's plus the compliance blocks' response) into ucn; the largest change and size. */
+static void contact_response(work3d_t* W, const double* h, double* change, double* size) {
+  const setup3d_t* S = W->S;
+  const int nW = S->nW;
+  int w, i, j, l;
+  for (w = 0; w < nW; ++w) {
+    double un[12];
+    if (W->ondeck[w] < 0) continue;
+    for (i = 0; i < 12; ++i) un[i] = W->uc0[12 * w + i];
+    for (l = W->pstart[w]; l < W->pstart[w + 1]; ++l) {
+      const int k = W->plist[l] - w * nW;
+      const double* B = W->Sblk + 144 * (long)W->plist[l];
+      const double* hk = h + 12 * k;
+      const int* jg = W->nzg + 12 * k;
+      const int ng = W->nng[k];
+      double acc[12];
+      if (!(W->pair[W->plist[l]] & 2) || !W->ncon[k]) continue;
+      for (i = 0; i < 12; ++i) acc[i] = 0.0;
+      for (j = 0; j < ng; ++j) { /* twelve independent sums (each in the order of j) */
+        const double a = hk[jg[j]];
+        for (i = 0; i < 12; ++i) acc[i] += B[12 * i + jg[j]] * a;
+      }
+      for (i = 0; i < 12; ++i) un[i] += acc[i];
+    }
+    for (i = 0; i < 12; ++i) {
+      double d;
+      if (W->fidx[12 * w + i] < 0) continue;
+      d = fabs(un[i] - W->ucn[12 * w + i]);
+      if (d > *change) *change = d;
+      W->ucn[12 * w + i] = un[i];
+      if (fabs(un[i]) > *size) *size = fabs(un[i]);
+    }
+  }
 }
 
 int interface3(work3d_t* W, const state3d_t* X, const int* el, const double* xi, const double* irr) {
@@ -148,7 +304,7 @@ int interface3(work3d_t* W, const state3d_t* X, const int* el, const double* xi,
   const int nW = S->nW, nC = 4 * nW, nV = S->nV, nF = S->nF;
   double last = INFINITY, size0 = 0.0;
   double* hh = W->hw;
-  int i, j, a, k, l, w, na = 0, it, st, full = 0;
+  int i, j, a, k, w, na = 0, it, st, full = 0;
   (void)el;
   /* predictors */
   veh_mul3(S, S->AV, W->fV, W->dq0, 0);
@@ -198,61 +354,8 @@ int interface3(work3d_t* W, const state3d_t* X, const int* el, const double* xi,
         if (W->fidx[12 * wa + k] >= 0) r += ra[4 + k] * (W->ucn[12 * wa + k] - W->uc0[12 * wa + k]);
       W->rhs[a] = r;
     }
-    for (a = 0; a < na * na; ++a) W->A[a] = 0.0;
-    for (w = 0; w < nW; ++w) {
-      int v, rows = 0;
-      for (k = 0; k < 4; ++k) rows += W->act_of[4 * w + k] >= 0;
-      if (!rows) continue;
-      for (v = 0; v < nW; ++v) {
-        double T[NZ3 * 4]; /* C_wv G_v^T: 16 x 4 (the active columns) */
-        int flag = W->pair[w * nW + v], lc[4], nl = 0, m;
-        if (!flag) continue;
-        for (l = 0; l < 4; ++l)
-          if (W->act_of[4 * v + l] >= 0) lc[nl++] = l;
-        if (!nl) continue;
-        memset(T, 0, sizeof T);
-        if (flag & 1) {
-          const int *dw = S->ws_dofs + 4 * w, *dv = S->ws_dofs + 4 * v;
-          int blk = S->ws_blk[w], s0 = S->blk_start[blk], nb = S->blk_start[blk + 1] - s0;
-          const double* AB = S->AV + S->blk_off[blk];
-          for (i = 0; i < 4; ++i)
-            for (m = 0; m < nl; ++m) {
-              const double* g = W->grad + (4 * v + lc[m]) * NZ3;
-              double s = 0.0;
-              for (j = 0; j < 4; ++j) s += AB[(long)(dw[i] - s0) * nb + (dv[j] - s0)] * g[j];
-              T[i * 4 + lc[m]] = s;
-            }
-        }
-        if (flag & 2) {
-          const double* B = W->Sblk + 144 * (w * nW + v);
-          int nz[12], nj = 0;
-          for (j = 0; j < 12; ++j)
-            for (m = 0; m < nl; ++m)
-              if (W->grad[(4 * v + lc[m]) * NZ3 + 4 + j] != 0.0) {
-                nz[nj++] = j;
-                break;
-              }
-          for (i = 0; i < 12; ++i)
-            for (m = 0; m < nl; ++m) {
-              const double* g = W->grad + (4 * v + lc[m]) * NZ3 + 4;
-              double s = 0.0;
-              for (j = 0; j < nj; ++j) s += B[12 * i + nz[j]] * g[nz[j]];
-              T[(4 + i) * 4 + lc[m]] = s;
-            }
-        }
-        for (k = 0; k < 4; ++k) {
-          int ia = 4 * w + k, ra_ = W->act_of[ia];
-          const double* ra;
-          if (ra_ < 0) continue;
-          ra = W->landing[ia] ? W->grad + ia * NZ3 : W->jac + ia * NZ3;
-          for (m = 0; m < nl; ++m) {
-            double s = 0.0;
-            for (i = 0; i < NZ3; ++i) s += ra[i] * T[i * 4 + lc[m]];
-            W->A[(long)ra_ * na + W->act_of[4 * v + lc[m]]] = s;
-          }
-        }
-      }
-    }
+    compact(W);
+    assemble(W, na);
     if (na && lu_solve3(W->A, na, W->rhs, W->piv)) return S3_SINGULAR;
     for (i = 0; i < nC; ++i) W->lamn[i] = 0.0;
     for (a = 0; a < na; ++a) W->lamn[W->idx[a]] = W->rhs[a];
@@ -265,29 +368,7 @@ int interface3(work3d_t* W, const state3d_t* X, const int* el, const double* xi,
     veh_mul3(S, S->AV, W->gv, W->dqn, 1);
     element_loads(W, W->lamn, hh);
     size = 0.0;
-    for (w = 0; w < nW; ++w) {
-      double un[12];
-      if (W->ondeck[w] < 0) continue;
-      for (i = 0; i < 12; ++i) un[i] = W->uc0[12 * w + i];
-      for (k = 0; k < nW; ++k) {
-        const double* B = W->Sblk + 144 * (w * nW + k);
-        const double* hk = hh + 12 * k;
-        if (!(W->pair[w * nW + k] & 2)) continue;
-        for (i = 0; i < 12; ++i) {
-          double s = 0.0;
-          for (j = 0; j < 12; ++j) s += B[12 * i + j] * hk[j];
-          un[i] += s;
-        }
-      }
-      for (i = 0; i < 12; ++i) {
-        double d;
-        if (W->fidx[12 * w + i] < 0) continue;
-        d = fabs(un[i] - W->ucn[12 * w + i]);
-        if (d > change) change = d;
-        W->ucn[12 * w + i] = un[i];
-        if (fabs(un[i]) > size) size = fabs(un[i]);
-      }
-    }
+    contact_response(W, hh, &change, &size);
     for (i = 0; i < nV; ++i) {
       double d = fabs(W->dqn[i] - W->dq[i]), q = fabs(X->q[i] + W->dqn[i]);
       if (d > change) change = d;
@@ -301,11 +382,10 @@ int interface3(work3d_t* W, const state3d_t* X, const int* el, const double* xi,
       /* stopping by the contact DOFs: the rule again over every DOF of the span, as the NumPy step
        * (the new iterate in full by one band solve, its change from the last by another) */
       double cu = 0.0, su = 0.0;
-      full_span(W, hh, W->uk);
       for (w = 0; w < 12 * nW; ++w) W->hwp[w] = hh[w] - W->hwp[w];
-      full_span(W, W->hwp, 0);
+      full_span(W, hh, W->hwp, W->uk);
       for (i = 0; i < nF; ++i) {
-        if (fabs(W->tF[i]) > cu) cu = fabs(W->tF[i]);
+        if (fabs(W->tB[i]) > cu) cu = fabs(W->tB[i]);
       }
       for (i = 0; i < S->nB; ++i)
         if (fabs(W->uk[i]) > su) su = fabs(W->uk[i]);
@@ -328,7 +408,7 @@ int interface3(work3d_t* W, const state3d_t* X, const int* el, const double* xi,
   /* the span's displacements at every DOF: the predictor and the response to the contact loads */
   if (!full) {
     element_loads(W, W->lam, hh);
-    full_span(W, hh, W->uk);
+    full_span(W, hh, 0, W->uk);
   }
   return S3_OK;
 }

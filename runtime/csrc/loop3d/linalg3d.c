@@ -27,9 +27,46 @@ void band_solve3(const double* L, int n, int p, double* b) {
   }
 }
 
-/* A x = b (A n x n row-major, overwritten by its factors; b by x). S3_SINGULAR on a zero pivot. */
+/* band_solve3 of two right-hand sides at once (the same operations on each) */
+void band_solve3_2(const double* L, int n, int p, double* b, double* b2) {
+  int j, r;
+  for (j = 0; j < n; ++j) {
+    const double* c = L + (long)j * (p + 1);
+    double x = b[j] * c[0], x2 = b2[j] * c[0];
+    int m = (j + p < n) ? p : n - 1 - j;
+    b[j] = x;
+    b2[j] = x2;
+    for (r = 1; r <= m; ++r) {
+      b[j + r] -= c[r] * x;
+      b2[j + r] -= c[r] * x2;
+    }
+  }
+  for (j = n - 1; j >= 0; --j) {
+    const double* c = L + (long)j * (p + 1);
+    double s = b[j], s2 = b2[j];
+    int m = (j + p < n) ? p : n - 1 - j;
+    for (r = 1; r <= m; ++r) {
+      s -= c[r] * b[j + r];
+      s2 -= c[r] * b2[j + r];
+    }
+    b[j] = s * c[0];
+    b2[j] = s2 * c[0];
+  }
+}
+
+/* A x = b (A n x n row-major, overwritten by its factors; b by x). S3_SINGULAR on a zero pivot.
+ * Gaussian elimination with partial pivoting (numpy.linalg.solve's), skipping exact zeros: each
+ * row's last nonzero column is followed, so a matrix whose rows end early (the interface in track
+ * order: a band) costs its profile, not n^3; the arithmetic done is the dense elimination's. */
 int lu_solve3(double* A, int n, double* b, int* piv) {
   int i, j, k;
+  int last[n > 0 ? n : 1];
+  for (i = 0; i < n; ++i) {
+    const double* ri = A + (long)i * n;
+    for (j = n - 1; j > 0 && ri[j] == 0.0; --j) {
+    }
+    last[i] = j;
+  }
   for (k = 0; k < n; ++k) {
     int m = k;
     double big = fabs(A[(long)k * n + k]);
@@ -42,24 +79,30 @@ int lu_solve3(double* A, int n, double* b, int* piv) {
     if (big == 0.0) return S3_SINGULAR; /* a NaN goes on: the guard reports the state */
     if (m != k) {
       double t;
-      for (j = 0; j < n; ++j) {
+      int e = last[k] > last[m] ? last[k] : last[m];
+      for (j = 0; j <= e; ++j) { /* beyond e, zeros in both rows */
         t = A[(long)k * n + j];
         A[(long)k * n + j] = A[(long)m * n + j];
         A[(long)m * n + j] = t;
       }
+      j = last[k];
+      last[k] = last[m];
+      last[m] = j;
       t = b[k];
       b[k] = b[m];
       b[m] = t;
     }
     {
       const double* rk = A + (long)k * n;
+      const int e = last[k];
       double inv = 1.0 / rk[k];
       for (i = k + 1; i < n; ++i) {
         double* ri = A + (long)i * n;
         double f = ri[k] * inv;
         if (f == 0.0) continue;
         ri[k] = f;
-        for (j = k + 1; j < n; ++j) ri[j] -= f * rk[j];
+        for (j = k + 1; j <= e; ++j) ri[j] -= f * rk[j];
+        if (e > last[i]) last[i] = e;
         b[i] -= f * b[k];
       }
     }
@@ -67,7 +110,7 @@ int lu_solve3(double* A, int n, double* b, int* piv) {
   for (i = n - 1; i >= 0; --i) {
     const double* ri = A + (long)i * n;
     double s = b[i];
-    for (j = i + 1; j < n; ++j) s -= ri[j] * b[j];
+    for (j = i + 1; j <= last[i]; ++j) s -= ri[j] * b[j];
     b[i] = s / ri[i];
   }
   return S3_OK;

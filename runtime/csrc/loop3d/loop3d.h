@@ -134,6 +134,13 @@ typedef struct {
   int *pair, *sel, *act_of; /* nW x nW coupling (1: same car, 2: same structure), cached elements of
                              * each pair's S block, the active row of each constraint (-1) */
   double* Sblk;              /* nW x nW x 144: S between the elements of two wheelsets (0 at held DOFs) */
+  int *plist, *pstart; /* the coupled ordered pairs w nW + v (pair != 0), by w: [pstart[w], pstart[w + 1]) */
+  int* seen;           /* 1 + nW: the elements the couplings were found for (couple) */
+  /* of an iteration, per wheelset: its active constraints (ncon, 4 each), the element DOFs (free)
+   * where their gradients (nzg, 12 each) and their rows (nzr) are nonzero, and those entries (gc,
+   * rc: 4 x 12 each); rv the rows' vehicle part (4 x 4) */
+  int *ncon, *con, *nng, *nzg, *nnr, *nzr;
+  double *gc, *rc, *rv;
   double *hw, *hwp; /* nW x 12: the contact forces' loads on their elements, now and before */
   pivot3_t pv; /* pivoting of the active set */
   long iterations, passes;
@@ -156,6 +163,7 @@ int svbi3d_gaps(const setup3d_t* S, const state3d_t* X, const int* element, cons
 void w3_carve(const setup3d_t* S, work3d_t* W, double* work, int* iwork, long* nd, long* ni);
 /* linalg3d.c */
 void band_solve3(const double* L, int n, int p, double* b);
+void band_solve3_2(const double* L, int n, int p, double* b, double* b2);
 int lu_solve3(double* A, int n, double* b, int* piv);
 /* rows3d.c: kernel k (SVBI_CONTACT3D_K_*) at the wheelset's z = [q_w, u_e] (rates zd, zdd) */
 int kcall3(work3d_t* W, int k, int w, const double* z, const double* zd, const double* zdd, double xi,
@@ -172,6 +180,7 @@ void veh_mul3(const setup3d_t* S, const double* blocks, const double* x, double*
 /* span3d.c */
 void csr_mul3(int n, const int* ptr, const int* idx, const double* val, const double* x, double* y, int add);
 void span_solve3(work3d_t* W, double* bfree);
+void span_solve3_2(work3d_t* W, double* b, double* b2);
 void span_rates3(work3d_t* W, const double* u, double* ud, double* udd);
 /* interface3d.c */
 int iterate_rows3(work3d_t* W, const state3d_t* X, const double* uc, const double* xi, const double* irr,

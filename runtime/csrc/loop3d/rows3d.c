@@ -34,7 +34,8 @@ int kcall3(work3d_t* W, int k, int w, const double* z, const double* zd, const d
   for (o = 0; o < K->n_out; ++o) {
     const int* m = W->map + (k * 2 + o) * DENSE;
     const double* nz = W->nz + o * DENSE;
-    memset(out[o], 0, sizeof(double) * (size_t)W->mapr[k * 2 + o]);
+    if (W->mapn[k * 2 + o] < W->mapr[k * 2 + o]) /* a dense pattern writes every entry */
+      memset(out[o], 0, sizeof(double) * (size_t)W->mapr[k * 2 + o]);
     for (e = 0; e < W->mapn[k * 2 + o]; ++e) out[o][m[e]] = nz[e];
   }
   return S3_OK;

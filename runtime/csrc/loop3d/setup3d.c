@@ -80,7 +80,7 @@ void w3_carve(const setup3d_t* S, work3d_t* W, double* work, int* iwork, long* n
   W->uk = take_d(&d, nB, &cd);
   W->udk = take_d(&d, nB, &cd);
   W->uddk = take_d(&d, nB, &cd);
-  W->bw = take_d(&d, nF, &cd);
+  W->bw = take_d(&d, 2 * nF, &cd);
   W->tF = take_d(&d, nF, &cd);
   W->tB = take_d(&d, nB, &cd);
   W->fidx = take_i(&i, nW * 12, &ci);
@@ -93,6 +93,18 @@ void w3_carve(const setup3d_t* S, work3d_t* W, double* work, int* iwork, long* n
   W->pair = take_i(&i, nW * nW, &ci);
   W->sel = take_i(&i, 2 * nW * nW, &ci);
   W->act_of = take_i(&i, nC, &ci);
+  W->plist = take_i(&i, nW * nW, &ci);
+  W->pstart = take_i(&i, nW + 1, &ci);
+  W->seen = take_i(&i, nW + 1, &ci);
+  W->ncon = take_i(&i, nW, &ci);
+  W->con = take_i(&i, 4 * nW, &ci);
+  W->nng = take_i(&i, nW, &ci);
+  W->nzg = take_i(&i, 12 * nW, &ci);
+  W->nnr = take_i(&i, nW, &ci);
+  W->nzr = take_i(&i, 12 * nW, &ci);
+  W->gc = take_d(&d, 48 * nW, &cd);
+  W->rc = take_d(&d, 48 * nW, &cd);
+  W->rv = take_d(&d, 16 * nW, &cd);
   W->Sblk = take_d(&d, 144 * nW * nW, &cd);
   W->hw = take_d(&d, nW * 12, &cd);
   W->hwp = take_d(&d, nW * 12, &cd);

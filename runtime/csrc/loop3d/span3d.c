@@ -23,6 +23,23 @@ void span_solve3(work3d_t* W, double* b) {
   for (k = 0; k < S->nF; ++k) b[S->perm[k]] = W->bw[k];
 }
 
+/* b, b2 (free DOFs) <- K^_ff^-1 b, K^_ff^-1 b2: the two solves in one pass (each one's arithmetic
+ * as span_solve3's; two independent chains). b2 may not be W->bw. */
+void span_solve3_2(work3d_t* W, double* b, double* b2) {
+  const setup3d_t* S = W->S;
+  double* c2 = W->bw + S->nF;
+  int k;
+  for (k = 0; k < S->nF; ++k) {
+    W->bw[k] = b[S->perm[k]];
+    c2[k] = b2[S->perm[k]];
+  }
+  band_solve3_2(S->band, S->nF, S->p, W->bw, c2);
+  for (k = 0; k < S->nF; ++k) {
+    b[S->perm[k]] = W->bw[k];
+    b2[S->perm[k]] = c2[k];
+  }
+}
+
 /* ud = a1 u - QB, udd = a0 u - PB (full vectors), the supports' from their targets. */
 void span_rates3(work3d_t* W, const double* u, double* ud, double* udd) {
   const setup3d_t* S = W->S;
