@@ -23,6 +23,8 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
+import scipy.sparse as sps
+import scipy.sparse.linalg as spla
 
 from ..model.system import newmark_targets, support_hat
 from ..model.system3d import GROUND, ContactKernel3D, FlangeCreepKernel3D, System3D
@@ -258,12 +260,18 @@ def _static_newton(
     lam[~closed] = 0.0
     converged = Convergence()
     zero = np.zeros(16)
+    # the matrix is sparse (the vehicle's and the span's stiffness, 16 columns per contact): its
+    # constant blocks once as triplets, the contacts' entries per iteration, one sparse LU each
+    KV, KBs = sps.coo_matrix(veh.K), sps.coo_matrix(KB)
+    fixed_r = np.concatenate([KV.row, asm.oB + KBs.row])
+    fixed_c = np.concatenate([KV.col, asm.oB + KBs.col])
+    fixed_v = np.concatenate([KV.data, KBs.data])
     for _ in range(NEWTON_ITERATIONS):
-        A = np.zeros((asm.n, asm.n))
+        ar: list[np.ndarray] = [fixed_r]
+        ac: list[np.ndarray] = [fixed_c]
+        av: list[np.ndarray] = [fixed_v]
         R = np.zeros(asm.n)
-        A[: asm.nV, : asm.nV] = veh.K
         R[: asm.nV] = veh.K @ q - f
-        A[asm.oB : asm.oP, asm.oB : asm.oP] = KB
         R[asm.oB : asm.oP] = KB @ u[asm.free]
         if held is not None:
             R[asm.oB : asm.oP] += held
@@ -271,21 +279,41 @@ def _static_newton(
         for w, (e, xi) in enumerate(loc):
             cols = asm.columns(w, e)
             keep = cols >= 0
+            c = cols[keep]
             z = asm.z(w, e, q, u, ground)
             rows = _rows(kernels[w], z, zero, zero, xi, 0.0, 0.0)
             r = slice(PER_WHEELSET * w, PER_WHEELSET * (w + 1))
-            asm.add_forces(A, R, w, cols, lam[r], rows)
+            lw = lam[r]
+            g = rows.grad[:, keep]
+            # the constraint forces lam_k grad g_k (residual K x - f: they enter with -), the
+            # normal gaps' geometric stiffness, and the forces' columns (_Assembly.add_forces)
+            R[c] -= lw @ g
+            h = -(lw[0] * rows.hess[0] + lw[1] * rows.hess[1])[np.ix_(keep, keep)]
+            ar.append(np.repeat(c, c.size))
+            ac.append(np.tile(c, c.size))
+            av.append(h.ravel())
+            force_cols = asm.oP + PER_WHEELSET * w + np.arange(PER_WHEELSET)
+            ar.append(np.tile(c, PER_WHEELSET))
+            ac.append(np.repeat(force_cols, c.size))
+            av.append(-g.ravel())
             gaps[r] = rows.gap
             for k in range(PER_WHEELSET):
                 i = PER_WHEELSET * w + k
                 row = asm.oP + i
                 if closed[i]:
-                    A[row, cols[keep]] = rows.grad[k, keep]
+                    ar.append(np.full(c.size, row))
+                    ac.append(c)
+                    av.append(g[k])
                     R[row] = rows.gap[k]
                 else:
-                    A[row, row] = 1.0
+                    ar.append(np.array([row]))
+                    ac.append(np.array([row]))
+                    av.append(np.array([1.0]))
                     R[row] = lam[i]
-        dx = np.linalg.solve(A, -R)
+        A = sps.csc_matrix(
+            (np.concatenate(av), (np.concatenate(ar), np.concatenate(ac))), shape=(asm.n, asm.n)
+        )
+        dx = spla.splu(A).solve(-R)
         q += dx[: asm.nV]
         u[asm.free] += dx[asm.oB : asm.oP]
         lam += dx[asm.oP :]
