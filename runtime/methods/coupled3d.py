@@ -25,6 +25,7 @@ from dataclasses import dataclass
 import numpy as np
 import scipy.sparse as sps
 import scipy.sparse.linalg as spla
+from scipy.sparse.csgraph import connected_components
 
 from ..model.system import newmark_targets, support_hat
 from ..model.system3d import GROUND, ContactKernel3D, FlangeCreepKernel3D, System3D
@@ -334,6 +335,27 @@ def _support_values(system: System3D, t: float) -> tuple[np.ndarray, np.ndarray,
     return tuple(span.support_motion(m) for m in lines)  # type: ignore[return-value]
 
 
+def block_inverse(a: np.ndarray) -> np.ndarray:
+    """The dense inverse of ``a`` from the inverses of its decoupled blocks: the connected
+    components of its sparsity graph (a 3D vehicle's mass or stiffness splits into its cars, a deck
+    of simply supported spans into its spans and their decoupled axial, lateral, vertical and
+    torsional fields). The same inverse as ``np.linalg.inv(a)`` (its entries between blocks are
+    zero), to round-off, at the cost of the blocks."""
+    a = np.asarray(a, dtype=float)
+    n = a.shape[0]
+    count, label = connected_components(sps.csr_matrix(a != 0.0), directed=False)
+    if count <= 1:
+        return np.linalg.inv(a)
+    out = np.zeros((n, n))
+    order = np.argsort(label, kind="stable")
+    bounds = np.searchsorted(label[order], np.arange(count + 1))
+    for b in range(count):
+        idx = order[bounds[b] : bounds[b + 1]]
+        ix = np.ix_(idx, idx)
+        out[ix] = np.linalg.inv(a[ix])
+    return out
+
+
 class _Step3D:
     """What both 3D steps share: the Newmark set-up, the contact kernels, the histories and loads
     of a step (the creep loads of t_n included), the contact state (an LCP over every normal and
@@ -369,8 +391,8 @@ class _Step3D:
         self.scale = self.nm.a0 + self.c1 * self.nm.a1 + self.c0
         """``dE/dg_{n+1}``: a stabilised residual over this is a gap (m)."""
         f = self.asm.free
-        self.MV_inv = np.linalg.inv(veh.M)
-        self.MB_inv = np.linalg.inv(span.M[np.ix_(f, f)])
+        self.MV_inv = block_inverse(veh.M)
+        self.MB_inv = block_inverse(span.M[np.ix_(f, f)])
         nW, nC = self.asm.nW, self.asm.nC
         if state.flange is None:
             state.flange = np.zeros(2 * nW)
