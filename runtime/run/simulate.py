@@ -95,7 +95,12 @@ def simulate(
         from .simulate3d import simulate3d
 
         return simulate3d(
-            scenario, progress=progress, hold_train=hold_train, clock_start=t_start, variables=variables
+            scenario,
+            progress=progress,
+            hold_train=hold_train,
+            clock_start=t_start,
+            variables=variables,
+            import_ahead=import_ahead,
         )
     if model is None:
         model = build_model(scenario, hold_train=hold_train)
