@@ -318,6 +318,7 @@ def _static_newton(
         q += dx[: asm.nV]
         u[asm.free] += dx[asm.oB : asm.oP]
         lam += dx[asm.oP :]
+        lam[~closed] = 0.0  # the open constraints' rows, lam = 0: exact, not to the solve's round-off
         if converged(np.abs(dx[: asm.oP]).max(), max(np.abs(q).max(), np.abs(u).max())):
             for w, (e, xi) in enumerate(loc):
                 z = asm.z(w, e, q, u, ground)
