@@ -314,7 +314,11 @@ def _static_newton(
         A = sps.csc_matrix(
             (np.concatenate(av), (np.concatenate(ar), np.concatenate(ac))), shape=(asm.n, asm.n)
         )
-        dx = spla.splu(A).solve(-R)
+        try:
+            dx = spla.splu(A).solve(-R)
+        except RuntimeError:  # exactly singular: a DOF without static stiffness (a lone wheelset's
+            # yaw), which the dense LU's round-off pivot leaves where it is, as before
+            dx = np.linalg.solve(A.toarray(), -R)
         q += dx[: asm.nV]
         u[asm.free] += dx[asm.oB : asm.oP]
         lam += dx[asm.oP :]
