@@ -95,12 +95,7 @@ def simulate(
         from .simulate3d import simulate3d
 
         return simulate3d(
-            scenario,
-            progress=progress,
-            hold_train=hold_train,
-            clock_start=t_start,
-            variables=variables,
-            import_ahead=import_ahead,
+            scenario, progress=progress, hold_train=hold_train, clock_start=t_start, variables=variables
         )
     if model is None:
         model = build_model(scenario, hold_train=hold_train)

@@ -37,11 +37,9 @@ profile's onset ramp starts at the leading wheelset, so every wheel stands on le
 
 from __future__ import annotations
 
-import importlib.util
 import math
 import time
 import warnings
-from collections.abc import Sequence
 from dataclasses import dataclass
 from typing import TYPE_CHECKING, Any
 
@@ -787,16 +785,11 @@ def simulate3d(
     hold_train: bool = False,
     clock_start: float | None = None,
     variables: Any = None,
-    import_ahead: Sequence[str] = (),
 ) -> xr.Dataset:
     """Run a 3D scenario and return its results (docs/scenario.md, "Results of a 3D run").
 
     :class:`NotRun3D` (a ``ValueError``, one line) for what the 3D run cannot do yet, before anything
-    is built. ``variables`` keeps only those results variables. On the C loop, what the results
-    import (xarray, and dask.array where dask is installed) and ``import_ahead`` (``svbi run``: the
-    NetCDF writer's modules) are imported in a background thread while the loop runs
-    (:class:`~svbi.runtime.run.results.ImportAhead`), as a 2D run's compiled loop does."""
-    from .results import ImportAhead
+    is built. ``variables`` keeps only those results variables."""
     from .simulate import SimulationIncomplete, _Progress
 
     t_start = time.perf_counter() if clock_start is None else clock_start
@@ -815,10 +808,6 @@ def simulate3d(
     message = ""
     interrupted: KeyboardInterrupt | None = None
     t_loop = time.perf_counter()
-    ahead = None
-    if backend == "c":  # the C loop releases the GIL: the imports overlap it
-        after = ["xarray"] + (["dask.array"] if importlib.util.find_spec("dask") is not None else [])
-        ahead = ImportAhead(after, optional=import_ahead)
     try:
         n = 0
         while n < run.steps:
@@ -871,8 +860,6 @@ def simulate3d(
         t_end_loop = time.perf_counter()
         if bar is not None:
             bar.close()
-        if ahead is not None:
-            ahead.join()
     data = scenario.to_dict()
     data["solver"]["duration"] = run.steps * ss.time_step if ss.duration is None else ss.duration
     import tomli_w
