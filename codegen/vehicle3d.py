@@ -237,13 +237,15 @@ def vehicle3d_model_spec(model: VehicleModel3D) -> Any:
 
 
 def vehicle3d_data(model: VehicleModel3D) -> dict[str, Any]:
-    """Plain data of a 3D vehicle's module: names, defaults, DOFs, bodies and wheels."""
+    """Plain data of a 3D vehicle's module: names, defaults (and which parameters may be negative),
+    DOFs, bodies and wheels: what a run needs of the topology, without SymPy."""
     topo = model.topology
     return {
         "name": topo.name,
         "dimensions": 3,
         "description": topo.description,
         "parameters": tuple((p.name, p.value) for p in topo.parameters.values()),
+        "signed": tuple(p.name for p in topo.parameters.values() if p.signed),
         "parameter_vector": tuple(s.name for s in topo.symbols),
         "dof_names": tuple(q.name for q in model.dofs),
         "bodies": tuple((b.name, tuple(b.dofs)) for b in topo.bodies),

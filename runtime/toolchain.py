@@ -771,8 +771,9 @@ def python_module_3d(
 
 def load_topology3d(name_or_path: str | os.PathLike[str]) -> Any:
     """The parsed 3D topology (:class:`svbi.codegen.topology3d.Topology3D`) of a built-in 3D
-    vehicle's name or a 3D topology file: its parameters, for the checks and defaults of a 3D
-    scenario. Deferred: the parser brings SymPy (its expressions), so only 3D scenarios pay for it."""
+    vehicle's name or a 3D topology file. Deferred: the parser brings SymPy (its expressions); a 3D
+    scenario's checks and defaults take a built-in vehicle's parameters from its generated module
+    instead (:func:`svbi.runtime.model.system3d.vehicle_parameters3d`), a file's from here."""
     from ..codegen.topology3d import load_topology3d as load
 
     return load(name_or_path)

@@ -23,6 +23,9 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
+import scipy.sparse as sps
+import scipy.sparse.linalg as spla
+from scipy.sparse.csgraph import connected_components
 
 from ..model.system import newmark_targets, support_hat
 from ..model.system3d import GROUND, ContactKernel3D, FlangeCreepKernel3D, System3D
@@ -258,12 +261,18 @@ def _static_newton(
     lam[~closed] = 0.0
     converged = Convergence()
     zero = np.zeros(16)
+    # the matrix is sparse (the vehicle's and the span's stiffness, 16 columns per contact): its
+    # constant blocks once as triplets, the contacts' entries per iteration, one sparse LU each
+    KV, KBs = sps.coo_matrix(veh.K), sps.coo_matrix(KB)
+    fixed_r = np.concatenate([KV.row, asm.oB + KBs.row])
+    fixed_c = np.concatenate([KV.col, asm.oB + KBs.col])
+    fixed_v = np.concatenate([KV.data, KBs.data])
     for _ in range(NEWTON_ITERATIONS):
-        A = np.zeros((asm.n, asm.n))
+        ar: list[np.ndarray] = [fixed_r]
+        ac: list[np.ndarray] = [fixed_c]
+        av: list[np.ndarray] = [fixed_v]
         R = np.zeros(asm.n)
-        A[: asm.nV, : asm.nV] = veh.K
         R[: asm.nV] = veh.K @ q - f
-        A[asm.oB : asm.oP, asm.oB : asm.oP] = KB
         R[asm.oB : asm.oP] = KB @ u[asm.free]
         if held is not None:
             R[asm.oB : asm.oP] += held
@@ -271,24 +280,49 @@ def _static_newton(
         for w, (e, xi) in enumerate(loc):
             cols = asm.columns(w, e)
             keep = cols >= 0
+            c = cols[keep]
             z = asm.z(w, e, q, u, ground)
             rows = _rows(kernels[w], z, zero, zero, xi, 0.0, 0.0)
             r = slice(PER_WHEELSET * w, PER_WHEELSET * (w + 1))
-            asm.add_forces(A, R, w, cols, lam[r], rows)
+            lw = lam[r]
+            g = rows.grad[:, keep]
+            # the constraint forces lam_k grad g_k (residual K x - f: they enter with -), the
+            # normal gaps' geometric stiffness, and the forces' columns (_Assembly.add_forces)
+            R[c] -= lw @ g
+            h = -(lw[0] * rows.hess[0] + lw[1] * rows.hess[1])[np.ix_(keep, keep)]
+            ar.append(np.repeat(c, c.size))
+            ac.append(np.tile(c, c.size))
+            av.append(h.ravel())
+            force_cols = asm.oP + PER_WHEELSET * w + np.arange(PER_WHEELSET)
+            ar.append(np.tile(c, PER_WHEELSET))
+            ac.append(np.repeat(force_cols, c.size))
+            av.append(-g.ravel())
             gaps[r] = rows.gap
             for k in range(PER_WHEELSET):
                 i = PER_WHEELSET * w + k
                 row = asm.oP + i
                 if closed[i]:
-                    A[row, cols[keep]] = rows.grad[k, keep]
+                    ar.append(np.full(c.size, row))
+                    ac.append(c)
+                    av.append(g[k])
                     R[row] = rows.gap[k]
                 else:
-                    A[row, row] = 1.0
+                    ar.append(np.array([row]))
+                    ac.append(np.array([row]))
+                    av.append(np.array([1.0]))
                     R[row] = lam[i]
-        dx = np.linalg.solve(A, -R)
+        A = sps.csc_matrix(
+            (np.concatenate(av), (np.concatenate(ar), np.concatenate(ac))), shape=(asm.n, asm.n)
+        )
+        try:
+            dx = spla.splu(A).solve(-R)
+        except RuntimeError:  # exactly singular: a DOF without static stiffness (a lone wheelset's
+            # yaw), which the dense LU's round-off pivot leaves where it is, as before
+            dx = np.linalg.solve(A.toarray(), -R)
         q += dx[: asm.nV]
         u[asm.free] += dx[asm.oB : asm.oP]
         lam += dx[asm.oP :]
+        lam[~closed] = 0.0  # the open constraints' rows, lam = 0: exact, not to the solve's round-off
         if converged(np.abs(dx[: asm.oP]).max(), max(np.abs(q).max(), np.abs(u).max())):
             for w, (e, xi) in enumerate(loc):
                 z = asm.z(w, e, q, u, ground)
@@ -304,6 +338,27 @@ def _support_values(system: System3D, t: float) -> tuple[np.ndarray, np.ndarray,
     span = system.span
     lines = system.ground_motion(t, np.asarray(span.line_x, dtype=float))
     return tuple(span.support_motion(m) for m in lines)  # type: ignore[return-value]
+
+
+def block_inverse(a: np.ndarray) -> np.ndarray:
+    """The dense inverse of ``a`` from the inverses of its decoupled blocks: the connected
+    components of its sparsity graph (a 3D vehicle's mass or stiffness splits into its cars, a deck
+    of simply supported spans into its spans and their decoupled axial, lateral, vertical and
+    torsional fields). The same inverse as ``np.linalg.inv(a)`` (its entries between blocks are
+    zero), to round-off, at the cost of the blocks."""
+    a = np.asarray(a, dtype=float)
+    n = a.shape[0]
+    count, label = connected_components(sps.csr_matrix(a != 0.0), directed=False)
+    if count <= 1:
+        return np.linalg.inv(a)
+    out = np.zeros((n, n))
+    order = np.argsort(label, kind="stable")
+    bounds = np.searchsorted(label[order], np.arange(count + 1))
+    for b in range(count):
+        idx = order[bounds[b] : bounds[b + 1]]
+        ix = np.ix_(idx, idx)
+        out[ix] = np.linalg.inv(a[ix])
+    return out
 
 
 class _Step3D:
@@ -341,8 +396,8 @@ class _Step3D:
         self.scale = self.nm.a0 + self.c1 * self.nm.a1 + self.c0
         """``dE/dg_{n+1}``: a stabilised residual over this is a gap (m)."""
         f = self.asm.free
-        self.MV_inv = np.linalg.inv(veh.M)
-        self.MB_inv = np.linalg.inv(span.M[np.ix_(f, f)])
+        self.MV_inv = block_inverse(veh.M)
+        self.MB_inv = block_inverse(span.M[np.ix_(f, f)])
         nW, nC = self.asm.nW, self.asm.nC
         if state.flange is None:
             state.flange = np.zeros(2 * nW)

@@ -25,7 +25,7 @@ from __future__ import annotations
 import numpy as np
 
 from ..model.system3d import System3D
-from .coupled3d import NEWTON_ITERATIONS, PER_WHEELSET, Convergence, State3D, _Step3D
+from .coupled3d import NEWTON_ITERATIONS, PER_WHEELSET, Convergence, State3D, _Step3D, block_inverse
 
 
 class LocalizedDynamic3D(_Step3D):
@@ -44,9 +44,9 @@ class LocalizedDynamic3D(_Step3D):
     ) -> None:
         super().__init__(system, state, time_step, kappa, zeta, normal)
         span, veh, nm, f = system.span, system.vehicle, self.nm, self.asm.free
-        # the compliances, inverted once (small dense matrices, as the 2D stepper's vehicles)
-        self.A_V = np.linalg.inv(nm.effective(veh.K, veh.C, veh.M))
-        self.S_B = np.linalg.inv(nm.effective(span.K, self.CB, span.M)[np.ix_(f, f)])
+        # the compliances, inverted once (dense, as the 2D stepper's vehicles), block by decoupled block
+        self.A_V = block_inverse(nm.effective(veh.K, veh.C, veh.M))
+        self.S_B = block_inverse(nm.effective(span.K, self.CB, span.M)[np.ix_(f, f)])
 
     def _solve(
         self, t: float, loc: list, hist_V: tuple, hist_B: tuple, fV: np.ndarray, fB: np.ndarray

@@ -35,7 +35,8 @@ bridge (fitted to the first two vertical modes of the girder alone on rigid supp
 first two longitudinal sway modes of the pier), so the vertical plane is the 2D model's; the same
 ``alpha``, ``beta`` act on the lateral and torsional motion. Bearing springs carry no damping.
 
-Everything is dense: a prototype for bridges of a few spans.
+Dense matrices (a prototype for bridges of a few spans); the quasi-static field of the supports
+comes from one sparse factorization of the free DOFs' stiffness.
 """
 
 from __future__ import annotations
@@ -46,6 +47,8 @@ from dataclasses import dataclass
 
 import numpy as np
 import scipy.linalg as sla
+import scipy.sparse as sps
+import scipy.sparse.linalg as spla
 
 from .bridge import Bridge, Girder, Pier, Section
 from .kernels import FRAME3D, load
@@ -296,7 +299,9 @@ class Bridge3D:
         f, s = self.free, self.support_dofs
         T = np.zeros((n, len(s)))
         T[s, np.arange(len(s))] = 1.0
-        T[f] = -sla.solve(K[np.ix_(f, f)], K[np.ix_(f, s)], assume_a="sym")
+        # one sparse factorization of the free DOFs' stiffness (a banded matrix: the deck's and the
+        # piers' frame elements), as the 2D bridge's quasi-static field
+        T[f] = -spla.splu(sps.csc_matrix(K[np.ix_(f, f)])).solve(K[np.ix_(f, s)])
         self.T = T
         """Quasi-static field (``ndof x supports``) per unit motion of each support, the others held."""
         self.CT = C @ T

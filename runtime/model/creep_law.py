@@ -20,6 +20,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from functools import lru_cache
 from typing import Any
 
 import numpy as np
@@ -62,12 +63,14 @@ _C11_A_GT_B = np.array(  # rows g = b/a = 0.1 .. 1.0
 )
 
 
+@lru_cache(maxsize=256)
 def hertz_coefficients(curvature_x: float, curvature_y: float) -> tuple[float, float]:
     """Hertz coefficients (for the x semi-axis, for the y semi-axis) from the relative curvatures.
 
     With k = (short semi-axis)/(long semi-axis) and e² = 1 - k², Hertz's conditions are
     ``B/A = (E(e)/k² - K(e)) / (K(e) - E(e))`` (B the larger curvature), ``m³ = 2E(e)/(π k²)``,
     ``n³ = 2E(e) k/π``; the long semi-axis (coefficient m) lies along the smaller curvature.
+    Remembered per pair of curvatures (a 3D run's set-up asks for the same pair for every wheel).
     """
     if not (curvature_x > 0.0 and curvature_y > 0.0):
         raise ValueError(f"Hertz contact needs positive curvatures (got {curvature_x}, {curvature_y})")

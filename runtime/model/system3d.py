@@ -14,16 +14,18 @@ the cache of the 2D topology files), which takes SymPy at that first set-up only
 
 from __future__ import annotations
 
+import os
 import types
 from collections.abc import Mapping
 from dataclasses import dataclass, field, replace
+from functools import lru_cache
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
 from ...codegen.plain_types import TopologyError, builtin_topologies_3d
-from ..toolchain import python_module_3d
+from ..toolchain import load_topology3d, python_module_3d
 from .creep_law import CreepParameters
 from .ground import seen_moving
 from .kalker3d import kalker_coefficients
@@ -102,6 +104,59 @@ def _vehicle_module(topology: Any) -> types.ModuleType:
             f"{topology!r} is not a 3D vehicle name, a topology file or a parsed topology with its text"
         )
     return load_path(python_module_3d(text=text, source=getattr(topology, "source", "<string>")))
+
+
+@dataclass(frozen=True)
+class VehicleParameter3D:
+    """A 3D vehicle's parameter as a scenario's checks and defaults see it."""
+
+    value: float | tuple[float, ...]
+    """The default: a number or a list (a bump stop's table)."""
+    signed: bool
+    """Whether it may be negative."""
+
+
+@dataclass(frozen=True)
+class VehicleParameters3D:
+    """A 3D vehicle's name and its parameters (defaults, sign), by name in file order."""
+
+    name: str
+    parameters: dict[str, VehicleParameter3D]
+
+
+def vehicle_parameters3d(name_or_path: str | Path) -> VehicleParameters3D:
+    """The parameters of a built-in 3D vehicle's name or a 3D topology file, for the checks and
+    defaults of a 3D scenario. A built-in vehicle's come from its generated module's ``DATA`` (no
+    SymPy); a file is parsed and validated (:func:`svbi.runtime.toolchain.load_topology3d`, which
+    imports SymPy), once per process while the file is unchanged. ``TopologyError`` (key
+    ``vehicle``) for a name that is neither."""
+    ref = str(name_or_path)
+    if ref in builtin_topologies_3d():
+        data = load(ref).DATA
+        signed = set(data["signed"])
+        return VehicleParameters3D(
+            str(data["name"]),
+            {n: VehicleParameter3D(v, n in signed) for n, v in data["parameters"]},
+        )
+    if not os.path.lexists(ref):
+        known = ", ".join(builtin_topologies_3d())
+        raise TopologyError(ref, "vehicle", f"not a built-in 3D vehicle ({known}) and no such file")
+    try:
+        st = os.stat(ref)
+        stamp: tuple[int, int, int] = (st.st_ino, st.st_size, st.st_mtime_ns)
+    except OSError:
+        stamp = (0, 0, 0)
+    return _file_parameters3d(os.path.abspath(ref), ref, stamp)
+
+
+@lru_cache(maxsize=16)
+def _file_parameters3d(path: str, ref: str, stamp: tuple[int, int, int]) -> VehicleParameters3D:
+    """:func:`vehicle_parameters3d` of a topology file, parsed once per ``(path, stamp)`` (a file
+    whose size, inode or modification time changes is parsed again; errors are not cached)."""
+    topo = load_topology3d(ref)  # SymPy: the parser's expressions
+    return VehicleParameters3D(
+        topo.name, {n: VehicleParameter3D(p.value, bool(p.signed)) for n, p in topo.parameters.items()}
+    )
 
 
 def vehicle3d(topology: Any, parameters: Mapping[str, float] | None = None) -> Vehicle3DNumeric:

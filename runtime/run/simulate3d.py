@@ -64,7 +64,7 @@ from ..methods.localized3d import LocalizedDynamic3D
 from ..model.bridge3d import Bridge3D
 from ..model.ground import Ground, ground_from_scenario
 from ..model.kernels import FRAME3D, load, load_broadcasting
-from ..model.system3d import GROUND, System3D, Track3D, Vehicle3DNumeric, vehicle3d
+from ..model.system3d import GROUND, System3D, Track3D, Vehicle3DNumeric, vehicle3d, vehicle_parameters3d
 from ..model.train3d import train3d
 from ..scenario.build import (
     IRREGULARITY_TABLE_DIVISIONS,
@@ -78,7 +78,6 @@ from ..scenario.build import (
 )
 from ..scenario.limits import vehicle_ref
 from ..scenario.schema import Scenario
-from ..toolchain import load_topology3d
 from .output import RunInterrupted, signal_name
 from .results3d import SIDE_SIGN, Histories3D, dataset3d
 
@@ -211,7 +210,7 @@ def build_run3d(scenario: Scenario, hold_train: bool = False) -> Run3D:
     where = scenario.source or ""
     ts, ss = scenario.train, scenario.solver
     ref = vehicle_ref(scenario)
-    topo = load_topology3d(ref)
+    topo = vehicle_parameters3d(ref)
     given = {k: float(v) for k, v in ts.parameters.items() if not isinstance(v, list)}  # type: ignore[arg-type]
     car = vehicle3d(ref, given)
     spacing = given.get("car_length", float(topo.parameters["car_length"].value))

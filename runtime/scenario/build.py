@@ -287,9 +287,9 @@ def track_geometry_3d(scenario: Scenario) -> TrackGeometry3D:
     """``[contact]`` conicity and flange clearance (given, else the vehicle's parameters of those
     names, else :data:`CONICITY_DEFAULT` and :data:`FLANGE_CLEARANCE_DEFAULT`), ``[bridge]``
     track eccentricity (default 0) and rail height."""
-    from ..toolchain import load_topology3d  # SymPy on call, for 3D scenarios only
+    from ..model.system3d import vehicle_parameters3d  # a built-in vehicle's generated DATA
 
-    params = load_topology3d(vehicle_ref(scenario)).parameters
+    params = vehicle_parameters3d(vehicle_ref(scenario)).parameters
     given = scenario.train.parameters
 
     def default(name: str, fallback: float) -> float:

@@ -775,13 +775,13 @@ def _keys_3d_in_2d(s: Scenario) -> Iterable[tuple[str, str]]:
 
 def _three_d_problems(s: Scenario) -> Iterable[tuple[str, str]]:
     """The checks of a 3D scenario: its vehicle topology and parameters, the 3D section keys."""
-    from ..toolchain import load_topology3d  # SymPy on call, for 3D scenarios only
+    from ..model.system3d import vehicle_parameters3d  # a built-in vehicle's generated DATA
 
     t, b = s.train, s.bridge
     if t.hslm is not None:
         yield "train.hslm", f"an HSLM train is a 2D moving load; train.vehicle {t.vehicle!r} is a 3D vehicle"
     try:
-        topo = load_topology3d(vehicle_ref(s))
+        topo = vehicle_parameters3d(vehicle_ref(s))
     except TopologyError as exc:
         yield "train.vehicle", exc.problem if exc.key == "vehicle" else str(exc)
         return
