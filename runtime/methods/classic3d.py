@@ -1,4 +1,4 @@
-"""coupled-classic in 3D (a prototype; docs/three-d.md, "The 3D time step (prototype)").
+"""coupled-classic in 3D (docs/three-d.md, "The 3D time step").
 
 The classic Lagrange-multiplier step of :mod:`svbi.runtime.methods.coupled_classic` for the 3D
 system of :mod:`svbi.runtime.methods.coupled3d`: every contact (the two normal gaps and the two

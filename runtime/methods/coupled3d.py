@@ -1,4 +1,4 @@
-"""coupled-dynamic in 3D (a prototype; docs/three-d.md, "The 3D time step (prototype)").
+"""coupled-dynamic in 3D (docs/three-d.md, "The 3D time step").
 
 The monolithic step of :mod:`svbi.runtime.methods.coupled_dynamic` for a 3D car on one 3D span
 (:class:`svbi.runtime.model.system3d.System3D`): the whole system's ``M``, ``C``, ``K`` with the two

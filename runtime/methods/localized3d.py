@@ -1,4 +1,4 @@
-"""localized-dynamic in 3D (a prototype; docs/three-d.md, "The 3D time step (prototype)").
+"""localized-dynamic in 3D (docs/three-d.md, "The 3D time step").
 
 The partitioned step of :mod:`svbi.runtime.methods.localized` for the system of
 :mod:`svbi.runtime.methods.coupled3d`: the vehicle and the span are solved apart, each with its own

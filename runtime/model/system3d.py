@@ -1,4 +1,4 @@
-"""Model glue of the 3D time step (a prototype; docs/three-d.md, "The 3D time step (prototype)").
+"""Model glue of the 3D time step (docs/three-d.md, "The 3D time step").
 
 A 3D vehicle (derived in :mod:`svbi.codegen.vehicle3d`) on one simply supported 3D span
 (:mod:`svbi.runtime.model.span3d`), each wheelset held on its two rails by the normal gaps of
