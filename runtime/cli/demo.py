@@ -23,7 +23,7 @@ import time
 import warnings
 from importlib import resources
 from pathlib import Path
-from typing import Annotated
+from typing import Annotated, Any
 
 import typer
 
@@ -102,11 +102,7 @@ def demo(
             typer.echo(f"error: {exc}", err=True)
             raise typer.Exit(2) from None
         typer.echo(f"{method}: {sc.title}")
-        with warnings.catch_warnings(record=True) as caught:
-            warnings.simplefilter("always")
-            ds = simulate(sc, progress=not quiet, clock_start=started)
-        echo_caught([w for w in caught if not issubclass(w.category, SimulationIncomplete)], "  ")
-        written = write_netcdf(ds, out / f"{method}.nc")
+        ds, written = _simulate(sc, quiet, started, out / f"{method}.nc", keep_incomplete=False)
         status = "" if ds.attrs.get("complete", 1) else f"  (stopped: {ds.attrs.get('incomplete', '')})"
         a = ds.attrs
         typer.echo(
@@ -129,6 +125,21 @@ def demo(
     typer.echo(f"\n{len(figures)} figures in {out / 'figures'}; summary in {out / 'summary.txt'}")
 
 
+def _simulate(
+    sc: Any, quiet: bool, started: float, path: Path, keep_incomplete: bool = True
+) -> tuple[Any, Path]:
+    """Run ``sc``, print the warnings it gave (a stopped run's own warning left out when
+    ``keep_incomplete`` is false: the summary line says it) and write its results to ``path``;
+    returns the results and the file written."""
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        ds = simulate(sc, progress=not quiet, clock_start=started)
+    if not keep_incomplete:
+        caught = [w for w in caught if not issubclass(w.category, SimulationIncomplete)]
+    echo_caught(caught, "  ")
+    return ds, write_netcdf(ds, path)
+
+
 def _strong_shaking(path: Path, overrides: list[str], backend: str | None, out: Path, quiet: bool) -> str:
     """The strong-shaking run (module docstring); returns its summary text."""
     # deferred: plots bring matplotlib (about 0.3 s), which only figures need
@@ -138,11 +149,7 @@ def _strong_shaking(path: Path, overrides: list[str], backend: str | None, out: 
     started = time.perf_counter()
     sc = load_scenario(path, overrides=[*overrides, *extra])
     typer.echo(f"{STRONG_NAME}: {sc.title}, unilateral contact, 2 g vertical synthetic record")
-    with warnings.catch_warnings(record=True) as caught:
-        warnings.simplefilter("always")
-        ds = simulate(sc, progress=not quiet, clock_start=started)
-    echo_caught(caught, "  ")
-    written = write_netcdf(ds, out / f"{STRONG_NAME}.nc")
+    ds, written = _simulate(sc, quiet, started, out / f"{STRONG_NAME}.nc")
     a = ds.attrs
     typer.echo(
         f"  {written}: {a['steps']} steps, loop {a['loop_time_s']:.2f} s; peak uplift "
@@ -164,11 +171,7 @@ def _three_d(backend: str | None, out: Path, quiet: bool, duration: float) -> st
     overrides = [f"solver.duration={duration}", *([f"solver.backend={backend}"] if backend else [])]
     sc = load_scenario(example_path(EXAMPLE_3D), overrides=overrides)
     typer.echo(f"{THREE_D_NAME}: {sc.title}, {1e3 * duration:g} ms")
-    with warnings.catch_warnings(record=True) as caught:
-        warnings.simplefilter("always")
-        ds = simulate(sc, progress=not quiet, clock_start=started)
-    echo_caught(caught, "  ")
-    written = write_netcdf(ds, out / f"{THREE_D_NAME}.nc")
+    ds, written = _simulate(sc, quiet, started, out / f"{THREE_D_NAME}.nc")
     a = ds.attrs
     typer.echo(
         f"  {written}: {a['steps']} steps, set-up {a['setup_time_s']:.2f} s, loop {a['loop_time_s']:.2f} s"
