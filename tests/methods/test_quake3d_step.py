@@ -11,6 +11,13 @@ time step (prototype)": support motion, approach track).
   the ground against the modal solution of the Euler-Bernoulli span, written here (lateral modes in
   closed form, each modal equation integrated by ``solve_ivp``);
 * localized = coupled with a three-component travelling wave, damping and a crossing.
+
+The crossing without an earthquake runs on the NumPy coupled-dynamic step; the crossings under an
+earthquake run on the compiled localized-dynamic loop (``LocalizedDynamic3DC``), 30 times faster:
+they check the same physics against the 2D run, the loop is the NumPy localized step to round-off
+with a three-component travelling earthquake and the approach track
+(tests/backends/test_loop3d_c.py, ``test_travelling_earthquake_and_the_approach_track``), and the
+localized step is the coupled one under such a wave (the last test here).
 """
 
 from __future__ import annotations
@@ -18,10 +25,12 @@ from __future__ import annotations
 import numpy as np
 import pytest
 from cases import SPRUNG_WHEELSET_3D
+from conftest import c_compiler_works
 from scipy.integrate import solve_ivp
 
 import svbi
 from svbi.codegen.topology3d import parse_topology3d
+from svbi.runtime.backends.c.stepper3d import LocalizedDynamic3DC
 from svbi.runtime.methods.coupled3d import CoupledDynamic3D, static_state
 from svbi.runtime.methods.localized3d import LocalizedDynamic3D
 from svbi.runtime.model.bridge import Girder, Section
@@ -145,8 +154,18 @@ QUAKES = {
 }
 
 
-@pytest.mark.parametrize("quake", list(QUAKES), ids=list(QUAKES))
-def test_crossing_from_the_approach_track_is_the_2d_run(quake) -> None:
+C_LOOP = pytest.mark.skipif(not c_compiler_works(), reason="no working C compiler")
+
+
+@pytest.mark.parametrize(
+    ("quake", "method"),
+    [
+        pytest.param("no-earthquake", CoupledDynamic3D, id="no-earthquake"),
+        pytest.param("synchronous", LocalizedDynamic3DC, id="synchronous-c-loop", marks=C_LOOP),
+        pytest.param("wave-300m/s", LocalizedDynamic3DC, id="wave-300m/s-c-loop", marks=C_LOOP),
+    ],
+)
+def test_crossing_from_the_approach_track_is_the_2d_run(quake, method) -> None:
     """The car starts 5 m before a chain of two 10 m spans (damped 2 %) and leaves it at the far end:
     the 3D step in the vertical plane is svbi's 2D run of the same case, ground motion included."""
     spans, start, steps = 2, -5.0, 520  # 1.04 s: 28.9 m, from x = -5 m to 23.9 m (wheelset)
@@ -155,7 +174,7 @@ def test_crossing_from_the_approach_track_is_the_2d_run(quake) -> None:
     if spec is not None:
         g3 = FunctionGround(**spec)
         g2 = FunctionGround(**spec)
-    w3, u3, P3, where, stepper = run3d(spans, start, steps, damping=0.02, ground=g3)
+    w3, u3, P3, where, stepper = run3d(spans, start, steps, damping=0.02, ground=g3, method=method)
     r2 = run2d(spans, start, steps, damping=0.02, ground=g2)
     w2 = np.asarray(r2.midspan_uz.values)[1:].reshape(steps, spans)
     u2 = np.asarray(r2.midspan_ux.values)[1:].reshape(steps, spans)
