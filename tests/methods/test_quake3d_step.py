@@ -235,6 +235,7 @@ def test_the_system_translates_with_a_ground_at_constant_velocity() -> None:
     assert abs(st.t * rate[1]) > 0.07  # it has moved 8 cm sideways
 
 
+@C_LOOP
 def test_lateral_relative_response_of_a_span_is_the_modal_solution() -> None:
     """A 10 m span (16 elements, undamped, ``I_z`` 0.05 m^4: first lateral mode 3.93 Hz) under a
     uniform lateral ground motion, the car on the approach track: the midspan's lateral
@@ -242,13 +243,15 @@ def test_lateral_relative_response_of_a_span_is_the_modal_solution() -> None:
     ``Y_n'' + omega_n^2 Y_n = -q_y''`` (odd modes ``sin(n pi x/L)``, ``Gamma_n = 4/(n pi)``,
     ``omega_n = (n pi/L)^2 sqrt(E I_z/mu)``), integrated by ``solve_ivp``. Tolerance 2e-3 of the
     peak: Newmark's period error ``(omega dt)^2/12`` on the first mode (5e-5 at dt = 1e-3 s) and the
-    higher modes' (3rd: 4e-3 on its 1/30 share), the discretisation's 1e-6."""
+    higher modes' (3rd: 4e-3 on its 1/30 share), the discretisation's 1e-6. On the compiled
+    localized loop (the NumPy localized step to round-off under a three-component earthquake,
+    tests/backends/test_loop3d_c.py, ``test_travelling_earthquake_and_the_approach_track``)."""
     Iz, dt, steps = 0.05, 1e-3, 500
     motion = bump(0.01, 2 * np.pi * 2.0)
     ground = FunctionGround(lateral=motion)
     b = bridge(1, 0.0, elements=16, lateral=Iz)
     system = System3D(car(), b, Track3D(conicity=LAM), speed=0.0, start=-50.0, ground=ground)
-    stepper = CoupledDynamic3D(system, static_state(system), dt)
+    stepper = LocalizedDynamic3DC(system, static_state(system), dt)
     mid = b.dof(b.midspan_node(0), "v")
     t = (np.arange(steps) + 1) * dt
     rel = []
