@@ -7,16 +7,26 @@ midspan deflection and every contact force agree to round-off; nothing moves lat
 
 Every wheelset starts on a support line: a car that starts on a deflected span starts from the
 static state with zero rates, which the 2D run and the 3D step do not take alike to round-off
-(docs/three-d.md, "What is left": consistent initial rates)."""
+(docs/three-d.md, "What is left": consistent initial rates).
+
+The one car runs on the NumPy coupled-dynamic step (the monolithic step over a joint). The train
+of two cars runs on the compiled localized-dynamic loop (``LocalizedDynamic3DC``): it checks the
+same physics, 80 times faster; the loop is the NumPy localized step to round-off for a train of
+two cars over a chain of spans (tests/backends/test_loop3d_c.py,
+``test_train_over_a_chain_with_irregularities_and_creep``), and the localized step is the coupled
+one on a chain of spans (tests/methods/test_quake3d_step.py,
+``test_localized_is_coupled_with_a_travelling_wave_and_a_crossing``)."""
 
 from __future__ import annotations
 
 import numpy as np
 import pytest
 from cases import SPRUNG_WHEELSET_3D
+from conftest import c_compiler_works
 
 import svbi
 from svbi.codegen.topology3d import parse_topology3d
+from svbi.runtime.backends.c.stepper3d import LocalizedDynamic3DC
 from svbi.runtime.methods.coupled3d import CoupledDynamic3D, static_state
 from svbi.runtime.model.bridge import Girder, Section
 from svbi.runtime.model.bridge3d import Bridge3D, section3d
@@ -33,15 +43,17 @@ LAM = 0.1
 COS = 1.0 / np.sqrt(1.0 + LAM**2)
 
 
-def run3d(spans: int, cars: int, start: float, steps: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+def run3d(
+    spans: int, cars: int, start: float, steps: int, method: type = CoupledDynamic3D
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Midspan deflections (steps x spans), normal forces (steps x 2 per wheelset) and the largest
-    lateral motion of deck and vehicle."""
+    lateral motion of deck and vehicle, stepped by ``method``."""
     car = vehicle3d(parse_topology3d(SPRUNG_WHEELSET_3D))
     vehicle = train3d([car] * cars, SPACING) if cars > 1 else car
     plane = Section(MU, E, 1.0, Iy, 0.0)
     bridge = Bridge3D([Girder((L,), plane)] * spans, ELEMENTS, [section3d(plane, 10.0, 5.0)] * spans)
     system = System3D(vehicle, bridge, Track3D(conicity=LAM), speed=V, start=start)
-    stepper = CoupledDynamic3D(system, static_state(system), DT)
+    stepper = method(system, static_state(system), DT)
     mids = [bridge.midspan_node(s) for s in range(spans)]
     lateral_dofs = [bridge.dof(n, d) for n in range(bridge.nodes) for d in ("v", "phi")]
     lateral_q = [
@@ -88,12 +100,22 @@ def run2d(spans: int, cars: int, start: float, steps: int):
 
 
 @pytest.mark.parametrize(
-    ("spans", "cars", "start", "steps"),
-    [(2, 1, 0.0, 250), (4, 2, SPACING, 250)],
-    ids=["one-car-over-a-joint", "two-cars-over-two-joints"],
+    ("spans", "cars", "start", "steps", "method"),
+    [
+        pytest.param(2, 1, 0.0, 250, CoupledDynamic3D, id="one-car-over-a-joint"),
+        pytest.param(
+            4,
+            2,
+            SPACING,
+            250,
+            LocalizedDynamic3DC,
+            id="two-cars-over-two-joints-c-loop",
+            marks=pytest.mark.skipif(not c_compiler_works(), reason="no working C compiler"),
+        ),
+    ],
 )
-def test_several_spans_in_the_vertical_plane_are_the_2d_run(spans, cars, start, steps) -> None:
-    w3, P3, lateral = run3d(spans, cars, start, steps)
+def test_several_spans_in_the_vertical_plane_are_the_2d_run(spans, cars, start, steps, method) -> None:
+    w3, P3, lateral = run3d(spans, cars, start, steps, method)
     r2 = run2d(spans, cars, start, steps)
     w2 = np.asarray(r2.midspan_uz.values)[1:].reshape(steps, spans)
     P2 = np.asarray(r2.contact_force.values).reshape(steps + 1, -1)[1:]
