@@ -195,7 +195,7 @@ def test_coupled_methods_on_a_general_bridge_fall_back_to_numpy_with_a_warning()
 def test_unequal_simply_supported_spans_without_links_in_c():
     """Three unequal simply supported spans on rigid supports: three kinds, three row tables, no
     links (the interface holds only the contacts); wheels lift off and land."""
-    from test_continuous_bridges import bridge_dict
+    from cases import bridge_dict
 
     data = {
         "bridge": bridge_dict(girders=[dict(spans=[24.0]), dict(spans=[36.0]), dict(spans=[30.0])])
