@@ -51,7 +51,7 @@ def test_block_inverse_of_one_block_is_numpys() -> None:
 
 @pytest.fixture(scope="module")
 def paper_static():  # noqa: ANN201 - (system, state)
-    sc = load_scenario(EXAMPLE, overrides=["solver.duration=0.001"])
+    sc = load_scenario(EXAMPLE, overrides=["solver.duration=0.001", "earthquake.arrival=0.0"])
     system = build_run3d(sc).system
     return system, static_state(system)
 
