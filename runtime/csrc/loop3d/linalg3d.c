@@ -115,3 +115,84 @@ int lu_solve3(double* A, int n, double* b, int* piv) {
   }
   return S3_OK;
 }
+
+/* The factors of lu_solve3 kept (the interface's, for the chord iterations of interface3): A
+ * overwritten by L (unit, below the diagonal) and U, the row swaps in piv, each row's last nonzero
+ * column of U in last and first nonzero column of L in first. S3_SINGULAR on a zero pivot. The
+ * elimination is lu_solve3's, so lu_factor3 then lu_back3 gives lu_solve3's x bit for bit. */
+int lu_factor3(double* A, int n, int* piv, int* last, int* first) {
+  int i, j, k;
+  for (i = 0; i < n; ++i) {
+    const double* ri = A + (long)i * n;
+    for (j = n - 1; j > 0 && ri[j] == 0.0; --j) {
+    }
+    last[i] = j;
+  }
+  for (k = 0; k < n; ++k) {
+    int m = k;
+    double big = fabs(A[(long)k * n + k]);
+    for (i = k + 1; i < n; ++i)
+      if (fabs(A[(long)i * n + k]) > big) {
+        big = fabs(A[(long)i * n + k]);
+        m = i;
+      }
+    piv[k] = m;
+    if (big == 0.0) return S3_SINGULAR;
+    if (m != k) {
+      double t;
+      int e = last[k] > last[m] ? last[k] : last[m];
+      for (j = 0; j <= e; ++j) {
+        t = A[(long)k * n + j];
+        A[(long)k * n + j] = A[(long)m * n + j];
+        A[(long)m * n + j] = t;
+      }
+      j = last[k];
+      last[k] = last[m];
+      last[m] = j;
+    }
+    {
+      const double* rk = A + (long)k * n;
+      const int e = last[k];
+      double inv = 1.0 / rk[k];
+      for (i = k + 1; i < n; ++i) {
+        double* ri = A + (long)i * n;
+        double f = ri[k] * inv;
+        if (f == 0.0) continue;
+        ri[k] = f;
+        for (j = k + 1; j <= e; ++j) ri[j] -= f * rk[j];
+        if (e > last[i]) last[i] = e;
+      }
+    }
+  }
+  for (i = 0; i < n; ++i) {
+    const double* ri = A + (long)i * n;
+    for (j = 0; j < i && ri[j] == 0.0; ++j) {
+    }
+    first[i] = j;
+  }
+  return S3_OK;
+}
+
+/* x of A x = b from lu_factor3's factors (b overwritten): the swaps in order, then the unit lower
+ * and the upper triangle; each b[i] takes its subtractions in lu_solve3's order. */
+void lu_back3(const double* A, int n, const int* piv, const int* last, const int* first, double* b) {
+  int i, j, k;
+  for (k = 0; k < n; ++k)
+    if (piv[k] != k) {
+      double t = b[k];
+      b[k] = b[piv[k]];
+      b[piv[k]] = t;
+    }
+  for (i = 1; i < n; ++i) {
+    const double* ri = A + (long)i * n;
+    double s = b[i];
+    for (k = first[i]; k < i; ++k) s -= ri[k] * b[k];
+    b[i] = s;
+  }
+  for (i = n - 1; i >= 0; --i) {
+    const double* ri = A + (long)i * n;
+    double s = b[i];
+    for (j = i + 1; j <= last[i]; ++j) s -= ri[j] * b[j];
+    b[i] = s / ri[i];
+  }
+}

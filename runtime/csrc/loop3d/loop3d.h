@@ -20,6 +20,7 @@
 #define NEWTON_ITERATIONS3 20
 #define NEWTON_TOLERANCE3 1e-13
 #define STAGNATION3 1e-9
+#define CHORD_RATE3 0.25 /* a chord iteration must shrink the update 4x, or the next is Newton's */
 #define PIVOT_TRIES3 3
 
 /* status codes (svbi.runtime.backends.c.stepper3d.STATUS) */
@@ -131,6 +132,7 @@ typedef struct {
   double *uc0, *ucn;              /* nW x 12: span displacements at the contact DOFs */
   double *A, *rhs, *lam, *lamn, *start, *force, *ggap;
   int *active, *landing, *in_contact, *idx, *piv;
+  int *lu_last, *lu_first; /* the interface factors' profile (lu_factor3) */
   int *pair, *sel, *act_of; /* nW x nW coupling (1: same car, 2: same structure), cached elements of
                              * each pair's S block, the active row of each constraint (-1) */
   double* Sblk;              /* nW x nW x 144: S between the elements of two wheelsets (0 at held DOFs) */
@@ -142,6 +144,7 @@ typedef struct {
   int *ncon, *con, *nng, *nzg, *nnr, *nzr;
   double *gc, *rc, *rv;
   double *hw, *hwp; /* nW x 12: the contact forces' loads on their elements, now and before */
+  double *dqh, *uch, *hh2; /* a chord iteration's state of the forces with the new gradients (nV, 12 nW, 12 nW) */
   pivot3_t pv; /* pivoting of the active set */
   long iterations, passes;
   /* impact */
@@ -165,6 +168,8 @@ void w3_carve(const setup3d_t* S, work3d_t* W, double* work, int* iwork, long* n
 void band_solve3(const double* L, int n, int p, double* b);
 void band_solve3_2(const double* L, int n, int p, double* b, double* b2);
 int lu_solve3(double* A, int n, double* b, int* piv);
+int lu_factor3(double* A, int n, int* piv, int* last, int* first);
+void lu_back3(const double* A, int n, const int* piv, const int* last, const int* first, double* b);
 /* rows3d.c: kernel k (SVBI_CONTACT3D_K_*) at the wheelset's z = [q_w, u_e] (rates zd, zdd) */
 int kcall3(work3d_t* W, int k, int w, const double* z, const double* zd, const double* zdd, double xi,
            const double* irr, const double* coef, double* out0, double* out1);
@@ -172,6 +177,7 @@ int rows3(work3d_t* W, int w, const double* z, const double* zd, const double* z
           const double* irr);
 #define ROWS_ITERATE 0
 #define ROWS_CHECK 1
+#define ROWS_CHORD 2
 int rows_needed3(work3d_t* W, int w, const double* z, const double* zd, const double* zdd, double xi,
                  const double* irr, int use);
 void zvec3(const work3d_t* W, int w, const double* q, const double* u, const double* ground, double* z);

@@ -109,6 +109,9 @@ void w3_carve(const setup3d_t* S, work3d_t* W, double* work, int* iwork, long* n
   W->hw = take_d(&d, nW * 12, &cd);
   W->hwp = take_d(&d, nW * 12, &cd);
   W->ucn = take_d(&d, nW * 12, &cd);
+  W->dqh = take_d(&d, nV, &cd);
+  W->uch = take_d(&d, nW * 12, &cd);
+  W->hh2 = take_d(&d, nW * 12, &cd);
   W->A = take_d(&d, nC * nC, &cd);
   W->rhs = take_d(&d, nC, &cd);
   W->lam = take_d(&d, nC, &cd);
@@ -121,6 +124,8 @@ void w3_carve(const setup3d_t* S, work3d_t* W, double* work, int* iwork, long* n
   W->in_contact = take_i(&i, nC, &ci);
   W->idx = take_i(&i, nC, &ci);
   W->piv = take_i(&i, nC, &ci);
+  W->lu_last = take_i(&i, nC, &ci);
+  W->lu_first = take_i(&i, nC, &ci);
   W->GV = take_d(&d, nC * nV, &cd);
   W->GB = take_d(&d, nC * nF, &cd);
   W->AVm = take_d(&d, nV * nC, &cd);
