@@ -153,12 +153,13 @@ static void couple(work3d_t* W) {
       W->pair[w * nW + v] = flag;
       if (flag) W->plist[np++] = w * nW + v;
       if ((flag & 2) && (sel[0] != W->ondeck[w] + 1 || sel[1] != W->ondeck[v] + 1)) {
-        double* B = W->Sblk + 144 * (w * nW + v);
+        double *B = W->Sblk + 144 * (w * nW + v), *Bt = W->SblkT + 144 * (w * nW + v);
         for (i = 0; i < 12; ++i) {
           int fi = W->fidx[12 * w + i];
           for (j = 0; j < 12; ++j) {
             int fj = W->fidx[12 * v + j];
             B[12 * i + j] = (fi >= 0 && fj >= 0) ? S->S[(long)fi * nF + fj] : 0.0;
+            Bt[12 * j + i] = B[12 * i + j];
           }
         }
         sel[0] = W->ondeck[w] + 1;
@@ -280,16 +281,18 @@ static void contact_at(work3d_t* W, const double* h, double* out) {
     for (i = 0; i < 12; ++i) un[i] = W->uc0[12 * w + i];
     for (l = W->pstart[w]; l < W->pstart[w + 1]; ++l) {
       const int k = W->plist[l] - w * nW;
-      const double* B = W->Sblk + 144 * (long)W->plist[l];
+      const double* Bt = W->SblkT + 144 * (long)W->plist[l];
       const double* hk = h + 12 * k;
       const int* jg = W->nzg + 12 * k;
       const int ng = W->nng[k];
       double acc[12];
       if (!(W->pair[W->plist[l]] & 2) || !W->ncon[k]) continue;
       for (i = 0; i < 12; ++i) acc[i] = 0.0;
-      for (j = 0; j < ng; ++j) { /* twelve independent sums (each in the order of j) */
+      for (j = 0; j < ng; ++j) { /* twelve independent sums (each in the order of j), by columns of
+                                  * the block: contiguous in its transpose, so vector operations */
         const double a = hk[jg[j]];
-        for (i = 0; i < 12; ++i) acc[i] += B[12 * i + jg[j]] * a;
+        const double* c = Bt + 12 * jg[j];
+        for (i = 0; i < 12; ++i) acc[i] += c[i] * a;
       }
       for (i = 0; i < 12; ++i) un[i] += acc[i];
     }
@@ -328,7 +331,7 @@ static void chord_rhs(work3d_t* W, int na) {
     for (k = 0; k < 4; ++k)
       for (j = 0; j < 4; ++j) W->gv[S->ws_dofs[4 * w + j]] += W->grad[(4 * w + k) * NZ3 + j] * W->lam[4 * w + k];
   memcpy(W->dqh, W->dq0, sizeof(double) * (size_t)nV);
-  veh_mul3(S, S->AV, W->gv, W->dqh, 1);
+  veh_mul3(S, W->AVt, W->gv, W->dqh, 1);
   element_loads(W, W->lam, W->hh2);
   contact_at(W, W->hh2, W->uch);
   for (a = 0; a < na; ++a) {
@@ -352,7 +355,7 @@ int interface3(work3d_t* W, const state3d_t* X, const int* el, const double* xi,
   int i, j, a, k, w, na = 0, it, st, full = 0, fresh = 1;
   (void)el;
   /* predictors */
-  veh_mul3(S, S->AV, W->fV, W->dq0, 0);
+  veh_mul3(S, W->AVt, W->fV, W->dq0, 0);
   memcpy(W->uf0, W->fB, sizeof(double) * (size_t)nF);
   span_solve3(W, W->uf0);
   memcpy(W->dq, W->dq0, sizeof(double) * (size_t)nV);
@@ -424,7 +427,7 @@ int interface3(work3d_t* W, const state3d_t* X, const int* el, const double* xi,
       for (k = 0; k < 4; ++k)
         for (j = 0; j < 4; ++j) W->gv[S->ws_dofs[4 * w + j]] += W->grad[(4 * w + k) * NZ3 + j] * W->lamn[4 * w + k];
     memcpy(W->dqn, W->dq0, sizeof(double) * (size_t)nV);
-    veh_mul3(S, S->AV, W->gv, W->dqn, 1);
+    veh_mul3(S, W->AVt, W->gv, W->dqn, 1);
     element_loads(W, W->lamn, hh);
     size = 0.0;
     contact_response(W, hh, &change, &size);

@@ -122,6 +122,7 @@ typedef struct {
   casadi_int kiw[SVBI_CONTACT3D_MAX_SZ_IW + 1];
   /* vehicle */
   double *fV, *PtV, *QtV, *dq0, *dq, *dqn, *qk, *qdk, *qddk, *gv, *tV;
+  double *AVt, *MVit; /* the cars' blocks of S->AV, S->MVi by columns (veh_mul3) */
   /* span */
   double *PB, *QB, *fBfull, *fB, *uf0, *uk, *udk, *uddk, *bw, *tF, *tB;
   const double *Q0, *Q1, *Q2; /* support targets of the step (NULL without) */
@@ -136,6 +137,7 @@ typedef struct {
   int *pair, *sel, *act_of; /* nW x nW coupling (1: same car, 2: same structure), cached elements of
                              * each pair's S block, the active row of each constraint (-1) */
   double* Sblk;              /* nW x nW x 144: S between the elements of two wheelsets (0 at held DOFs) */
+  double* SblkT;             /* each block of Sblk transposed */
   int *plist, *pstart; /* the coupled ordered pairs w nW + v (pair != 0), by w: [pstart[w], pstart[w + 1]) */
   int* seen;           /* 1 + nW: the elements the couplings were found for (couple) */
   /* of an iteration, per wheelset: its active constraints (ncon, 4 each), the element DOFs (free)
@@ -182,7 +184,8 @@ int rows_needed3(work3d_t* W, int w, const double* z, const double* zd, const do
                  const double* irr, int use);
 void zvec3(const work3d_t* W, int w, const double* q, const double* u, const double* ground, double* z);
 /* vehicle3d.c */
-void veh_mul3(const setup3d_t* S, const double* blocks, const double* x, double* y, int add);
+void veh_transpose3(const setup3d_t* S, const double* blocks, double* out);
+void veh_mul3(const setup3d_t* S, const double* blocks_t, const double* x, double* y, int add);
 /* span3d.c */
 void csr_mul3(int n, const int* ptr, const int* idx, const double* val, const double* x, double* y, int add);
 void span_solve3(work3d_t* W, double* bfree);

@@ -72,6 +72,8 @@ void w3_carve(const setup3d_t* S, work3d_t* W, double* work, int* iwork, long* n
   W->qddk = take_d(&d, nV, &cd);
   W->gv = take_d(&d, nV, &cd);
   W->tV = take_d(&d, nV, &cd);
+  W->AVt = take_d(&d, S->blk_off[S->nblk], &cd);
+  W->MVit = take_d(&d, S->blk_off[S->nblk], &cd);
   W->PB = take_d(&d, nB, &cd);
   W->QB = take_d(&d, nB, &cd);
   W->fBfull = take_d(&d, nB, &cd);
@@ -106,6 +108,7 @@ void w3_carve(const setup3d_t* S, work3d_t* W, double* work, int* iwork, long* n
   W->rc = take_d(&d, 48 * nW, &cd);
   W->rv = take_d(&d, 16 * nW, &cd);
   W->Sblk = take_d(&d, 144 * nW * nW, &cd);
+  W->SblkT = take_d(&d, 144 * nW * nW, &cd);
   W->hw = take_d(&d, nW * 12, &cd);
   W->hwp = take_d(&d, nW * 12, &cd);
   W->ucn = take_d(&d, nW * 12, &cd);
