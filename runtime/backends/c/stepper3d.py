@@ -13,9 +13,13 @@ the sparse mass, damping and support couplings.
 
 The excitation of a chunk (:class:`svbi.runtime.methods.chunk3d.Excitation3D`) is built here: the
 elements and local coordinates under the wheelsets vectorised over the chunk's steps (for a
-:class:`~svbi.runtime.model.span3d.Span3D` or a :class:`~svbi.runtime.model.bridge3d.Bridge3D`),
-the ground under the wheelsets and the supports' targets by a loop over the chunk's steps in Python
-(only under an earthquake).
+:class:`~svbi.runtime.model.span3d.Span3D` or a :class:`~svbi.runtime.model.bridge3d.Bridge3D`);
+under an earthquake, the ground under the wheelsets and the supports' targets, vectorised for the
+records of a scenario (:meth:`System3D.ground_motions`, the model's evaluation of the ground at
+many times), by a loop over the chunk's steps in Python for another ground.
+
+The structs handed to C are mirrored from the field lists of :mod:`svbi.codegen.loop3d_abi`, which
+also render the loop's header ``generated/solver3d/svbi_loop3d_types.h``.
 """
 
 from __future__ import annotations
