@@ -1,10 +1,12 @@
 /*
  * The compiled loop of the 3D localized-dynamic step (docs/c-backend.md, "The 3D loop"): the step
  * of svbi.runtime.methods.localized3d.LocalizedDynamic3D (with _Step3D of coupled3d.py) on the
- * CasADi-emitted contact kernels of generated/contact3d/. The structs below are mirrored by ctypes
- * in svbi.runtime.backends.c.stepper3d (svbi3d_sizes() lets Python check the layout). No function
- * allocates: the caller gives one double and one int workspace of the sizes svbi3d_workspace
- * returns, carved once (setup3d.c). Files, one job each: setup3d.c (workspace, kernel maps),
+ * CasADi-emitted contact kernels of generated/contact3d/. The structs that Python hands in
+ * (setup3d_t, state3d_t, chunk3d_t, info3d_t) and the status codes S3_* are generated:
+ * generated/solver3d/svbi_loop3d_types.h, from the field lists of svbi.codegen.loop3d_abi, which
+ * also give the ctypes mirrors of svbi.runtime.backends.c.stepper3d (svbi3d_sizes() lets Python
+ * check the layout at load). No function allocates: the caller gives one double and one int
+ * workspace of the sizes svbi3d_workspace returns, carved once (setup3d.c). Files, one job each: setup3d.c (workspace, kernel maps),
  * linalg3d.c (band and dense solves), rows3d.c (the contact kernels of a wheelset), vehicle3d.c
  * (per-car blocks), span3d.c (the span's loads and solves), interface3d.c (the interface
  * iteration), active3d.c (the active set and the complementarity solves), impact3d.c (plastic
@@ -14,6 +16,7 @@
 #define SVBI_LOOP3D_H
 
 #include "contact3d.h"
+#include "svbi_loop3d_types.h"
 
 #define NZ3 16
 #define PER_WS 4
@@ -22,89 +25,6 @@
 #define STAGNATION3 1e-9
 #define CHORD_RATE3 0.25 /* a chord iteration must shrink the update 4x, or the next is Newton's */
 #define PIVOT_TRIES3 3
-
-/* status codes (svbi.runtime.backends.c.stepper3d.STATUS) */
-#define S3_OK 0
-#define S3_NOT_FINITE 1
-#define S3_SINGULAR 2
-#define S3_ACTIVE_SET 3
-#define S3_IMPULSE 4
-#define S3_FORCE_JUMP 5
-#define S3_KERNEL 6
-
-/* Everything constant over a run (arrays owned by Python). Dense matrices are row-major. */
-typedef struct {
-  int nV, nW, nF, nB, nS, nE, nblk, p;
-  int quake, creep, bilateral, pad;
-  double dt, a0, a1, a2, c1, c0, scale;
-  /* vehicle: blocks [blk_start[b], blk_start[b + 1]) of the DOFs, dense blocks at blk_off[b] (its
-   * compliance and inverse mass); M, C, K sparse (nV x nV CSR) */
-  const int* blk_start;
-  const long* blk_off;
-  const double *AV, *MVi;
-  const int *MV_ptr, *MV_idx, *CV_ptr, *CV_idx, *KV_ptr, *KV_idx;
-  const double *MV_val, *CV_val, *KV_val;
-  const int* ws_dofs; /* nW x 4: [y, z, phi, psi] of each wheelset */
-  const int* ws_blk;  /* nW */
-  const double* geom;     /* nW x 8: the kernels' geometry argument */
-  const double* material; /* nW x 10: the creep law's material argument */
-  /* span */
-  const int* el_dofs;      /* nE x 12 full DOFs of each element */
-  const int* full_to_free; /* nB: free index or -1 */
-  const int* free_dofs;    /* nF */
-  const int* comp;         /* nF: connected part of the structure */
-  const double* S;         /* nF x nF: compliance K^_ff^-1 */
-  const double* MBi;       /* nF x nF: M_ff^-1 */
-  const double* band; /* nF x (p + 1): Cholesky factor of K^_ff in perm order, L(j+r, j) at [j (p+1) + r],
-                      * the diagonal as its reciprocal */
-  const int* perm;         /* nF: free index at band position k */
-  const int *M_ptr, *M_idx;
-  const double* M_val; /* nB x nB CSR: span mass */
-  const int *C_ptr, *C_idx;
-  const double* C_val; /* nB x nB CSR: span damping */
-  const int* held;     /* nS: the supports' DOFs */
-  const int *Kfs_ptr, *Kfs_idx;
-  const double* Kfs_val; /* nF x nS CSR: K^_fs */
-  const int *CT_ptr, *CT_idx;
-  const double* CT_val; /* nF x nS CSR: (C T)_f */
-} setup3d_t;
-
-/* The state at t_n, updated in place to the last step. */
-typedef struct {
-  double t;
-  double *q, *qd, *qdd; /* nV */
-  double *u, *ud, *udd; /* nB */
-  double *P, *flange;   /* 2 nW */
-  int* contact;         /* 4 nW: closed at t (in_contact) */
-  double* creep;        /* nW x 6 */
-  double *creep_V, *creep_B;
-  double* load; /* nV: the vehicle's load (gravity and system.load) */
-} state3d_t;
-
-/* The excitation of k steps (Excitation3D), and the outputs (Chunk3D). */
-typedef struct {
-  const int* element;       /* k x nW */
-  const double* xi;         /* k x nW */
-  const double* irr;        /* k x nW x 9 */
-  const double* ground;     /* k x 3 x nW x 12, or NULL */
-  const double* support;    /* k x 3 x nS, or NULL */
-  double *t, *q, *qd, *qdd; /* k, k x nV */
-  double *u, *ud, *udd;     /* k x nB */
-  double *P, *flange;       /* k x 2 nW */
-  int* contact;             /* k x 4 nW */
-  double* creep;            /* k x nW x 6 */
-  double* gaps;             /* k x 2 nW (NaN where not evaluated) */
-  long every;
-} chunk3d_t;
-
-typedef struct {
-  long steps;      /* steps done */
-  long step;       /* the step that failed (n) */
-  int status;
-  int wheelset;    /* where known */
-  long iterations; /* interface iterations, all steps */
-  long passes;     /* active-set passes, all steps */
-} info3d_t;
 
 /* The pivoting rule of unilateral.Pivoting (block pivots, then Murty's least-index rule). */
 typedef struct {
