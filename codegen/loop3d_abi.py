@@ -49,7 +49,7 @@ SETUP3D_FIELDS = [
     F("quake", "int", "1: the supports move (support targets and the ground under the wheelsets)"),
     F("creep", "int", "1: explicit creep forces"),
     F("bilateral", "int", "1: bilateral normal contact (no active set)"),
-    F("pad", "int", "alignment"),
+    F("chord", "int", "1: chord iterations after a pass's first Newton iteration; 0: Newton every iteration"),
     # scalars
     F("dt", "double", "time step (s)"),
     F("a0", "double", "Newmark 4/dt^2"),
@@ -156,6 +156,7 @@ INFO3D_FIELDS = [
     F("wheelset", "int", "where known"),
     F("iterations", "long", "interface iterations, all steps"),
     F("passes", "long", "active-set passes, all steps"),
+    F("factorizations", "long", "interface matrices formed and factored (Newton iterations), all steps"),
 ]
 """``info3d_t``: how a call went."""
 

@@ -32,7 +32,7 @@ typedef struct {
   int quake; /* 1: the supports move (support targets and the ground under the wheelsets) */
   int creep; /* 1: explicit creep forces */
   int bilateral; /* 1: bilateral normal contact (no active set) */
-  int pad; /* alignment */
+  int chord; /* 1: chord iterations after a pass's first Newton iteration; 0: Newton every iteration */
   double dt; /* time step (s) */
   double a0; /* Newmark 4/dt^2 */
   double a1; /* Newmark 2/dt */
@@ -125,6 +125,7 @@ typedef struct {
   int wheelset; /* where known */
   long iterations; /* interface iterations, all steps */
   long passes; /* active-set passes, all steps */
+  long factorizations; /* interface matrices formed and factored (Newton iterations), all steps */
 } info3d_t;
 
 #endif /* SVBI_LOOP3D_TYPES_H */

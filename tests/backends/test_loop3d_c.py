@@ -15,8 +15,11 @@ component) within 1e-10 of its own peak (2e-10 in the lift-off case, see there; 
 of the largest of their kind are round-off of quantities that do not move and are left out), the
 same contact states at every step, and the normal gaps at the output steps. The contact kernels
 are the same generated expressions in both (NumPy and C emitted from one CasADi graph), the linear
-algebra differs (band Cholesky and dense LU against NumPy's dense inverses), so the two agree to
-round-off, amplified over the events of a run.
+algebra differs (band Cholesky and dense LU against NumPy's dense inverses), and so does the
+interface iteration: the C loop's iterations after a pass's first are chord iterations on the
+matrix that iteration factored, the NumPy step forms and solves a new matrix at every iteration;
+both stop by the same rule at the same solution. So the two agree to round-off, amplified over the
+events of a run. The lift-off case also runs the C loop with Newton at every iteration.
 """
 
 from __future__ import annotations
@@ -93,8 +96,12 @@ def run_numpy(system, state, dt, steps, normal, rough=False, loads=None):
     return np.array(rows), np.array(contact), np.array(gaps)
 
 
-def run_c(system, state, dt, steps, normal, rough=False, loads=None, chunk=50, every=5):
-    stepper = LocalizedDynamic3DC(system, copy(state), dt, normal=normal)
+def run_c(
+    system, state, dt, steps, normal, rough=False, loads=None, chunk=50, every=5, chord=True, kept=None
+):
+    stepper = LocalizedDynamic3DC(system, copy(state), dt, normal=normal, chord=chord)
+    if kept is not None:
+        kept.append(stepper)
     rows, contact, gaps = [], [], []
     n = 0
     while n < steps:
@@ -252,11 +259,11 @@ def test_lift_off_landing_and_flange_with_creep() -> None:
     against a 0.05 mm flange clearance and an upward pull on the wheelset for 40 steps: both wheels
     lift off and land (an impact), the flange closes.
 
-    Both loops take the same number of interface iterations at every step (measured); their
-    round-off differs (band and dense solves against NumPy's inverses) and the events amplify it
-    more than in the other cases: measured 1.12e-10 of its peak on the right contact's spin moment
-    (peak 1.3 N m, three orders below its creep forces), 1.05e-10 on a longitudinal deck DOF that
-    only the creep forces move (peak 6e-10 m), 9.2e-11 on a normal force; held to 2e-10 here."""
+    The loops' round-off differs (band and dense solves against NumPy's inverses; chord iterations
+    against Newton's) and the events amplify it more than in the other cases: measured 1.12e-10 of
+    its peak on the right contact's spin moment (peak 1.3 N m, three orders below its creep
+    forces), 1.05e-10 on a longitudinal deck DOF that only the creep forces move (peak 6e-10 m),
+    9.2e-11 on a normal force; held to 2e-10 here."""
     vehicle = car()
     span = simply_supported_span(
         Section3D(E=3.0e10, A=5.0, I_y=3.0, I_z=20.0, J=4.0, mass_per_length=12000.0), 10.0, 4
@@ -273,10 +280,18 @@ def test_lift_off_landing_and_flange_with_creep() -> None:
         return load
 
     a = run_numpy(system, state, 1e-4, 200, "unilateral", loads=loads)
-    b = run_c(system, state, 1e-4, 200, "unilateral", loads=loads)
+    steppers: list[LocalizedDynamic3DC] = []
+    b = run_c(system, state, 1e-4, 200, "unilateral", loads=loads, kept=steppers)
+    c = run_c(system, state, 1e-4, 200, "unilateral", loads=loads, chord=False, kept=steppers)
     events = {f"{k}{int(c)}" for row in a[1] for k, c in enumerate(row)}
     assert {"00", "10", "21"} <= events  # lift-off, landing, flange
     agree(system, a, b, tolerance=2e-10)
+    # Newton at every iteration (the NumPy step's iteration) reaches the same solution, and the
+    # chord iterations ran: one factorisation per active-set pass, the other iterations chords
+    agree(system, a, c, tolerance=2e-10)
+    chord, newton = steppers
+    assert newton.factorizations == newton.iterations
+    assert chord.factorizations == chord.passes < chord.iterations
 
 
 def test_flange_closing_under_a_lateral_load() -> None:

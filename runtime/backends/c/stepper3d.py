@@ -177,6 +177,7 @@ class LocalizedDynamic3DC(_Step3D):
         kappa: float = 1.0,
         zeta: float = 1.0,
         normal: str = "unilateral",
+        chord: bool = True,
     ) -> None:
         nW, nF = len(system.vehicle.wheelsets), len(system.span.free)
         if nW > MAX_WHEELSETS:
@@ -190,6 +191,9 @@ class LocalizedDynamic3DC(_Step3D):
                 f"inverse mass); this one has {nF}"
             )
         super().__init__(system, state, time_step, kappa, zeta, normal)
+        self.chord = chord
+        """Chord iterations after each active-set pass's first (Newton) iteration (False: Newton at
+        every iteration, as :class:`LocalizedDynamic3D`); both stop at the same solution."""
         self.stopped: str | None = None
         """Why the last :meth:`advance` stopped early (None: it did every step)."""
         self.lib = load_loop3d()
@@ -273,6 +277,7 @@ class LocalizedDynamic3DC(_Step3D):
         S = Setup3D()
         S.nV, S.nW, S.nF, S.nB, S.nS, S.nE, S.nblk, S.p = nV, nW, nF, nB, len(held), nE, len(blocks), p
         S.quake, S.creep, S.bilateral = int(self.quake), int(sys_.creep is not None), int(self.bilateral)
+        S.chord = int(self.chord)
         S.dt, S.a0, S.a1, S.a2 = nm.dt, nm.a0, nm.a1, nm.a2
         S.c1, S.c0, S.scale = self.c1, self.c0, self.scale
         S.blk_start = P(_i32([s for s, _ in blocks] + [nV]))
@@ -298,7 +303,7 @@ class LocalizedDynamic3DC(_Step3D):
         self.lib.svbi3d_workspace(ctypes.byref(S), ctypes.byref(nd), ctypes.byref(ni))
         self.work = np.zeros(max(nd.value, 1))
         self.iwork = np.zeros(max(ni.value, 1), dtype=np.int32)
-        self.iterations = self.passes = 0
+        self.iterations = self.passes = self.factorizations = 0
         self._kept: dict[str, np.ndarray] | None = None
 
     def _bind_state(self) -> None:
@@ -461,6 +466,7 @@ class LocalizedDynamic3DC(_Step3D):
         )
         self.iterations += info.iterations
         self.passes += info.passes
+        self.factorizations += info.factorizations
         st = self.state
         st.t = float(self.cstate.t)
         st.contact = self._contact.astype(bool)

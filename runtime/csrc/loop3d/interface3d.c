@@ -411,7 +411,8 @@ int interface3(work3d_t* W, const state3d_t* X, const int* el, const double* xi,
       if (na) lu_back3(W->A, na, W->piv, W->lu_last, W->lu_first, W->rhs);
       for (i = 0; i < nC; ++i) W->lamn[i] = 0.0;
       for (a = 0; a < na; ++a) W->lamn[W->idx[a]] = W->rhs[a];
-      fresh = 0;
+      W->factorizations++;
+      fresh = !S->chord;
     } else {
       /* a chord iteration: the correction of the forces by the factored matrix of the last Newton
        * iteration, from the residuals at the iterate (the solution is where they vanish, whatever

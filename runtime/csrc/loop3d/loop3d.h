@@ -68,7 +68,7 @@ typedef struct {
   double *hw, *hwp; /* nW x 12: the contact forces' loads on their elements, now and before */
   double *dqh, *uch, *hh2; /* a chord iteration's state of the forces with the new gradients (nV, 12 nW, 12 nW) */
   pivot3_t pv; /* pivoting of the active set */
-  long iterations, passes;
+  long iterations, passes, factorizations;
   /* impact */
   double *GV, *GB, *AVm, *ABm, *G, *gt, *gtt, *gtt2, *want, *imp, *jump, *x0, *y, *sub, *subr;
   int *basic, *cand, *bad, *held2;

@@ -188,7 +188,7 @@ int svbi3d_run(const setup3d_t* S, state3d_t* X, chunk3d_t* C, double* work, int
   w3_carve(S, &W, work, iwork, &nd, &ni);
   veh_transpose3(S, S->AV, W.AVt);
   veh_transpose3(S, S->MVi, W.MVit);
-  W.iterations = W.passes = 0;
+  W.iterations = W.passes = W.factorizations = 0;
   for (s = 0; s < 4 * nW; ++s) W.in_contact[s] = X->contact[s] != 0;
   I->steps = 0;
   I->status = S3_OK;
@@ -202,6 +202,7 @@ int svbi3d_run(const setup3d_t* S, state3d_t* X, chunk3d_t* C, double* work, int
     st = step(&W, X, n, C->element + s * nW, xi, irr);
     I->iterations = W.iterations;
     I->passes = W.passes;
+    I->factorizations = W.factorizations;
     if (st) {
       I->status = st;
       I->step = n;
