@@ -49,12 +49,11 @@ static void deck_z(work3d_t* W, int w, const double* uc, double* z, double* zd, 
   if (W->Q0)
     for (j = 0; j < 12; ++j)
       if (W->fidx[12 * w + j] < 0) {
-        int d = S->el_dofs[12 * W->ondeck[w] + j], s;
-        for (s = 0; s < S->nS; ++s)
-          if (S->held[s] == d) {
-            zd[4 + j] = W->Q1[s];
-            zdd[4 + j] = W->Q2[s];
-          }
+        const int s = W->held_of[S->el_dofs[12 * W->ondeck[w] + j]];
+        if (s >= 0) {
+          zd[4 + j] = W->Q1[s];
+          zdd[4 + j] = W->Q2[s];
+        }
       }
 }
 

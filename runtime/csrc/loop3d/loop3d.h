@@ -48,6 +48,7 @@ typedef struct {
   const double *Q0, *Q1, *Q2; /* support targets of the step (NULL without) */
   /* contacts */
   int *fidx, *ondeck; /* nW x 12 free indices of the element DOFs (-1: held or ground), nW */
+  int* held_of;       /* nB: the support of each held DOF (-1: none; the last if several) */
   const double* gz;   /* the ground under the wheelsets (3 x nW x 12) of the step, or NULL */
   double *grad, *res, *jac, *gap; /* nW x 4 x 16, nW x 4, nW x 4 x 16, nW x 4 */
   double *uc0, *ucn;              /* nW x 12: span displacements at the contact DOFs */

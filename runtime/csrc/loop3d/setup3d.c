@@ -87,6 +87,7 @@ void w3_carve(const setup3d_t* S, work3d_t* W, double* work, int* iwork, long* n
   W->tB = take_d(&d, nB, &cd);
   W->fidx = take_i(&i, nW * 12, &ci);
   W->ondeck = take_i(&i, nW, &ci);
+  W->held_of = take_i(&i, nB, &ci);
   W->grad = take_d(&d, nW * 4 * NZ3, &cd);
   W->res = take_d(&d, nW * 4, &cd);
   W->jac = take_d(&d, nW * 4 * NZ3, &cd);
