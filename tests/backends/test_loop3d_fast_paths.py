@@ -1,7 +1,8 @@
 """The 3D C loop's shortcuts (docs/c-backend.md, "The 3D loop"), each against an independent
 answer:
 
-* the dense LU of the interface and of the impact's complementarity problems (``lu_solve3``)
+* the dense LU of the interface and of the impact's complementarity problems (``lu_solve3``; the
+  interface's factors kept and applied later, ``lu_factor3`` and ``lu_back3``)
   follows each row's last nonzero, so a band (the interface of a train, in train order) costs its
   profile: its solutions against LAPACK's (``numpy.linalg.solve``) on a dense matrix, a band that
   needs row exchanges (which widen the rows: fill-in past the band), rows of very different
@@ -43,6 +44,24 @@ def lu_solve3(a: np.ndarray, b: np.ndarray) -> tuple[int, np.ndarray]:
     return status, x
 
 
+def lu_factored(a: np.ndarray, b: np.ndarray) -> tuple[int, np.ndarray]:
+    """The interface's route: ``lu_factor3`` (the factors kept), then ``lu_back3`` (its status, x)."""
+    n = a.shape[0]
+    A = np.ascontiguousarray(a, dtype=float).copy()
+    x = np.ascontiguousarray(b, dtype=float).copy()
+    piv, last, first = (np.zeros(max(n, 1), dtype=np.int32) for _ in range(3))
+    f = LIB.lu_factor3
+    f.restype = ctypes.c_int
+    f.argtypes = [ctypes.c_void_p, ctypes.c_int, ctypes.c_void_p, ctypes.c_void_p, ctypes.c_void_p]
+    status = f(A.ctypes.data, n, piv.ctypes.data, last.ctypes.data, first.ctypes.data)
+    if status == 0:
+        g = LIB.lu_back3
+        g.restype = None
+        g.argtypes = [ctypes.c_void_p, ctypes.c_int] + [ctypes.c_void_p] * 4
+        g(A.ctypes.data, n, piv.ctypes.data, last.ctypes.data, first.ctypes.data, x.ctypes.data)
+    return status, x
+
+
 def band(n: int, lower: int, upper: int, rng: np.random.Generator) -> np.ndarray:
     a = rng.standard_normal((n, n))
     i, j = np.indices((n, n))
@@ -58,6 +77,10 @@ def check(a: np.ndarray, rng: np.random.Generator) -> None:
     bound = 1e-13 * np.linalg.cond(a) * np.abs(truth).max()
     assert np.abs(x - truth).max() <= bound, (np.abs(x - truth).max(), bound)
     assert np.abs(a @ x - b).max() <= 1e-12 * np.abs(a).max() * np.abs(x).max() * a.shape[0]
+    # the factors kept and applied later (the chord iterations' route): lu_solve3's x bit for bit
+    # (the same eliminations: the factorisation's scans stop where no row below has a nonzero)
+    status2, x2 = lu_factored(a, b)
+    assert status2 == 0 and np.array_equal(x2, x)
 
 
 def test_dense_matrix() -> None:
@@ -97,10 +120,20 @@ def test_block_diagonal_with_an_empty_row_start() -> None:
     check(a, rng)
 
 
+def test_band_rows_out_of_order() -> None:
+    """A band whose rows are shuffled: rows that start late sit above rows that start early (the
+    factorisation's bound on the rows that reach a column comes from where the rows start, not
+    from their order)."""
+    rng = np.random.default_rng(6)
+    a = band(60, 4, 5, rng)[rng.permutation(60)]
+    check(a, rng)
+
+
 def test_a_zero_pivot_is_singular() -> None:
     a = np.eye(5)
     a[2, 2] = 0.0
     status, _ = lu_solve3(a, np.ones(5))
+    assert lu_factored(a, np.ones(5))[0] != 0
     assert status == 2  # S3_SINGULAR
 
 

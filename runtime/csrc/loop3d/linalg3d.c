@@ -158,16 +158,31 @@ int lu_solve3(double* A, int n, double* b, int* piv) {
  * elimination is lu_solve3's, so lu_factor3 then lu_back3 gives lu_solve3's x bit for bit. */
 int lu_factor3(double* A, int n, int* piv, int* last, int* first) {
   int i, j, k;
+  int hi[n > 0 ? n : 1]; /* hi[k]: no row below it has a nonzero in column k, now or later */
   for (i = 0; i < n; ++i) {
     const double* ri = A + (long)i * n;
     for (j = n - 1; j > 0 && ri[j] == 0.0; --j) {
     }
     last[i] = j;
+    hi[i] = -1;
   }
+  /* A row's first nonzero never moves left (its fill lies right of the pivot column that its first
+   * nonzero precedes), and the row exchanges at column k stay within the rows up to hi[k]: the rows
+   * that start after column k stay below hi[k], and the column's search and elimination stop there
+   * (the zeros they skip are those the loops would skip). */
+  for (i = 0; i < n; ++i) {
+    const double* ri = A + (long)i * n;
+    for (j = 0; j < n - 1 && ri[j] == 0.0; ++j) {
+    }
+    if (i > hi[j]) hi[j] = i;
+  }
+  for (k = 1; k < n; ++k)
+    if (hi[k - 1] > hi[k]) hi[k] = hi[k - 1];
   for (k = 0; k < n; ++k) {
     int m = k;
+    const int end = hi[k] + 1 < n ? hi[k] + 1 : n;
     double big = fabs(A[(long)k * n + k]);
-    for (i = k + 1; i < n; ++i)
+    for (i = k + 1; i < end; ++i)
       if (fabs(A[(long)i * n + k]) > big) {
         big = fabs(A[(long)i * n + k]);
         m = i;
@@ -190,7 +205,7 @@ int lu_factor3(double* A, int n, int* piv, int* last, int* first) {
       const double* rk = A + (long)k * n;
       const int e = last[k];
       double inv = 1.0 / rk[k];
-      for (i = k + 1; i < n; ++i) {
+      for (i = k + 1; i < end; ++i) {
         double* ri = A + (long)i * n;
         double f = ri[k] * inv;
         if (f == 0.0) continue;
