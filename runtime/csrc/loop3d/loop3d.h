@@ -66,6 +66,8 @@ typedef struct {
   const double* Kfs_val; /* nF x nS CSR: K^_fs */
   const int *CT_ptr, *CT_idx;
   const double* CT_val; /* nF x nS CSR: (C T)_f */
+  const double* el_len; /* nE: each deck element's length, the geometry's entry 7 on it (geom's own
+                         * entry 7 is taken on the ground) */
 } setup3d_t;
 
 /* The state at t_n, updated in place to the last step. */
@@ -148,6 +150,8 @@ typedef struct {
   double *GV, *GB, *AVm, *ABm, *G, *gt, *gtt, *gtt2, *want, *imp, *jump, *x0, *y, *sub, *subr;
   int *basic, *cand, *bad, *held2;
   double zero16[NZ3];
+  double* geom; /* nW x 8: the kernels' geometry of each wheelset (S->geom, entry 7 the length of
+                 * the element it stands on: locate) */
 } work3d_t;
 
 /* entry points (step3d.c) */
