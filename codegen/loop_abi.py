@@ -90,7 +90,8 @@ OUTPUT_NAMES = (
 
 @dataclass(frozen=True)
 class Field:
-    """One member of a C struct: ``kind`` is int, long, double, int*, double*, ppoly or ppoly*."""
+    """One member of a C struct: ``kind`` is a key of ``C_TYPES`` (``int*``, ``long*``, ``double*``:
+    read-only arrays; ``mint*``, ``mdouble*``, ``mchar*``: arrays the loop writes)."""
 
     name: str
     kind: str
@@ -98,12 +99,15 @@ class Field:
 
 
 C_TYPES = {
-    # the C type of every Field kind (svbi_solver_types.h)
+    # the C type of every Field kind (svbi_solver_types.h, and svbi_loop3d_types.h of
+    # svbi.codegen.loop3d_abi)
     "int": "int",
     "long": "long",
     "double": "double",
     "int*": "const int*",
+    "long*": "const long*",
     "double*": "const double*",
+    "mint*": "int*",
     "mdouble*": "double*",
     "mchar*": "unsigned char*",
     "ppoly": "svbi_ppoly",

@@ -13,7 +13,10 @@ pipeline or on a vehicle topology is rendered here, by ``svbi generate`` (Jinja2
   (:func:`svbi.codegen.python_emit.frame2d_data`, the plain data of the generated bridge module);
   ``generated/frame2d/creep_split*``: the creep law split into per-run coefficients and a per-step
   force (``svbi.codegen.creep.split_creep_force``), C from the CasADi emitter;
-* ``generated/<model>/svbi_topology.h``: the sizes of one vehicle topology (``moving-load`` too).
+* ``generated/<model>/svbi_topology.h``: the sizes of one vehicle topology (``moving-load`` too);
+* ``generated/solver3d/svbi_loop3d_types.h``: the structs and status codes of the compiled 3D loop,
+  from the field lists of :mod:`svbi.codegen.loop3d_abi` (from which the runtime builds that loop's
+  ctypes mirrors).
 
 At run time a built-in model reads these files (no Jinja2, no CasADi); a topology file has its
 ``svbi_topology.h`` rendered here when its loop is first built (``svbi.runtime.backends.c.build``).
@@ -29,7 +32,9 @@ from typing import Any
 import jinja2
 import sympy as sp
 
+from svbi.codegen import loop3d_abi
 from svbi.codegen import loop_abi as abi
+from svbi.codegen.loop3d_abi import SOLVER3D_FOLDER, TYPES3D_HEADER
 from svbi.codegen.loop_abi import (
     BRIDGE_FOLDER,
     CREEP_FILES,
@@ -48,13 +53,16 @@ __all__ = [
     "GLUE_NAMES",
     "MOVING_LOAD_FOLDER",
     "ROWS_HEADER",
+    "SOLVER3D_FOLDER",
     "SOLVER_FOLDER",
     "TOPOLOGY_HEADER",
+    "TYPES3D_HEADER",
     "TYPES_HEADER",
     "bridge_glue",
     "contact_rows",
     "creep_split_sources",
     "environment",
+    "loop3d_types",
     "model_glue",
     "solver_types",
     "topology",
@@ -128,6 +136,16 @@ def solver_types() -> dict[str, bytes]:
         for k, v in abi.STRUCTS.items()
     }
     return {TYPES_HEADER: _render("types.h.j2", {"structs": structs, "status": abi.STATUS_CODES})}
+
+
+def loop3d_types() -> dict[str, bytes]:
+    """``svbi_loop3d_types.h``: the structs (``loop3d_abi.STRUCTS3D``) and status codes of the 3D loop."""
+    structs = {
+        k: [{"name": f.name, "ctype": abi.C_TYPES[f.kind], "doc": f.doc} for f in v]
+        for k, v in loop3d_abi.STRUCTS3D.items()
+    }
+    context = {"structs": structs, "status": loop3d_abi.STATUS3D_CODES}
+    return {TYPES3D_HEADER: _render("loop3d_types.h.j2", context)}
 
 
 def row_structure() -> tuple[int, tuple[bool, ...]]:

@@ -91,13 +91,14 @@ def _targets() -> list[str]:
 
 
 def _builtin_tree() -> dict[str, dict[str, bytes]]:
-    """``{folder: files}`` of the whole committed tree: every built-in model and the loop's
-    ``solver/`` folder, which belongs to no model."""
+    """``{folder: files}`` of the whole committed tree: every built-in model and the loops'
+    ``solver/`` and ``solver3d/`` folders, which belong to no model."""
     # deferred: brings SymPy and Jinja2 (about 0.5 s), for derivation and emission only
     from ...codegen import loop_glue as c_glue
 
     tree = dict(_render(model) for model in _targets())
     tree[c_glue.SOLVER_FOLDER] = c_glue.solver_types()
+    tree[c_glue.SOLVER3D_FOLDER] = c_glue.loop3d_types()
     return tree
 
 

@@ -90,22 +90,30 @@ class Ground:
         z = np.zeros_like(np.asarray(x, dtype=float))
         return z, z, z
 
-    def displacements(self, component: str, times: np.ndarray, x: np.ndarray) -> np.ndarray:
-        """``(len(times), m)``: the displacement ``q`` of ``component`` (``vertical``,
-        ``longitudinal`` or ``lateral``) at each of ``times``, at the fixed points ``x`` (``(m,)``)
-        or at points that differ from time to time (``x`` ``(len(times), m)``): what a run records
-        of many steps at once. Here :meth:`motion` or :meth:`lateral` once per time;
-        :class:`RecordGround` evaluates its records at all the times at once."""
+    def motions(self, component: str, times: np.ndarray, x: np.ndarray) -> Triple:
+        """``(q, q', q'')`` of ``component`` (``vertical``, ``longitudinal`` or ``lateral``; partial
+        time derivatives at fixed x), each ``(len(times), m)``: at each of ``times``, at the fixed
+        points ``x`` (``(m,)``) or at points that differ from time to time (``x`` ``(len(times),
+        m)``). What a run evaluates of many steps at once (the recording of a 3D run, the excitation
+        of a chunk of the 3D C loop). Here :meth:`motion` or :meth:`lateral` once per time;
+        :class:`RecordGround` evaluates its records at all the times at once, to the same numbers."""
         times = np.atleast_1d(np.asarray(times, dtype=float))
         x = np.broadcast_to(np.asarray(x, dtype=float), (times.size, np.shape(x)[-1]))
-        out = np.zeros(x.shape)
+        out = (np.zeros(x.shape), np.zeros(x.shape), np.zeros(x.shape))
         for i, t in enumerate(times):
             if component == "lateral":
-                out[i] = self.lateral(float(t), x[i])[0]
+                values = self.lateral(float(t), x[i])
             else:
                 vertical, longitudinal = self.motion(float(t), x[i])
-                out[i] = (vertical if component == "vertical" else longitudinal)[0]
+                values = vertical if component == "vertical" else longitudinal
+            for o, v in zip(out, values, strict=True):
+                o[i] = v
         return out
+
+    def displacements(self, component: str, times: np.ndarray, x: np.ndarray) -> np.ndarray:
+        """``(len(times), m)``: the displacement ``q`` of :meth:`motions` (what a run records of
+        many steps at once)."""
+        return self.motions(component, times, x)[0]
 
     def recorded(self, t: float, bridge: Bridge) -> tuple[np.ndarray, np.ndarray]:
         """``ground_uz`` and ``ground_ux`` of the results: at x = 0 when uniform, else at every
@@ -330,25 +338,27 @@ class RecordGround(Ground):
         """The transverse component (3D scenarios) at fixed points ``x``: q, q', q''."""
         return self.component("lateral", t, x)
 
-    def displacements(self, component: str, times: np.ndarray, x: np.ndarray) -> np.ndarray:
-        """:meth:`Ground.displacements`: each record evaluated once at all ``times`` (as
-        :meth:`component` at each time)."""
+    def motions(self, component: str, times: np.ndarray, x: np.ndarray) -> Triple:
+        """:meth:`Ground.motions`: each record evaluated once at all ``times``, element by element
+        the operations of :meth:`component` at each time (the same numbers, bit for bit)."""
         comp = self.components[component]
         t = np.atleast_1d(np.asarray(times, dtype=float))
         x = np.broadcast_to(np.asarray(x, dtype=float), (t.size, np.shape(x)[-1]))
-        tt = np.broadcast_to(t[:, None], x.shape)
         if comp is None:
-            return np.zeros(x.shape)
+            return np.zeros(x.shape), np.zeros(x.shape), np.zeros(x.shape)
         if comp.positions is None:
             history = comp.histories[0]
-            if self.apparent_velocity is None:
-                return np.array(history.evaluate(tt)[0])
-            return np.array(history.evaluate(tt - (x - self.reference_position) / self.apparent_velocity)[0])
+            if self.apparent_velocity is None:  # one value a time, the same at every point
+                q = history.evaluate(t)
+                return tuple(np.broadcast_to(v[:, None], x.shape).copy() for v in q)  # type: ignore[return-value]
+            return history.evaluate(t[:, None] - (x - self.reference_position) / self.apparent_velocity)
         index = self.nearest_support(comp, x)
-        out = np.zeros(x.shape)
+        out = (np.zeros(x.shape), np.zeros(x.shape), np.zeros(x.shape))
+        tt = np.broadcast_to(t[:, None], x.shape)
         for k in np.unique(index):
             sel = index == k
-            out[sel] = comp.histories[int(k)].evaluate(tt[sel])[0]
+            for o, v in zip(out, comp.histories[int(k)].evaluate(tt[sel]), strict=True):
+                o[sel] = v
         return out
 
     def under_lateral(self, t: float, x: NDArray, speed: float, acceleration: float = 0.0) -> Triple:

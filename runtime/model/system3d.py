@@ -568,6 +568,20 @@ class System3D:
             for k in range(3)
         )
 
+    def ground_motions(self, times: np.ndarray, x: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """:meth:`ground_motion` at many times at once: ``(q, q', q'')``, each ``(len(times), m,
+        3)``, at the fixed points ``x`` (``(m,)``) or at points that differ from time to time
+        (``(len(times), m)``); the same numbers (the ground's
+        :meth:`~svbi.runtime.model.ground.Ground.motions`)."""
+        times = np.atleast_1d(np.asarray(times, dtype=float))
+        x = np.broadcast_to(np.asarray(x, dtype=float), (times.size, np.shape(x)[-1]))
+        if self.ground is None:
+            z = np.zeros((*x.shape, 3))
+            return z, z.copy(), z.copy()
+        parts = [self.ground.motions(name, times, x) for name in ("longitudinal", "lateral", "vertical")]
+        q, q1, q2 = (np.stack([p[k] for p in parts], axis=-1) for k in range(3))
+        return q, q1, q2
+
     def ground_under(self, t: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """The ground under every wheelset at ``t`` as three rigid "elements": ``(z_e, z_e', z_e'')``,
         each ``(wheelsets, 12)``, the translation ``[q_x, q_y, q_z, 0, 0, 0]`` at both nodes with its

@@ -463,11 +463,12 @@ def test_refusals(monkeypatch) -> None:
         LocalizedDynamic3DC(system, copy(state), 1e-3)
 
 
-@pytest.mark.parametrize("wave", [None, 300.0])
+@pytest.mark.parametrize("wave", [None, 300.0, "per-line"])
 def test_the_excitation_of_a_chunk_is_the_steps_own(wave) -> None:
     """The excitation a chunk hands to C, vectorised over its steps for the ground of a scenario
-    (synthetic three-component record, synchronous or travelling): the same numbers, bit for bit,
-    as the NumPy step's ``contact_location``, ``ground_under`` and ``support_targets`` step by step."""
+    (synthetic three-component record, synchronous, travelling or one record per support line): the
+    same numbers, bit for bit, as the NumPy step's ``contact_location``, ``ground_under`` and
+    ``support_targets`` step by step."""
     from pathlib import Path
 
     from svbi.runtime.run.simulate3d import build_run3d
@@ -481,11 +482,16 @@ def test_the_excitation_of_a_chunk_is_the_steps_own(wave) -> None:
         "solver.duration": 0.01,
         "earthquake.arrival": 0.0,
     }
-    if wave:
+    if wave == "per-line":  # the 3 spans' 4 support lines
+        overrides |= {
+            "earthquake.vertical": ["synthetic", "none", "synthetic", "synthetic"],
+            "earthquake.lateral": ["none", "synthetic", "synthetic", "none"],
+        }
+    elif wave:
         overrides |= {"earthquake.apparent_velocity": wave}
     run = build_run3d(load_scenario(example, overrides=overrides))
     stepper = LocalizedDynamic3DC(run.system, static_state(run.system), 1e-4)
-    n0, k = (1500 if wave else 7), 30  # the wave reaches the train (40 m on) at 0.13 s
+    n0, k = (1500 if wave == 300.0 else 7), 30  # the wave reaches the train (40 m on) at 0.13 s
     ex = stepper.excitation(n0, k, np.zeros((k, 4, 9)))
     ground, support = stepper._quake_loop(ex.t)
     assert np.array_equal(ex.ground, ground) and np.array_equal(ex.support, support)

@@ -3,8 +3,10 @@
 
 * ``Bridge3D.deck_locations`` = ``deck_location``, ``System3D.contact_locations`` =
   ``contact_location`` (on the deck, on the approach and past the last abutment);
-* ``Ground.displacements`` = ``motion`` / ``lateral`` at each time, for a synchronous, a travelling
-  and a per-support-line record and for ground motion given as functions;
+* ``Ground.displacements`` and ``Ground.motions`` (q, q', q'') = ``motion`` / ``lateral`` at each
+  time, for a synchronous, a travelling and a per-support-line record and for ground motion given as
+  functions; ``System3D.ground_motions`` = ``ground_motion`` at each time (the excitation of a
+  chunk of the 3D C loop);
 * ``load_broadcasting``: a generated kernel at an array of inputs = the kernel at each input, bit for
   bit.
 """
@@ -88,6 +90,49 @@ def test_ground_displacements_at_many_times_are_those_at_each_time(name: str) ->
                     want = (vertical if component == "vertical" else longitudinal)[0]
                 assert np.array_equal(got, want), (component, ti)
         assert np.abs(fixed).max() > 0
+
+
+def _at_each_time(ground, component: str, t: float, x: np.ndarray):
+    if component == "lateral":
+        return ground.lateral(t, x)
+    vertical, longitudinal = ground.motion(t, x)
+    return vertical if component == "vertical" else longitudinal
+
+
+@pytest.mark.parametrize("name", list(GROUNDS))
+def test_ground_motions_at_many_times_are_those_at_each_time(name: str) -> None:
+    """``Ground.motions``: q, q' and q'' (what the excitation of a chunk of the 3D C loop takes)."""
+    ground = GROUNDS[name]()
+    t = np.linspace(0.0, 1.5, 61)
+    lines = np.array([0.0, 10.0, 20.0, 30.0])
+    moving = -3.0 + 27.0 * t[:, None] - np.array([0.0, 2.5])[None, :]
+    for component in ("vertical", "longitudinal", "lateral"):
+        for points in (lines, moving):
+            got = ground.motions(component, t, points)
+            assert len(got) == 3 and all(g.shape == (t.size, points.shape[-1]) for g in got)
+            for i, ti in enumerate(t):
+                x = points if points.ndim == 1 else points[i]
+                want = _at_each_time(ground, component, float(ti), x)
+                for d in range(3):
+                    assert np.array_equal(got[d][i], want[d]), (component, ti, d)
+            assert all(np.abs(g).max() > 0 for g in got) or name == "functions"
+
+
+@pytest.mark.parametrize("name", [*GROUNDS, None])
+def test_system_ground_motions_are_ground_motion_at_each_time(name: str | None) -> None:
+    car = vehicle3d(parse_topology3d(SPRUNG_WHEELSET_3D))
+    ground = GROUNDS[name]() if name else None
+    system = System3D(car, bridge(), Track3D(conicity=0.1), speed=27.0, start=-3.0, ground=ground)
+    t = np.linspace(0.0, 1.5, 31)
+    lines = np.array([0.0, 10.0, 20.0, 30.0])
+    moving = -3.0 + 27.0 * t[:, None] - np.array([0.0, 2.5])[None, :]
+    for points in (lines, moving):
+        got = system.ground_motions(t, points)
+        assert all(g.shape == (t.size, points.shape[-1], 3) for g in got)
+        for i, ti in enumerate(t):
+            want = system.ground_motion(float(ti), points if points.ndim == 1 else points[i])
+            for d in range(3):
+                assert np.array_equal(got[d][i], want[d]), (ti, d)
 
 
 def test_a_broadcasting_kernel_is_the_kernel_at_each_point() -> None:

@@ -70,7 +70,9 @@ _CTYPES: dict[str, Any] = {
     "long": ctypes.c_long,
     "double": ctypes.c_double,
     "int*": ctypes.c_void_p,
+    "long*": ctypes.c_void_p,
     "double*": ctypes.c_void_p,
+    "mint*": ctypes.c_void_p,
     "mdouble*": ctypes.c_void_p,
     "mchar*": ctypes.c_void_p,
     "ppoly*": ctypes.c_void_p,
@@ -84,15 +86,20 @@ class PPoly(ctypes.Structure):
 _CTYPES["ppoly"] = PPoly
 
 
-def _structure(name: str, fields: list[Field]) -> type[ctypes.Structure]:
-    return type(name, (ctypes.Structure,), {"_fields_": [(f.name, _CTYPES[f.kind]) for f in fields]})
+def structure(name: str, fields: list[Field], doc: str = "") -> type[ctypes.Structure]:
+    """The ctypes mirror of a struct of the loop's ABI: its members in the order of ``fields``
+    (also the 3D loop's, :mod:`svbi.runtime.backends.c.stepper3d`)."""
+    members: dict[str, Any] = {"_fields_": [(f.name, _CTYPES[f.kind]) for f in fields]}
+    if doc:
+        members["__doc__"] = doc
+    return type(name, (ctypes.Structure,), members)
 
 
-Setup = _structure("Setup", SETUP_FIELDS)
-State = _structure("State", STATE_FIELDS)
-Excitation = _structure("Excitation", EXCITATION_FIELDS)
-Outputs = _structure("Outputs", OUTPUT_FIELDS)
-Info = _structure("Info", INFO_FIELDS)
+Setup = structure("Setup", SETUP_FIELDS)
+State = structure("State", STATE_FIELDS)
+Excitation = structure("Excitation", EXCITATION_FIELDS)
+Outputs = structure("Outputs", OUTPUT_FIELDS)
+Info = structure("Info", INFO_FIELDS)
 
 
 # --------------------------------------------------------------------------------------------------

@@ -13,9 +13,13 @@ the sparse mass, damping and support couplings.
 
 The excitation of a chunk (:class:`svbi.runtime.methods.chunk3d.Excitation3D`) is built here: the
 elements and local coordinates under the wheelsets vectorised over the chunk's steps (for a
-:class:`~svbi.runtime.model.span3d.Span3D` or a :class:`~svbi.runtime.model.bridge3d.Bridge3D`),
-the ground under the wheelsets and the supports' targets by a loop over the chunk's steps in Python
-(only under an earthquake).
+:class:`~svbi.runtime.model.span3d.Span3D` or a :class:`~svbi.runtime.model.bridge3d.Bridge3D`);
+under an earthquake, the ground under the wheelsets and the supports' targets, vectorised for the
+records of a scenario (:meth:`System3D.ground_motions`, the model's evaluation of the ground at
+many times), by a loop over the chunk's steps in Python for another ground.
+
+The structs handed to C are mirrored from the field lists of :mod:`svbi.codegen.loop3d_abi`, which
+also render the loop's header ``generated/solver3d/svbi_loop3d_types.h``.
 """
 
 from __future__ import annotations
@@ -33,6 +37,16 @@ import scipy.sparse as sp
 from scipy.sparse.csgraph import connected_components, reverse_cuthill_mckee
 
 from ....codegen.c_flags import CASADI_WARNING_EXCEPTION, STRICT_FLAGS
+from ....codegen.loop3d_abi import (
+    CHUNK3D_FIELDS,
+    INFO3D_FIELDS,
+    SETUP3D_FIELDS,
+    SOLVER3D_FOLDER,
+    STATE3D_FIELDS,
+    STATUS3D_CODES,
+    STATUS3D_NAMES,
+    TYPES3D_HEADER,
+)
 from ... import toolchain as kernel_cache
 from ...methods.chunk3d import Chunk3D, Excitation3D
 from ...methods.coupled3d import PER_WHEELSET, State3D, _Step3D
@@ -41,19 +55,12 @@ from ...model.ground import RecordGround, seen_moving
 from ...model.system import newmark_targets, support_hat
 from ...model.system3d import GROUND, NIRREGULARITY, System3D
 from ...toolchain import generated_root
-from .build import CSRC, CSRC_3D, simd_flags
+from .build import CSRC, CSRC_3D, simd_flags, structure
 
-STATUS = {
-    0: "ok",
-    1: "non-finite state",
-    2: "singular system",
-    3: "the contact state did not settle",
-    4: "the landing impulses did not settle",
-    5: "the force after a landing did not settle",
-    6: "a contact kernel failed",
-}
-"""The C loop's status codes (``runtime/csrc/loop3d/loop3d.h``)."""
-NOT_FINITE, SINGULAR = 1, 2
+STATUS = STATUS3D_NAMES
+"""The C loop's status codes and their messages (``S3_*`` of the generated
+``svbi_loop3d_types.h``, from :mod:`svbi.codegen.loop3d_abi`)."""
+NOT_FINITE, SINGULAR = STATUS3D_CODES["NOT_FINITE"], STATUS3D_CODES["SINGULAR"]
 MAX_WHEELSETS = 256
 """The loop keeps the span's compliance between the elements of every pair of wheelsets (144
 doubles a pair): 75 MB at this many wheelsets."""
@@ -63,141 +70,23 @@ MAX_FREE_DOFS = 8000
 CONTACT3D_FILES = ("contact3d_kernels.c", "contact3d_kernels.h", "contact3d_model.c", "contact3d.h")
 """The generated contact kernels linked into the loop (``generated/contact3d/``)."""
 
-_I = ctypes.c_int
-_D = ctypes.c_double
 _P = ctypes.c_void_p
 
 
-class Setup3D(ctypes.Structure):
-    """ctypes mirror of ``setup3d_t`` (``loop3d.h``)."""
-
-    _fields_ = [
-        *[
-            (n, _I)
-            for n in ("nV", "nW", "nF", "nB", "nS", "nE", "nblk", "p", "quake", "creep", "bilateral", "pad")
-        ],
-        *[(n, _D) for n in ("dt", "a0", "a1", "a2", "c1", "c0", "scale")],
-        *[
-            (n, _P)
-            for n in (
-                "blk_start",
-                "blk_off",
-                "AV",
-                "MVi",
-                "MV_ptr",
-                "MV_idx",
-                "CV_ptr",
-                "CV_idx",
-                "KV_ptr",
-                "KV_idx",
-                "MV_val",
-                "CV_val",
-                "KV_val",
-                "ws_dofs",
-                "ws_blk",
-                "geom",
-                "material",
-                "el_dofs",
-                "full_to_free",
-                "free_dofs",
-                "comp",
-                "S",
-                "MBi",
-                "band",
-                "perm",
-                "M_ptr",
-                "M_idx",
-                "M_val",
-                "C_ptr",
-                "C_idx",
-                "C_val",
-                "held",
-                "Kfs_ptr",
-                "Kfs_idx",
-                "Kfs_val",
-                "CT_ptr",
-                "CT_idx",
-                "CT_val",
-                "el_len",
-            )
-        ],
-    ]
-
-
-class CState3D(ctypes.Structure):
-    """ctypes mirror of ``state3d_t``."""
-
-    _fields_ = [
-        ("t", _D),
-        *[
-            (n, _P)
-            for n in (
-                "q",
-                "qd",
-                "qdd",
-                "u",
-                "ud",
-                "udd",
-                "P",
-                "flange",
-                "contact",
-                "creep",
-                "creep_V",
-                "creep_B",
-                "load",
-            )
-        ],
-    ]
-
-
-class CChunk3D(ctypes.Structure):
-    """ctypes mirror of ``chunk3d_t``."""
-
-    _fields_ = [
-        *[
-            (n, _P)
-            for n in (
-                "element",
-                "xi",
-                "irr",
-                "ground",
-                "support",
-                "t",
-                "q",
-                "qd",
-                "qdd",
-                "u",
-                "ud",
-                "udd",
-                "P",
-                "flange",
-                "contact",
-                "creep",
-                "gaps",
-            )
-        ],
-        ("every", ctypes.c_long),
-    ]
-
-
-class Info3D(ctypes.Structure):
-    """ctypes mirror of ``info3d_t``."""
-
-    _fields_ = [
-        ("steps", ctypes.c_long),
-        ("step", ctypes.c_long),
-        ("status", _I),
-        ("wheelset", _I),
-        ("iterations", ctypes.c_long),
-        ("passes", ctypes.c_long),
-    ]
+Setup3D = structure("Setup3D", SETUP3D_FIELDS, "ctypes mirror of ``setup3d_t`` (``svbi_loop3d_types.h``).")
+CState3D = structure("CState3D", STATE3D_FIELDS, "ctypes mirror of ``state3d_t``.")
+CChunk3D = structure("CChunk3D", CHUNK3D_FIELDS, "ctypes mirror of ``chunk3d_t``.")
+Info3D = structure("Info3D", INFO3D_FIELDS, "ctypes mirror of ``info3d_t``.")
+MIRRORS = {"setup3d_t": Setup3D, "state3d_t": CState3D, "chunk3d_t": CChunk3D, "info3d_t": Info3D}
+"""The ctypes mirror of every struct of ``loop3d_abi.STRUCTS3D``, in the order of ``svbi3d_sizes``."""
 
 
 def loop3d_sources() -> dict[str, bytes]:
-    """``{file name: bytes}``: the static C of ``runtime/csrc/loop3d`` and the generated contact
-    kernels, one flat folder."""
+    """``{file name: bytes}``: the static C of ``runtime/csrc/loop3d``, its generated header of the
+    structs (``generated/solver3d/``) and the generated contact kernels, one flat folder."""
     folder = resources.files("svbi.runtime").joinpath(CSRC).joinpath(CSRC_3D)
     files = {p.name: p.read_bytes() for p in folder.iterdir() if p.name.endswith((".c", ".h"))}
+    files[TYPES3D_HEADER] = (generated_root() / SOLVER3D_FOLDER / TYPES3D_HEADER).read_bytes()
     root = generated_root() / "contact3d"
     for name in CONTACT3D_FILES:
         files[name] = (root / name).read_bytes()
@@ -217,9 +106,9 @@ def load_loop3d() -> ctypes.CDLL:
         *shlex.split(os.environ.get("SVBI_CFLAGS", "")),
     )
     lib = kernel_cache.load_library(loop3d_sources(), "svbi_loop3d", flags=flags)
-    sizes = (ctypes.c_long * 4)()
+    sizes = (ctypes.c_long * len(MIRRORS))()
     lib.svbi3d_sizes(sizes)
-    want = [ctypes.sizeof(s) for s in (Setup3D, CState3D, CChunk3D, Info3D)]
+    want = [ctypes.sizeof(s) for s in MIRRORS.values()]
     if list(sizes) != want:
         raise RuntimeError(
             f"the 3D loop's structs do not match their ctypes mirrors: C {list(sizes)}, Python {want}"
@@ -453,43 +342,15 @@ class LocalizedDynamic3DC(_Step3D):
             support[s] = np.stack(self.support_targets(float(ts)))
         return ground, support
 
-    def _component_many(self, name: str, t: np.ndarray, x: np.ndarray) -> tuple[np.ndarray, ...]:
-        """:meth:`RecordGround.component` at the times ``t`` (k,) and points ``x`` (k, points) at once,
-        element by element the same operations."""
-        g = self.system.ground
-        comp = g.components[name]
-        if comp is None:
-            z = np.zeros(x.shape)
-            return z, z, z
-        if comp.positions is None:
-            history = comp.histories[0]
-            if g.apparent_velocity is None:
-                q = history.evaluate(np.asarray(t, dtype=float))
-                return tuple(np.broadcast_to(np.asarray(v, dtype=float)[:, None], x.shape).copy() for v in q)
-            return tuple(history.evaluate(t[:, None] - (x - g.reference_position) / g.apparent_velocity))
-        index = RecordGround.nearest_support(comp, x)
-        out = (np.zeros(x.shape), np.zeros(x.shape), np.zeros(x.shape))
-        tt = np.broadcast_to(t[:, None], x.shape)
-        for j in np.unique(index):
-            sel = index == j
-            q = comp.histories[int(j)].evaluate(tt[sel])
-            for o, v in zip(out, q, strict=True):
-                o[sel] = v
-        return out
-
-    def _motion_many(self, t: np.ndarray, x: np.ndarray) -> list[np.ndarray]:
-        """:meth:`System3D.ground_motion` at many times: ``(q, q', q'')``, each (k, points, 3)."""
-        parts = [self._component_many(n, t, x) for n in ("longitudinal", "lateral", "vertical")]
-        return [np.stack([p[d] for p in parts], axis=-1) for d in range(3)]
-
     def _quake_many(self, n0: int, k: int, t: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """The ground under the wheelsets and the supports' targets at the chunk's steps, vectorised
-        (:meth:`System3D.ground_under`, :meth:`_Step3D.support_targets`)."""
+        (:meth:`System3D.ground_under`, :meth:`_Step3D.support_targets`; the ground's records
+        evaluated at all the steps at once by :meth:`System3D.ground_motions`)."""
         sys_, span, dt = self.system, self.system.span, self.dt
         nW = self.asm.nW
         offsets = np.array([w.offset for w in sys_.vehicle.wheelsets])
         x = sys_.start + sys_.speed * t[:, None] - offsets[None, :]
-        q = self._motion_many(t, x)
+        q = sys_.ground_motions(t, x)
         moving = seen_moving(*q, getattr(sys_.ground, "apparent_velocity", None), sys_.speed)
         ground = np.zeros((k, 3, nW, 12))
         for d in range(3):
@@ -499,7 +360,7 @@ class LocalizedDynamic3DC(_Step3D):
         m = np.arange(n0, n0 + k + 2)
         times = m * dt
         lines = np.asarray(span.line_x, dtype=float)
-        lq = self._motion_many(times, np.broadcast_to(lines, (times.size, lines.size)))
+        lq = sys_.ground_motions(times, lines)
         line = np.array([s.line for s in span.supports])
         direction = np.array(
             [

@@ -65,7 +65,7 @@ int impact3(work3d_t* W, state3d_t* X, const int* el, const double* xi, const do
     for (j = 0; j < 4; ++j) W->GV[(long)i * nV + S->ws_dofs[4 * wi + j]] = g[j];
     for (j = 0; j < 12; ++j)
       if (W->fidx[12 * wi + j] >= 0) W->GB[(long)i * nF + W->fidx[12 * wi + j]] = g[4 + j];
-    veh_mul3(S, S->MVi, W->GV + (long)i * nV, W->AVm + (long)i * nV, 0);
+    veh_mul3(S, W->MVit, W->GV + (long)i * nV, W->AVm + (long)i * nV, 0);
     memset(W->ABm + (long)i * nF, 0, sizeof(double) * (size_t)nF);
     for (j = 0; j < 12; ++j) {
       int f = W->fidx[12 * wi + j], r;
@@ -102,7 +102,7 @@ int impact3(work3d_t* W, state3d_t* X, const int* el, const double* xi, const do
   for (i = 0; i < nF; ++i) X->ud[S->free_dofs[i]] += W->tF[i];
   /* the damping forces follow the velocity jump */
   csr_mul3(S->nV, S->CV_ptr, S->CV_idx, S->CV_val, W->tV, W->gv, 0);
-  veh_mul3(S, S->MVi, W->gv, W->dqn, 0);
+  veh_mul3(S, W->MVit, W->gv, W->dqn, 0);
   for (i = 0; i < nV; ++i) X->qdd[i] -= W->dqn[i];
   memset(W->tB, 0, sizeof(double) * (size_t)S->nB);
   for (i = 0; i < nF; ++i) W->tB[S->free_dofs[i]] = W->tF[i];

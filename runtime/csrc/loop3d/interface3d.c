@@ -5,7 +5,13 @@
  *
  *     (J_V A_V G_V^T + J_B S G_B^T) P = -E + J_V (dq - dq~) + J_B (u - u~),
  *
- * until the update is round-off (coupled3d.Convergence). Only what the interface needs is formed:
+ * until the update is round-off (coupled3d.Convergence). The first iteration of a pass is Newton's:
+ * the matrix is formed at the predictor and factored (lu_factor3); the next ones are chord
+ * iterations on those factors (lu_back3): the forces are corrected by minus the residuals at the
+ * iterate, linearised to the state the forces give with the gradients there (chord_rhs), with no
+ * new Jacobian, matrix or factorisation. The iteration's fixed point is the same (the residuals
+ * vanish there whatever matrix corrects them); a chord that shrinks its update less than
+ * CHORD_RATE3 is followed by a Newton iteration again. Only what the interface needs is formed:
  * the 4 x 4 blocks of two wheelsets of the same car (A_V) or on the same part of the structure (the
  * compliance S between their elements' DOFs, gathered when an element changes), over a list of the
  * coupled pairs and, in each block, the active constraints and the element DOFs where their rows
@@ -147,12 +153,13 @@ static void couple(work3d_t* W) {
       W->pair[w * nW + v] = flag;
       if (flag) W->plist[np++] = w * nW + v;
       if ((flag & 2) && (sel[0] != W->ondeck[w] + 1 || sel[1] != W->ondeck[v] + 1)) {
-        double* B = W->Sblk + 144 * (w * nW + v);
+        double *B = W->Sblk + 144 * (w * nW + v), *Bt = W->SblkT + 144 * (w * nW + v);
         for (i = 0; i < 12; ++i) {
           int fi = W->fidx[12 * w + i];
           for (j = 0; j < 12; ++j) {
             int fj = W->fidx[12 * v + j];
             B[12 * i + j] = (fi >= 0 && fj >= 0) ? S->S[(long)fi * nF + fj] : 0.0;
+            Bt[12 * j + i] = B[12 * i + j];
           }
         }
         sel[0] = W->ondeck[w] + 1;
@@ -264,30 +271,42 @@ static void assemble(work3d_t* W, int na) {
 }
 
 /* The span's displacements at the contact elements' free DOFs under the element loads h (the
- * predictor's plus the compliance blocks' response) into ucn; the largest change and size. */
-static void contact_response(work3d_t* W, const double* h, double* change, double* size) {
-  const setup3d_t* S = W->S;
-  const int nW = S->nW;
+ * predictor's plus the compliance blocks' response), 12 per wheelset on the deck, into un. */
+static void contact_at(work3d_t* W, const double* h, double* out) {
+  const int nW = W->S->nW;
   int w, i, j, l;
   for (w = 0; w < nW; ++w) {
-    double un[12];
+    double* un = out + 12 * w;
     if (W->ondeck[w] < 0) continue;
     for (i = 0; i < 12; ++i) un[i] = W->uc0[12 * w + i];
     for (l = W->pstart[w]; l < W->pstart[w + 1]; ++l) {
       const int k = W->plist[l] - w * nW;
-      const double* B = W->Sblk + 144 * (long)W->plist[l];
+      const double* Bt = W->SblkT + 144 * (long)W->plist[l];
       const double* hk = h + 12 * k;
       const int* jg = W->nzg + 12 * k;
       const int ng = W->nng[k];
       double acc[12];
       if (!(W->pair[W->plist[l]] & 2) || !W->ncon[k]) continue;
       for (i = 0; i < 12; ++i) acc[i] = 0.0;
-      for (j = 0; j < ng; ++j) { /* twelve independent sums (each in the order of j) */
+      for (j = 0; j < ng; ++j) { /* twelve independent sums (each in the order of j), by columns of
+                                  * the block: contiguous in its transpose, so vector operations */
         const double a = hk[jg[j]];
-        for (i = 0; i < 12; ++i) acc[i] += B[12 * i + jg[j]] * a;
+        const double* c = Bt + 12 * jg[j];
+        for (i = 0; i < 12; ++i) acc[i] += c[i] * a;
       }
       for (i = 0; i < 12; ++i) un[i] += acc[i];
     }
+  }
+}
+
+/* contact_at into ucn; the largest change and size */
+static void contact_response(work3d_t* W, const double* h, double* change, double* size) {
+  const int nW = W->S->nW;
+  int w, i;
+  contact_at(W, h, W->uch);
+  for (w = 0; w < nW; ++w) {
+    const double* un = W->uch + 12 * w;
+    if (W->ondeck[w] < 0) continue;
     for (i = 0; i < 12; ++i) {
       double d;
       if (W->fidx[12 * w + i] < 0) continue;
@@ -299,15 +318,44 @@ static void contact_response(work3d_t* W, const double* h, double* change, doubl
   }
 }
 
+/* The chord's right-hand side: minus the residuals at the iterate x, linearised (with the rows of the
+ * last Newton iteration) to the state x^ that the forces lam give with the gradients at x (the
+ * iterate took them with the gradients before: without this the chord would lag the turn of the
+ * force directions by one iteration, and the forces would stop short of the solution). */
+static void chord_rhs(work3d_t* W, int na) {
+  const setup3d_t* S = W->S;
+  const int nW = S->nW, nV = S->nV;
+  int a, w, k, j;
+  memset(W->gv, 0, sizeof(double) * (size_t)nV);
+  for (w = 0; w < nW; ++w)
+    for (k = 0; k < 4; ++k)
+      for (j = 0; j < 4; ++j) W->gv[S->ws_dofs[4 * w + j]] += W->grad[(4 * w + k) * NZ3 + j] * W->lam[4 * w + k];
+  memcpy(W->dqh, W->dq0, sizeof(double) * (size_t)nV);
+  veh_mul3(S, W->AVt, W->gv, W->dqh, 1);
+  element_loads(W, W->lam, W->hh2);
+  contact_at(W, W->hh2, W->uch);
+  for (a = 0; a < na; ++a) {
+    const int ia = W->idx[a], wa = ia / 4;
+    const double* ra = W->landing[ia] ? W->grad + ia * NZ3 : W->jac + ia * NZ3;
+    const int* da = S->ws_dofs + 4 * wa;
+    double r = -(W->landing[ia] ? W->gap[ia] : W->res[ia]);
+    for (k = 0; k < 4; ++k) r -= ra[k] * (W->dqh[da[k]] - W->dq[da[k]]);
+    if (W->ondeck[wa] >= 0)
+      for (k = 0; k < 12; ++k)
+        if (W->fidx[12 * wa + k] >= 0) r -= ra[4 + k] * (W->uch[12 * wa + k] - W->ucn[12 * wa + k]);
+    W->rhs[a] = r;
+  }
+}
+
 int interface3(work3d_t* W, const state3d_t* X, const int* el, const double* xi, const double* irr) {
   const setup3d_t* S = W->S;
   const int nW = S->nW, nC = 4 * nW, nV = S->nV, nF = S->nF;
   double last = INFINITY, size0 = 0.0;
   double* hh = W->hw;
-  int i, j, a, k, w, na = 0, it, st, full = 0;
+  int i, j, a, k, w, na = 0, it, st, full = 0, fresh = 1;
   (void)el;
   /* predictors */
-  veh_mul3(S, S->AV, W->fV, W->dq0, 0);
+  veh_mul3(S, W->AVt, W->fV, W->dq0, 0);
   memcpy(W->uf0, W->fB, sizeof(double) * (size_t)nF);
   span_solve3(W, W->uf0);
   memcpy(W->dq, W->dq0, sizeof(double) * (size_t)nV);
@@ -339,33 +387,47 @@ int interface3(work3d_t* W, const state3d_t* X, const int* el, const double* xi,
   couple(W);
   for (it = 0; it < NEWTON_ITERATIONS3; ++it) {
     double change = 0.0, size;
+    const int newton = fresh;
     W->iterations++;
-    st = iterate_rows3(W, X, W->ucn, xi, irr, ROWS_ITERATE);
+    st = iterate_rows3(W, X, W->ucn, xi, irr, newton ? ROWS_ITERATE : ROWS_CHORD);
     if (st) return st;
-    /* the interface matrix over the active constraints, and its right-hand side */
-    for (a = 0; a < na; ++a) {
-      int ia = W->idx[a], wa = ia / 4;
-      const double* ra = W->landing[ia] ? W->grad + ia * NZ3 : W->jac + ia * NZ3;
-      double Ea = W->landing[ia] ? W->gap[ia] : W->res[ia];
-      double r = -Ea;
-      const int* da = S->ws_dofs + 4 * wa;
-      for (k = 0; k < 4; ++k) r += ra[k] * (W->dq[da[k]] - W->dq0[da[k]]);
-      for (k = 0; k < 12; ++k)
-        if (W->fidx[12 * wa + k] >= 0) r += ra[4 + k] * (W->ucn[12 * wa + k] - W->uc0[12 * wa + k]);
-      W->rhs[a] = r;
-    }
     compact(W);
-    assemble(W, na);
-    if (na && lu_solve3(W->A, na, W->rhs, W->piv)) return S3_SINGULAR;
-    for (i = 0; i < nC; ++i) W->lamn[i] = 0.0;
-    for (a = 0; a < na; ++a) W->lamn[W->idx[a]] = W->rhs[a];
+    if (newton) {
+      /* the interface matrix over the active constraints at the iterate, factored, and the new
+       * forces from its right-hand side */
+      for (a = 0; a < na; ++a) {
+        int ia = W->idx[a], wa = ia / 4;
+        const double* ra = W->landing[ia] ? W->grad + ia * NZ3 : W->jac + ia * NZ3;
+        double Ea = W->landing[ia] ? W->gap[ia] : W->res[ia];
+        double r = -Ea;
+        const int* da = S->ws_dofs + 4 * wa;
+        for (k = 0; k < 4; ++k) r += ra[k] * (W->dq[da[k]] - W->dq0[da[k]]);
+        for (k = 0; k < 12; ++k)
+          if (W->fidx[12 * wa + k] >= 0) r += ra[4 + k] * (W->ucn[12 * wa + k] - W->uc0[12 * wa + k]);
+        W->rhs[a] = r;
+      }
+      assemble(W, na);
+      if (na && lu_factor3(W->A, na, W->piv, W->lu_last, W->lu_first)) return S3_SINGULAR;
+      if (na) lu_back3(W->A, na, W->piv, W->lu_last, W->lu_first, W->rhs);
+      for (i = 0; i < nC; ++i) W->lamn[i] = 0.0;
+      for (a = 0; a < na; ++a) W->lamn[W->idx[a]] = W->rhs[a];
+      fresh = 0;
+    } else {
+      /* a chord iteration: the correction of the forces by the factored matrix of the last Newton
+       * iteration, from the residuals at the iterate (the solution is where they vanish, whatever
+       * matrix corrects them: only the rate of convergence depends on it) */
+      chord_rhs(W, na);
+      lu_back3(W->A, na, W->piv, W->lu_last, W->lu_first, W->rhs);
+      for (i = 0; i < nC; ++i) W->lamn[i] = 0.0;
+      for (a = 0; a < na; ++a) W->lamn[W->idx[a]] = W->lam[W->idx[a]] + W->rhs[a];
+    }
     /* the responses: vehicle (all DOFs), span at the contact DOFs */
     memset(W->gv, 0, sizeof(double) * (size_t)nV);
     for (w = 0; w < nW; ++w)
       for (k = 0; k < 4; ++k)
         for (j = 0; j < 4; ++j) W->gv[S->ws_dofs[4 * w + j]] += W->grad[(4 * w + k) * NZ3 + j] * W->lamn[4 * w + k];
     memcpy(W->dqn, W->dq0, sizeof(double) * (size_t)nV);
-    veh_mul3(S, S->AV, W->gv, W->dqn, 1);
+    veh_mul3(S, W->AVt, W->gv, W->dqn, 1);
     element_loads(W, W->lamn, hh);
     size = 0.0;
     contact_response(W, hh, &change, &size);
@@ -378,6 +440,14 @@ int interface3(work3d_t* W, const state3d_t* X, const int* el, const double* xi,
     memcpy(W->lam, W->lamn, sizeof(double) * (size_t)nC);
     if (size0 > size) size = size0;
     if (size < 1e-300) size = 1e-300;
+    if (!newton && change > NEWTON_TOLERANCE3 * size && change > CHORD_RATE3 * last) {
+      /* the chord contracts too slowly (the matrix has aged): a Newton iteration next, and no
+       * stagnation read into a slow chord */
+      fresh = 1;
+      memcpy(W->hwp, hh, sizeof(double) * (size_t)(12 * nW));
+      last = change;
+      continue;
+    }
     if (change <= NEWTON_TOLERANCE3 * size || (change <= STAGNATION3 * size && change > 0.5 * last)) {
       /* stopping by the contact DOFs: the rule again over every DOF of the span, as the NumPy step
        * (the new iterate in full by one band solve, its change from the last by another) */

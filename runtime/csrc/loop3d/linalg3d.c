@@ -8,51 +8,87 @@
 #include "loop3d.h"
 
 /* L L^T x = b in place; L(j + r, j) at L[j (p + 1) + r], except the diagonal: its reciprocal
- * (multiplications, not divisions, in the solve's chain). */
-void band_solve3(const double* L, int n, int p, double* b) {
+ * (multiplications, not divisions, in the solve's chain). Rows with a full band (j + p < n) are
+ * taken apart from the last p, so that with p known at compile time (band_solve3 dispatches the
+ * small half-bandwidths of a chain of spans to their own copies) the inner loops unroll; the
+ * operations and their order are the generic loop's. */
+static inline void band_solve_n(const double* L, int n, const int p, double* b, double* b2) {
+  const int full = n - p > 0 ? n - p : 0;
   int j, r;
-  for (j = 0; j < n; ++j) {
+  for (j = 0; j < full; ++j) {
     const double* c = L + (long)j * (p + 1);
     double x = b[j] * c[0];
-    int m = (j + p < n) ? p : n - 1 - j;
+    b[j] = x;
+    for (r = 1; r <= p; ++r) b[j + r] -= c[r] * x;
+    if (b2) {
+      double x2 = b2[j] * c[0];
+      b2[j] = x2;
+      for (r = 1; r <= p; ++r) b2[j + r] -= c[r] * x2;
+    }
+  }
+  for (j = full; j < n; ++j) {
+    const double* c = L + (long)j * (p + 1);
+    double x = b[j] * c[0];
+    int m = n - 1 - j;
     b[j] = x;
     for (r = 1; r <= m; ++r) b[j + r] -= c[r] * x;
+    if (b2) {
+      double x2 = b2[j] * c[0];
+      b2[j] = x2;
+      for (r = 1; r <= m; ++r) b2[j + r] -= c[r] * x2;
+    }
   }
-  for (j = n - 1; j >= 0; --j) {
+  for (j = n - 1; j >= full; --j) {
     const double* c = L + (long)j * (p + 1);
     double s = b[j];
-    int m = (j + p < n) ? p : n - 1 - j;
+    int m = n - 1 - j;
     for (r = 1; r <= m; ++r) s -= c[r] * b[j + r];
     b[j] = s * c[0];
+    if (b2) {
+      double s2 = b2[j];
+      for (r = 1; r <= m; ++r) s2 -= c[r] * b2[j + r];
+      b2[j] = s2 * c[0];
+    }
+  }
+  for (j = full - 1; j >= 0; --j) {
+    const double* c = L + (long)j * (p + 1);
+    double s = b[j];
+    for (r = 1; r <= p; ++r) s -= c[r] * b[j + r];
+    b[j] = s * c[0];
+    if (b2) {
+      double s2 = b2[j];
+      for (r = 1; r <= p; ++r) s2 -= c[r] * b2[j + r];
+      b2[j] = s2 * c[0];
+    }
   }
 }
 
-/* band_solve3 of two right-hand sides at once (the same operations on each) */
-void band_solve3_2(const double* L, int n, int p, double* b, double* b2) {
-  int j, r;
-  for (j = 0; j < n; ++j) {
-    const double* c = L + (long)j * (p + 1);
-    double x = b[j] * c[0], x2 = b2[j] * c[0];
-    int m = (j + p < n) ? p : n - 1 - j;
-    b[j] = x;
-    b2[j] = x2;
-    for (r = 1; r <= m; ++r) {
-      b[j + r] -= c[r] * x;
-      b2[j + r] -= c[r] * x2;
-    }
-  }
-  for (j = n - 1; j >= 0; --j) {
-    const double* c = L + (long)j * (p + 1);
-    double s = b[j], s2 = b2[j];
-    int m = (j + p < n) ? p : n - 1 - j;
-    for (r = 1; r <= m; ++r) {
-      s -= c[r] * b[j + r];
-      s2 -= c[r] * b2[j + r];
-    }
-    b[j] = s * c[0];
-    b2[j] = s2 * c[0];
+static void band_dispatch(const double* L, int n, int p, double* b, double* b2) {
+  switch (p) {
+    case 1:
+      band_solve_n(L, n, 1, b, b2);
+      return;
+    case 2:
+      band_solve_n(L, n, 2, b, b2);
+      return;
+    case 3:
+      band_solve_n(L, n, 3, b, b2);
+      return;
+    case 4:
+      band_solve_n(L, n, 4, b, b2);
+      return;
+    case 6:
+      band_solve_n(L, n, 6, b, b2);
+      return;
+    default:
+      band_solve_n(L, n, p, b, b2);
   }
 }
+
+void band_solve3(const double* L, int n, int p, double* b) { band_dispatch(L, n, p, b, 0); }
+
+/* band_solve3 of two right-hand sides at once (the same operations on each) */
+void band_solve3_2(const double* L, int n, int p, double* b, double* b2) { band_dispatch(L, n, p, b, b2); }
 
 /* A x = b (A n x n row-major, overwritten by its factors; b by x). S3_SINGULAR on a zero pivot.
  * Gaussian elimination with partial pivoting (numpy.linalg.solve's), skipping exact zeros: each
@@ -114,4 +150,85 @@ int lu_solve3(double* A, int n, double* b, int* piv) {
     b[i] = s / ri[i];
   }
   return S3_OK;
+}
+
+/* The factors of lu_solve3 kept (the interface's, for the chord iterations of interface3): A
+ * overwritten by L (unit, below the diagonal) and U, the row swaps in piv, each row's last nonzero
+ * column of U in last and first nonzero column of L in first. S3_SINGULAR on a zero pivot. The
+ * elimination is lu_solve3's, so lu_factor3 then lu_back3 gives lu_solve3's x bit for bit. */
+int lu_factor3(double* A, int n, int* piv, int* last, int* first) {
+  int i, j, k;
+  for (i = 0; i < n; ++i) {
+    const double* ri = A + (long)i * n;
+    for (j = n - 1; j > 0 && ri[j] == 0.0; --j) {
+    }
+    last[i] = j;
+  }
+  for (k = 0; k < n; ++k) {
+    int m = k;
+    double big = fabs(A[(long)k * n + k]);
+    for (i = k + 1; i < n; ++i)
+      if (fabs(A[(long)i * n + k]) > big) {
+        big = fabs(A[(long)i * n + k]);
+        m = i;
+      }
+    piv[k] = m;
+    if (big == 0.0) return S3_SINGULAR;
+    if (m != k) {
+      double t;
+      int e = last[k] > last[m] ? last[k] : last[m];
+      for (j = 0; j <= e; ++j) {
+        t = A[(long)k * n + j];
+        A[(long)k * n + j] = A[(long)m * n + j];
+        A[(long)m * n + j] = t;
+      }
+      j = last[k];
+      last[k] = last[m];
+      last[m] = j;
+    }
+    {
+      const double* rk = A + (long)k * n;
+      const int e = last[k];
+      double inv = 1.0 / rk[k];
+      for (i = k + 1; i < n; ++i) {
+        double* ri = A + (long)i * n;
+        double f = ri[k] * inv;
+        if (f == 0.0) continue;
+        ri[k] = f;
+        for (j = k + 1; j <= e; ++j) ri[j] -= f * rk[j];
+        if (e > last[i]) last[i] = e;
+      }
+    }
+  }
+  for (i = 0; i < n; ++i) {
+    const double* ri = A + (long)i * n;
+    for (j = 0; j < i && ri[j] == 0.0; ++j) {
+    }
+    first[i] = j;
+  }
+  return S3_OK;
+}
+
+/* x of A x = b from lu_factor3's factors (b overwritten): the swaps in order, then the unit lower
+ * and the upper triangle; each b[i] takes its subtractions in lu_solve3's order. */
+void lu_back3(const double* A, int n, const int* piv, const int* last, const int* first, double* b) {
+  int i, j, k;
+  for (k = 0; k < n; ++k)
+    if (piv[k] != k) {
+      double t = b[k];
+      b[k] = b[piv[k]];
+      b[piv[k]] = t;
+    }
+  for (i = 1; i < n; ++i) {
+    const double* ri = A + (long)i * n;
+    double s = b[i];
+    for (k = first[i]; k < i; ++k) s -= ri[k] * b[k];
+    b[i] = s;
+  }
+  for (i = n - 1; i >= 0; --i) {
+    const double* ri = A + (long)i * n;
+    double s = b[i];
+    for (j = i + 1; j <= last[i]; ++j) s -= ri[j] * b[j];
+    b[i] = s / ri[i];
+  }
 }

@@ -1,10 +1,12 @@
 /*
  * The compiled loop of the 3D localized-dynamic step (docs/c-backend.md, "The 3D loop"): the step
  * of svbi.runtime.methods.localized3d.LocalizedDynamic3D (with _Step3D of coupled3d.py) on the
- * CasADi-emitted contact kernels of generated/contact3d/. The structs below are mirrored by ctypes
- * in svbi.runtime.backends.c.stepper3d (svbi3d_sizes() lets Python check the layout). No function
- * allocates: the caller gives one double and one int workspace of the sizes svbi3d_workspace
- * returns, carved once (setup3d.c). Files, one job each: setup3d.c (workspace, kernel maps),
+ * CasADi-emitted contact kernels of generated/contact3d/. The structs that Python hands in
+ * (setup3d_t, state3d_t, chunk3d_t, info3d_t) and the status codes S3_* are generated:
+ * generated/solver3d/svbi_loop3d_types.h, from the field lists of svbi.codegen.loop3d_abi, which
+ * also give the ctypes mirrors of svbi.runtime.backends.c.stepper3d (svbi3d_sizes() lets Python
+ * check the layout at load). No function allocates: the caller gives one double and one int
+ * workspace of the sizes svbi3d_workspace returns, carved once (setup3d.c). Files, one job each: setup3d.c (workspace, kernel maps),
  * linalg3d.c (band and dense solves), rows3d.c (the contact kernels of a wheelset), vehicle3d.c
  * (per-car blocks), span3d.c (the span's loads and solves), interface3d.c (the interface
  * iteration), active3d.c (the active set and the complementarity solves), impact3d.c (plastic
@@ -14,98 +16,15 @@
 #define SVBI_LOOP3D_H
 
 #include "contact3d.h"
+#include "svbi_loop3d_types.h"
 
 #define NZ3 16
 #define PER_WS 4
 #define NEWTON_ITERATIONS3 20
 #define NEWTON_TOLERANCE3 1e-13
 #define STAGNATION3 1e-9
+#define CHORD_RATE3 0.25 /* a chord iteration must shrink the update 4x, or the next is Newton's */
 #define PIVOT_TRIES3 3
-
-/* status codes (svbi.runtime.backends.c.stepper3d.STATUS) */
-#define S3_OK 0
-#define S3_NOT_FINITE 1
-#define S3_SINGULAR 2
-#define S3_ACTIVE_SET 3
-#define S3_IMPULSE 4
-#define S3_FORCE_JUMP 5
-#define S3_KERNEL 6
-
-/* Everything constant over a run (arrays owned by Python). Dense matrices are row-major. */
-typedef struct {
-  int nV, nW, nF, nB, nS, nE, nblk, p;
-  int quake, creep, bilateral, pad;
-  double dt, a0, a1, a2, c1, c0, scale;
-  /* vehicle: blocks [blk_start[b], blk_start[b + 1]) of the DOFs, dense blocks at blk_off[b] (its
-   * compliance and inverse mass); M, C, K sparse (nV x nV CSR) */
-  const int* blk_start;
-  const long* blk_off;
-  const double *AV, *MVi;
-  const int *MV_ptr, *MV_idx, *CV_ptr, *CV_idx, *KV_ptr, *KV_idx;
-  const double *MV_val, *CV_val, *KV_val;
-  const int* ws_dofs; /* nW x 4: [y, z, phi, psi] of each wheelset */
-  const int* ws_blk;  /* nW */
-  const double* geom;     /* nW x 8: the kernels' geometry argument */
-  const double* material; /* nW x 10: the creep law's material argument */
-  /* span */
-  const int* el_dofs;      /* nE x 12 full DOFs of each element */
-  const int* full_to_free; /* nB: free index or -1 */
-  const int* free_dofs;    /* nF */
-  const int* comp;         /* nF: connected part of the structure */
-  const double* S;         /* nF x nF: compliance K^_ff^-1 */
-  const double* MBi;       /* nF x nF: M_ff^-1 */
-  const double* band; /* nF x (p + 1): Cholesky factor of K^_ff in perm order, L(j+r, j) at [j (p+1) + r],
-                      * the diagonal as its reciprocal */
-  const int* perm;         /* nF: free index at band position k */
-  const int *M_ptr, *M_idx;
-  const double* M_val; /* nB x nB CSR: span mass */
-  const int *C_ptr, *C_idx;
-  const double* C_val; /* nB x nB CSR: span damping */
-  const int* held;     /* nS: the supports' DOFs */
-  const int *Kfs_ptr, *Kfs_idx;
-  const double* Kfs_val; /* nF x nS CSR: K^_fs */
-  const int *CT_ptr, *CT_idx;
-  const double* CT_val; /* nF x nS CSR: (C T)_f */
-  const double* el_len; /* nE: each deck element's length, the geometry's entry 7 on it (geom's own
-                         * entry 7 is taken on the ground) */
-} setup3d_t;
-
-/* The state at t_n, updated in place to the last step. */
-typedef struct {
-  double t;
-  double *q, *qd, *qdd; /* nV */
-  double *u, *ud, *udd; /* nB */
-  double *P, *flange;   /* 2 nW */
-  int* contact;         /* 4 nW: closed at t (in_contact) */
-  double* creep;        /* nW x 6 */
-  double *creep_V, *creep_B;
-  double* load; /* nV: the vehicle's load (gravity and system.load) */
-} state3d_t;
-
-/* The excitation of k steps (Excitation3D), and the outputs (Chunk3D). */
-typedef struct {
-  const int* element;       /* k x nW */
-  const double* xi;         /* k x nW */
-  const double* irr;        /* k x nW x 9 */
-  const double* ground;     /* k x 3 x nW x 12, or NULL */
-  const double* support;    /* k x 3 x nS, or NULL */
-  double *t, *q, *qd, *qdd; /* k, k x nV */
-  double *u, *ud, *udd;     /* k x nB */
-  double *P, *flange;       /* k x 2 nW */
-  int* contact;             /* k x 4 nW */
-  double* creep;            /* k x nW x 6 */
-  double* gaps;             /* k x 2 nW (NaN where not evaluated) */
-  long every;
-} chunk3d_t;
-
-typedef struct {
-  long steps;      /* steps done */
-  long step;       /* the step that failed (n) */
-  int status;
-  int wheelset;    /* where known */
-  long iterations; /* interface iterations, all steps */
-  long passes;     /* active-set passes, all steps */
-} info3d_t;
 
 /* The pivoting rule of unilateral.Pivoting (block pivots, then Murty's least-index rule). */
 typedef struct {
@@ -123,6 +42,7 @@ typedef struct {
   casadi_int kiw[SVBI_CONTACT3D_MAX_SZ_IW + 1];
   /* vehicle */
   double *fV, *PtV, *QtV, *dq0, *dq, *dqn, *qk, *qdk, *qddk, *gv, *tV;
+  double *AVt, *MVit; /* the cars' blocks of S->AV, S->MVi by columns (veh_mul3) */
   /* span */
   double *PB, *QB, *fBfull, *fB, *uf0, *uk, *udk, *uddk, *bw, *tF, *tB;
   const double *Q0, *Q1, *Q2; /* support targets of the step (NULL without) */
@@ -133,9 +53,11 @@ typedef struct {
   double *uc0, *ucn;              /* nW x 12: span displacements at the contact DOFs */
   double *A, *rhs, *lam, *lamn, *start, *force, *ggap;
   int *active, *landing, *in_contact, *idx, *piv;
+  int *lu_last, *lu_first; /* the interface factors' profile (lu_factor3) */
   int *pair, *sel, *act_of; /* nW x nW coupling (1: same car, 2: same structure), cached elements of
                              * each pair's S block, the active row of each constraint (-1) */
   double* Sblk;              /* nW x nW x 144: S between the elements of two wheelsets (0 at held DOFs) */
+  double* SblkT;             /* each block of Sblk transposed */
   int *plist, *pstart; /* the coupled ordered pairs w nW + v (pair != 0), by w: [pstart[w], pstart[w + 1]) */
   int* seen;           /* 1 + nW: the elements the couplings were found for (couple) */
   /* of an iteration, per wheelset: its active constraints (ncon, 4 each), the element DOFs (free)
@@ -144,6 +66,7 @@ typedef struct {
   int *ncon, *con, *nng, *nzg, *nnr, *nzr;
   double *gc, *rc, *rv;
   double *hw, *hwp; /* nW x 12: the contact forces' loads on their elements, now and before */
+  double *dqh, *uch, *hh2; /* a chord iteration's state of the forces with the new gradients (nV, 12 nW, 12 nW) */
   pivot3_t pv; /* pivoting of the active set */
   long iterations, passes;
   /* impact */
@@ -169,6 +92,8 @@ void w3_carve(const setup3d_t* S, work3d_t* W, double* work, int* iwork, long* n
 void band_solve3(const double* L, int n, int p, double* b);
 void band_solve3_2(const double* L, int n, int p, double* b, double* b2);
 int lu_solve3(double* A, int n, double* b, int* piv);
+int lu_factor3(double* A, int n, int* piv, int* last, int* first);
+void lu_back3(const double* A, int n, const int* piv, const int* last, const int* first, double* b);
 /* rows3d.c: kernel k (SVBI_CONTACT3D_K_*) at the wheelset's z = [q_w, u_e] (rates zd, zdd) */
 int kcall3(work3d_t* W, int k, int w, const double* z, const double* zd, const double* zdd, double xi,
            const double* irr, const double* coef, double* out0, double* out1);
@@ -176,11 +101,13 @@ int rows3(work3d_t* W, int w, const double* z, const double* zd, const double* z
           const double* irr);
 #define ROWS_ITERATE 0
 #define ROWS_CHECK 1
+#define ROWS_CHORD 2
 int rows_needed3(work3d_t* W, int w, const double* z, const double* zd, const double* zdd, double xi,
                  const double* irr, int use);
 void zvec3(const work3d_t* W, int w, const double* q, const double* u, const double* ground, double* z);
 /* vehicle3d.c */
-void veh_mul3(const setup3d_t* S, const double* blocks, const double* x, double* y, int add);
+void veh_transpose3(const setup3d_t* S, const double* blocks, double* out);
+void veh_mul3(const setup3d_t* S, const double* blocks_t, const double* x, double* y, int add);
 /* span3d.c */
 void csr_mul3(int n, const int* ptr, const int* idx, const double* val, const double* x, double* y, int add);
 void span_solve3(work3d_t* W, double* bfree);

@@ -78,7 +78,8 @@ int rows3(work3d_t* W, int w, const double* z, const double* zd, const double* z
 
 /* Only the rows a use needs (rows3 evaluates all): ITERATE, the rows of the active constraints
  * (gradients; the stabilised residual and its Jacobian, or the gap of a landing one; the inactive
- * ones' gradients zero: they carry no force); CHECK, what the active set reads of the inactive ones
+ * ones' gradients zero: they carry no force); CHORD, those without the Jacobians (an iteration on
+ * the interface matrix already factored); CHECK, what the active set reads of the inactive ones
  * (the stabilised residual of one in contact at t_n, the gap of one that was not). */
 int rows_needed3(work3d_t* W, int w, const double* z, const double* zd, const double* zdd, double xi,
                  const double* irr, int use) {
@@ -95,7 +96,7 @@ int rows_needed3(work3d_t* W, int w, const double* z, const double* zd, const do
   for (h = 0; h < 2; ++h) { /* normal pair, flange pair */
     const int a0 = act[2 * h], a1 = act[2 * h + 1];
     int need_res, need_gap, need_grad;
-    if (use == ROWS_ITERATE) {
+    if (use != ROWS_CHECK) {
       need_grad = a0 || a1;
       need_res = (a0 && !land[2 * h]) || (a1 && !land[2 * h + 1]);
       need_gap = (a0 && land[2 * h]) || (a1 && land[2 * h + 1]);
@@ -107,7 +108,7 @@ int rows_needed3(work3d_t* W, int w, const double* z, const double* zd, const do
     if (need_grad)
       st |= kcall3(W, h ? SVBI_CONTACT3D_K_FLANGE_GAP_GRADIENTS : SVBI_CONTACT3D_K_NORMAL_GAP_GRADIENTS, w, z, zd,
                    zdd, xi, irr, c, g + 2 * h * NZ3, 0);
-    else if (use == ROWS_ITERATE)
+    else if (use != ROWS_CHECK)
       memset(g + 2 * h * NZ3, 0, sizeof(double) * 2 * NZ3);
     if (need_res) {
       st |= kcall3(W, h ? SVBI_CONTACT3D_K_FLANGE_RESIDUALS : SVBI_CONTACT3D_K_NORMAL_RESIDUALS, w, z, zd, zdd, xi,

@@ -72,6 +72,8 @@ void w3_carve(const setup3d_t* S, work3d_t* W, double* work, int* iwork, long* n
   W->qddk = take_d(&d, nV, &cd);
   W->gv = take_d(&d, nV, &cd);
   W->tV = take_d(&d, nV, &cd);
+  W->AVt = take_d(&d, S->blk_off[S->nblk], &cd);
+  W->MVit = take_d(&d, S->blk_off[S->nblk], &cd);
   W->PB = take_d(&d, nB, &cd);
   W->QB = take_d(&d, nB, &cd);
   W->fBfull = take_d(&d, nB, &cd);
@@ -106,9 +108,13 @@ void w3_carve(const setup3d_t* S, work3d_t* W, double* work, int* iwork, long* n
   W->rc = take_d(&d, 48 * nW, &cd);
   W->rv = take_d(&d, 16 * nW, &cd);
   W->Sblk = take_d(&d, 144 * nW * nW, &cd);
+  W->SblkT = take_d(&d, 144 * nW * nW, &cd);
   W->hw = take_d(&d, nW * 12, &cd);
   W->hwp = take_d(&d, nW * 12, &cd);
   W->ucn = take_d(&d, nW * 12, &cd);
+  W->dqh = take_d(&d, nV, &cd);
+  W->uch = take_d(&d, nW * 12, &cd);
+  W->hh2 = take_d(&d, nW * 12, &cd);
   W->A = take_d(&d, nC * nC, &cd);
   W->rhs = take_d(&d, nC, &cd);
   W->lam = take_d(&d, nC, &cd);
@@ -121,6 +127,8 @@ void w3_carve(const setup3d_t* S, work3d_t* W, double* work, int* iwork, long* n
   W->in_contact = take_i(&i, nC, &ci);
   W->idx = take_i(&i, nC, &ci);
   W->piv = take_i(&i, nC, &ci);
+  W->lu_last = take_i(&i, nC, &ci);
+  W->lu_first = take_i(&i, nC, &ci);
   W->GV = take_d(&d, nC * nV, &cd);
   W->GB = take_d(&d, nC * nF, &cd);
   W->AVm = take_d(&d, nV * nC, &cd);

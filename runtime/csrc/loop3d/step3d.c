@@ -188,6 +188,8 @@ int svbi3d_run(const setup3d_t* S, state3d_t* X, chunk3d_t* C, double* work, int
   long nd, ni, s;
   const long nW = S->nW, nV = S->nV, nB = S->nB;
   w3_carve(S, &W, work, iwork, &nd, &ni);
+  veh_transpose3(S, S->AV, W.AVt);
+  veh_transpose3(S, S->MVi, W.MVit);
   W.iterations = W.passes = 0;
   for (s = 0; s < 4 * nW; ++s) W.in_contact[s] = X->contact[s] != 0;
   I->steps = 0;
