@@ -104,6 +104,12 @@ SETUP3D_FIELDS = [
     F("CT_ptr", "int*", "nF + 1: CSR row pointers of (C T)_f (nF x nS)"),
     F("CT_idx", "int*", "its column indices"),
     F("CT_val", "double*", "its values"),
+    F(
+        "el_len",
+        "double*",
+        "nE: each deck element's length, entry 7 of a wheelset's geometry on it (geom's own entry 7 "
+        "is taken on the ground)",
+    ),
 ]
 """``setup3d_t``: everything constant over a run (arrays owned by Python)."""
 

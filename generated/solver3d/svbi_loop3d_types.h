@@ -78,6 +78,7 @@ typedef struct {
   const int* CT_ptr; /* nF + 1: CSR row pointers of (C T)_f (nF x nS) */
   const int* CT_idx; /* its column indices */
   const double* CT_val; /* its values */
+  const double* el_len; /* nE: each deck element's length, entry 7 of a wheelset's geometry on it (geom's own entry 7 is taken on the ground) */
 } setup3d_t;
 
 typedef struct {

@@ -171,8 +171,9 @@ class _Rows:
 def _kernels(
     system: System3D, speed: float, c1: float, c0: float
 ) -> list[tuple[ContactKernel3D, FlangeCreepKernel3D]]:
-    span = system.span
-    le = span.length / span.n_elements
+    # each kernel takes the length of the element under its wheelset, set before it is evaluated
+    # (_place); the approach track's until then
+    le = system.ground_element_length
     out = []
     for w in system.vehicle.wheelsets:
         # one contact kernel per wheelset, its flange and creep included (one irregularity argument)
@@ -181,6 +182,19 @@ def _kernels(
         )
         out.append((k, FlangeCreepKernel3D(w, system.track, le, speed, c1, c0, system.creep, contact=k)))
     return out
+
+
+def _place(
+    system: System3D, loc: list, *kernel_sets: list[tuple[ContactKernel3D, FlangeCreepKernel3D]]
+) -> None:
+    """Set each wheelset's contact kernels (of every set in ``kernel_sets``; the flange and creep
+    kernels share them) to the length of the element under it, ``loc`` (the ``(element, xi)`` of
+    :meth:`System3D.contact_location`): a deck of spans of different lengths has elements of
+    different lengths."""
+    for w, (e, _) in enumerate(loc):
+        le = system.element_length_at(e)
+        for kernels in kernel_sets:
+            kernels[w][0].element_length = le
 
 
 def _rows(
@@ -252,6 +266,7 @@ def _static_newton(
     ``closed`` constraints at ``g = 0`` and the others free of force; returns the gaps."""
     veh, span = system.vehicle, system.span
     loc = system.contact_location(t)
+    _place(system, loc, kernels)
     KB = span.K[np.ix_(asm.free, asm.free)]
     held = None
     if system.ground is not None:  # the supports' static load on the free DOFs
@@ -433,6 +448,14 @@ class _Step3D:
             for kernel in (self.pairs[w][0], self.rates_tt[w][0], self.rates_t[w][0]):
                 kernel.irregularity = r
 
+    def _located(self, t: float) -> list[tuple[int, float]]:
+        """``(element, xi)`` under each wheelset at ``t`` (:meth:`System3D.contact_location`), every
+        kernel of the step (rows, flange and creep, the impact's gap rates) set to the length of
+        its wheelset's element."""
+        loc = self.system.contact_location(t)
+        _place(self.system, loc, self.pairs, self.rates_tt, self.rates_t)
+        return loc
+
     def _check_creep_stability(self) -> None:
         """Refuse a time step at which the explicit creep forces would be unstable. Lagged by one
         step, the creep force of a wheelset is a damper of rate ``k`` (lateral ``2 f22 / (m v)``,
@@ -518,7 +541,7 @@ class _Step3D:
         st.creep_B = np.zeros_like(st.u)
         if self.system.creep is None:
             return
-        loc = self.system.contact_location(st.t)
+        loc = self._located(st.t)
         g, g1, _ = self.system.ground_under(st.t)
         closed = st.contact.reshape(asm.nW, PER_WHEELSET)[:, :2]
         for w, (e, xi) in enumerate(loc):
@@ -563,7 +586,7 @@ class _Step3D:
         """Advance from t_n to t_{n+1} = (n + 1) dt."""
         st, act = self.state, self.active
         t, hist_V, hist_B, fV, fB = self._loads(n)
-        loc = self.system.contact_location(t)
+        loc = self._located(t)
         (PtV, QtV), (PB, QB) = hist_V, hist_B
         start = st.forces()
         act.begin()
@@ -680,7 +703,7 @@ class _Step3D:
         st, asm = self.state, self.asm
         ground = self.system.ground_under(st.t)[0]
         out = []
-        for w, (e, xi) in enumerate(self.system.contact_location(st.t)):
+        for w, (e, xi) in enumerate(self._located(st.t)):
             out.extend(self.kernels[w].gap(asm.z(w, e, st.q, st.u, ground), xi))
         return np.array(out)
 
@@ -689,7 +712,7 @@ class _Step3D:
         st, asm = self.state, self.asm
         ground = self.system.ground_under(st.t)[0]
         out = []
-        for w, (e, xi) in enumerate(self.system.contact_location(st.t)):
+        for w, (e, xi) in enumerate(self._located(st.t)):
             out.extend(self.pairs[w][1].flange_gap(asm.z(w, e, st.q, st.u, ground), xi))
         return np.array(out)
 

@@ -197,8 +197,8 @@ class Bridge3D:
         self.length = float(self.line_x[-1])
         """Length of the deck (m): from the first abutment to the last."""
         self.n_elements = len(deck_nodes)
-        """Deck elements in all (the 3D step's ``length / n_elements`` is the element length of a
-        deck of equal elements)."""
+        """Deck elements in all (``length / n_elements`` is the element length of a deck of equal
+        elements)."""
         self.span_starts = self.line_x[:-1]
 
     def _assemble(self) -> None:
@@ -319,13 +319,14 @@ class Bridge3D:
 
     @property
     def element_length(self) -> float:
-        """The deck's element length (m); ``ValueError`` if its spans' elements differ (the 3D
-        step's contact kernels take one)."""
+        """The deck's one element length (m), for a deck of equal elements; ``ValueError`` if its
+        spans' elements differ (:attr:`deck_element_length` has each element's: the 3D step takes
+        those)."""
         le = self.deck_element_length
         if not np.allclose(le, le[0], rtol=1e-12, atol=0.0):
             raise ValueError(
-                "the deck's elements differ in length (spans of different lengths): the 3D step takes "
-                "one element length"
+                "the deck's elements differ in length (spans of different lengths): there is no one "
+                "element length (deck_element_length has each element's)"
             )
         return float(le[0])
 

@@ -88,9 +88,12 @@ class Deck3D(Protocol):
     (:class:`Span3D`) or a whole bridge (:class:`svbi.runtime.model.bridge3d.Bridge3D`).
 
     ``M``, ``K`` are the global matrices over the structure's DOFs, ``free`` the DOFs not held by a
-    support; deck elements are numbered along the track from 0; ``element_dofs(e)`` gives the 12
-    global DOFs of deck element ``e`` in the frame element's order, and ``deck_location(x)`` the
-    element and local coordinate under the track position ``x`` (m from the deck's start).
+    support; deck elements are numbered along the track from 0; ``deck_element_length[e]`` is the
+    length of deck element ``e`` (m: spans of different lengths have elements of different lengths,
+    for which ``element_length``, the one length of a deck of equal elements, raises);
+    ``element_dofs(e)`` gives the 12 global DOFs of deck element ``e`` in the frame element's order,
+    and ``deck_location(x)`` the element and local coordinate under the track position ``x`` (m from
+    the deck's start).
     """
 
     length: float
@@ -101,6 +104,9 @@ class Deck3D(Protocol):
 
     @property
     def element_length(self) -> float: ...
+
+    @property
+    def deck_element_length(self) -> np.ndarray: ...
 
     def dof(self, node: int, name: str) -> int: ...
 
@@ -128,6 +134,11 @@ class Span3D:
     def element_length(self) -> float:
         """Length of every element (m)."""
         return self.length / self.n_elements
+
+    @property
+    def deck_element_length(self) -> np.ndarray:
+        """The length of every element (m): all :attr:`element_length`."""
+        return np.full(self.n_elements, self.element_length)
 
     def element_dofs(self, element: int) -> np.ndarray:
         """The 12 global DOFs of element ``element``: ``6 e .. 6 e + 11``."""

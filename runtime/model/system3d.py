@@ -253,7 +253,9 @@ class ContactKernel3D:
     :func:`svbi.codegen.creep3d.creep_loads` (the loads the step applies).
 
     ``irregularity`` (9: ``[r_v, r_a, r_c]`` under the axle, their slopes and curvatures along
-    ``x``) is an attribute the step may set before calling; zero by default.
+    ``x``) is an attribute the step may set before calling; zero by default. So is
+    ``element_length``: the length of the element under the wheelset (a deck of spans of different
+    lengths has elements of different lengths).
     """
 
     def __init__(
@@ -279,6 +281,17 @@ class ContactKernel3D:
         ]
         self._c1, self._c0 = c1, c0
         self.irregularity = np.zeros(NIRREGULARITY)
+
+    @property
+    def element_length(self) -> float:
+        """The length of the deck element the kernels are evaluated on (m): the last entry of their
+        geometry argument, which the step sets to the element under the wheelset before calling
+        (:meth:`System3D.element_length_at`)."""
+        return float(self._geometry[7])
+
+    @element_length.setter
+    def element_length(self, value: float) -> None:
+        self._geometry[7] = float(value)
 
     def _call(
         self,
@@ -487,10 +500,24 @@ class System3D:
     :class:`~svbi.runtime.model.bridge3d.Bridge3D`), the approach track under the wheels too. None:
     the ground at rest."""
 
+    element_lengths: np.ndarray = field(init=False, repr=False)
+    """The length of every deck element (m), as the contact kernels take it
+    (:meth:`element_length_at`)."""
+    ground_element_length: float = field(init=False, repr=False)
+    """The element length the contact kernels take on the approach track (m): the deck's mean,
+    ``length / n_elements``. The ground's "element" is a rigid translation (equal at both nodes, no
+    rotation), on which the kernels do not depend on the length but through round-off."""
+
     def __post_init__(self) -> None:
-        # the contact kernels take one element length (``span.element_length`` raises for a deck
-        # whose elements differ)
-        _ = self.span.element_length
+        span = self.span
+        self.ground_element_length = span.length / span.n_elements
+        lengths = np.asarray(span.deck_element_length, dtype=float)
+        if lengths.shape != (span.n_elements,) or not (np.isfinite(lengths).all() and (lengths > 0).all()):
+            raise ValueError(f"the deck's element lengths must be {span.n_elements} positive numbers")
+        if np.allclose(lengths, lengths[0], rtol=1e-12, atol=0.0):
+            # a deck of equal elements: every element takes length / n_elements, as it always has
+            lengths = np.full(span.n_elements, self.ground_element_length)
+        self.element_lengths = lengths
         if self.ground is not None and not hasattr(self.span, "support_motion"):
             raise ValueError(
                 "a ground motion needs a deck with supports on the ground (a Bridge3D; a Span3D has "
@@ -520,6 +547,11 @@ class System3D:
         xi = np.zeros(x.shape)
         element[on], xi[on] = self.span.deck_locations(x[on])
         return element, xi
+
+    def element_length_at(self, element: int) -> float:
+        """The element length that the contact kernels take on ``element`` (a deck element, or
+        :data:`GROUND`: :attr:`ground_element_length`)."""
+        return self.ground_element_length if element == GROUND else float(self.element_lengths[element])
 
     def ground_motion(self, t: float, x: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """``(q, q', q'')`` of the ground at fixed points ``x``, each ``(len(x), 3)``: the ``x``

@@ -20,7 +20,7 @@ The ground of ``[earthquake]`` (vertical, longitudinal and lateral components, p
 travelling) moves the 3D bridge's supports; wheelsets before and after the deck run on rigid track
 moving with the ground. What the 3D step cannot do yet is refused before anything is built, in one
 line naming the key (:class:`NotRun3D`): a braking or accelerating train,
-``train.initial = "rigid-track"``, spans whose elements differ in length. With
+``train.initial = "rigid-track"``. With
 ``solver.backend = "c"`` localized-dynamic steps on the compiled 3D loop (:func:`stepper3d`); other
 methods and backends step on NumPy with a :class:`~svbi.runtime.backends.base.BackendFallback`
 warning. The
@@ -231,16 +231,6 @@ def build_run3d(scenario: Scenario, hold_train: bool = False) -> Run3D:
         [p.section for p in piers],
         [p.bearing_stiffness_lateral for p in piers],
     )
-    try:
-        _ = bridge.element_length
-    except ValueError:
-        raise NotRun3D(
-            "bridge.girders",
-            "spans of different lengths: the 3D contact takes one element length for the whole deck "
-            "(give every span the same length)",
-            where,
-        ) from None
-
     speed = 0.0 if hold_train else ts.speed_ms
     start = float(ts.start_position)
     length = bridge.length
@@ -343,8 +333,8 @@ def rigid_track_statics(vehicle: Vehicle3DNumeric) -> tuple[np.ndarray, np.ndarr
 def deck_rows(bridge: Bridge3D, element: int, xi: float) -> dict[str, tuple[np.ndarray, np.ndarray]]:
     """``{name: (dofs, weights)}``: the deck's axial ``u``, lateral ``v``, vertical ``w`` and twist
     ``phi`` at ``xi`` of deck element ``element`` as weights on its 12 DOFs (the generated shape
-    functions of the 3D frame element)."""
-    rows = load(FRAME3D).shape_functions(bridge.element_length, float(xi))
+    functions of the 3D frame element, at the element's own length)."""
+    rows = load(FRAME3D).shape_functions(float(bridge.deck_element_length[element]), float(xi))
     dofs = bridge.element_dofs(element)
     return {name: (dofs, rows[k]) for k, name in enumerate(("u", "v", "w", "phi"))}
 
@@ -355,7 +345,7 @@ def deck_rows_many(bridge: Bridge3D, element: np.ndarray, xi: np.ndarray) -> tup
     and ``phi`` at ``xi[i]`` (the same generated shape functions, evaluated at all the points)."""
     element = np.asarray(element, dtype=np.intp).reshape(-1)
     weights = load_broadcasting(FRAME3D).shape_functions(
-        bridge.element_length, np.asarray(xi, dtype=float).reshape(-1)
+        np.asarray(bridge.deck_element_length, dtype=float)[element], np.asarray(xi, dtype=float).reshape(-1)
     )
     first = np.asarray(bridge.deck_element_nodes, dtype=np.intp)[element]
     dofs = np.asarray(bridge.global_dof)[np.stack([first, first + 1], axis=1)].reshape(element.size, -1)

@@ -8,7 +8,9 @@ against the NumPy step it compiles (:class:`LocalizedDynamic3D`, stepped here), 
 * a flange closing under a lateral load (a plastic impact on the flange);
 * a three-component travelling earthquake with the car crossing from the approach track onto a
   two-span chain (tests/methods/test_quake3d_step.py);
-* a girder continuous over two spans on a pier.
+* a girder continuous over two spans on a pier;
+* spans of different lengths (their elements too): two cars with rough rails and creep crossing
+  joints, and a car from the approach track under the earthquake.
 
 Every series (each DOF of ``q`` and ``u``, each contact's ``P``, flange force and creep force
 component) within 1e-10 of its own peak (2e-10 in the lift-off case, see there; series below 1e-12
@@ -376,6 +378,63 @@ def test_continuous_girder_on_a_pier() -> None:
     state = static_state(system)
     a = run_numpy(system, state, 1e-4, 200, "unilateral", rough=True)
     b = run_c(system, state, 1e-4, 200, "unilateral", rough=True)
+    agree(system, a, b)
+
+
+def test_spans_of_different_lengths_with_irregularities_and_creep() -> None:
+    """Spans of 6 m, then a girder continuous over 10 m and 8 m (elements of 1.5 m, 2.5 m and 2 m):
+    two cars 10 m apart, their wheelsets crossing the joints at 6 m and 16 m (each onto elements of
+    another length), rough rails in three directions, creep on, 300 steps of 1e-4 s in chunks of 50."""
+    bridge = Bridge3D(
+        [Girder((6.0,), DECK), Girder((10.0, 8.0), DECK, fixed_support=1)],
+        4,
+        [section3d(DECK, 10.0, 5.0)] * 2,
+    )
+    assert bridge.deck_element_length.tolist() == [1.5] * 4 + [2.5] * 4 + [2.0] * 4
+    system = System3D(
+        train3d([car(), car()], 10.0),
+        bridge,
+        Track3D(conicity=LAM, eccentricity=0.2, rail_height=0.8),
+        speed=20.0,
+        start=15.8,
+        bridge_damping=bridge.C,
+        creep=CreepParameters(),
+    )
+    before = [e for e, _ in system.contact_location(0.0)]
+    after = [e for e, _ in system.contact_location(300 * 1e-4)]
+    assert before == [7, 3] and after == [8, 4]  # both wheelsets change span
+    state = static_state(system)
+    a = run_numpy(system, state, 1e-4, 300, "unilateral", rough=True)
+    b = run_c(system, state, 1e-4, 300, "unilateral", rough=True)
+    assert np.abs(a[0][:, -24:]).max() > 0  # creep forces
+    agree(system, a, b)
+
+
+def test_spans_of_different_lengths_from_the_approach_under_an_earthquake() -> None:
+    """The travelling three-component earthquake of the test above, the car crossing from the
+    approach track onto a chain of a 6 m and a 10 m span (elements of 1.5 m and 2.5 m), dt = 2e-3 s,
+    250 steps in chunks of 50."""
+    c = 300.0
+    ground = FunctionGround(
+        vertical=bump(0.005, 2 * np.pi * 1.0, 0.05, c),
+        longitudinal=bump(-0.03, 2 * np.pi * 2.0, 0.05, c),
+        lateral=bump(0.001, 2 * np.pi * 1.0, 0.05, c),
+        apparent_velocity=c,
+    )
+    bridge = Bridge3D([Girder((6.0,), DECK), Girder((10.0,), DECK)], 4, [section3d(DECK, 10.0, 5.0)] * 2)
+    system = System3D(
+        vehicle3d(parse_topology3d(SPRUNG_WHEELSET_3D)),
+        bridge,
+        Track3D(conicity=LAM, eccentricity=0.3, rail_height=0.8),
+        speed=100.0 / 3.6,
+        start=-1.0,
+        bridge_damping=bridge.C,
+        ground=ground,
+    )
+    assert [e for e, _ in system.contact_location(250 * 2e-3)] == [6]  # on the 10 m span
+    state = static_state(system)
+    a = run_numpy(system, state, 2e-3, 250, "unilateral")
+    b = run_c(system, state, 2e-3, 250, "unilateral")
     agree(system, a, b)
 
 

@@ -268,6 +268,9 @@ class LocalizedDynamic3DC(_Step3D):
             held = np.zeros(0, dtype=np.int32)
             Kfs = CT = _csr(np.zeros((nF, 0)), nF, 0)
         geom = np.array([k._geometry for k in self.kernels], dtype=float)
+        # entry 7, the element length: the approach track's here, each deck element's from el_len
+        # (the loop sets it whenever it places a wheelset on an element)
+        geom[:, 7] = sys_.ground_element_length
         material = np.array(
             [fk._material if fk._material is not None else np.zeros(10) for _, fk in self.pairs], dtype=float
         )
@@ -298,6 +301,7 @@ class LocalizedDynamic3DC(_Step3D):
         S.held = P(held)
         S.Kfs_ptr, S.Kfs_idx, S.Kfs_val = (P(a) for a in Kfs)
         S.CT_ptr, S.CT_idx, S.CT_val = (P(a) for a in CT)
+        S.el_len = P(_f64(sys_.element_lengths))
         self.setup = S
         nd, ni = ctypes.c_long(), ctypes.c_long()
         self.lib.svbi3d_workspace(ctypes.byref(S), ctypes.byref(nd), ctypes.byref(ni))

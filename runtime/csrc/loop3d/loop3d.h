@@ -74,6 +74,8 @@ typedef struct {
   double *GV, *GB, *AVm, *ABm, *G, *gt, *gtt, *gtt2, *want, *imp, *jump, *x0, *y, *sub, *subr;
   int *basic, *cand, *bad, *held2;
   double zero16[NZ3];
+  double* geom; /* nW x 8: the kernels' geometry of each wheelset (S->geom, entry 7 the length of
+                 * the element it stands on: locate) */
 } work3d_t;
 
 /* entry points (step3d.c) */

@@ -23,7 +23,7 @@ int kcall3(work3d_t* W, int k, int w, const double* z, const double* zd, const d
   arg[4] = zd + 4;
   arg[5] = zdd + 4;
   arg[6] = &xi;
-  arg[7] = W->S->geom + 8 * w;
+  arg[7] = W->geom + 8 * w;
   arg[8] = irr;
   arg[9] = coef;
   res[0] = W->nz;

@@ -149,6 +149,7 @@ void w3_carve(const setup3d_t* S, work3d_t* W, double* work, int* iwork, long* n
   W->cand = take_i(&i, nC, &ci);
   W->bad = take_i(&i, nC, &ci);
   W->held2 = take_i(&i, nC, &ci);
+  W->geom = take_d(&d, 8 * nW, &cd);
   W->Q0 = W->Q1 = W->Q2 = 0;
   W->gz = 0;
   *nd = cd;
@@ -157,5 +158,6 @@ void w3_carve(const setup3d_t* S, work3d_t* W, double* work, int* iwork, long* n
     int j;
     kernel_maps(W);
     for (j = 0; j < NZ3; ++j) W->zero16[j] = 0.0;
+    for (j = 0; j < 8 * nW; ++j) W->geom[j] = S->geom[j];
   }
 }

@@ -23,12 +23,14 @@ int svbi3d_workspace(const setup3d_t* S, long* n_double, long* n_int) {
   return 0;
 }
 
-/* the wheelsets' elements and the free index of each element DOF (-1: held, or the ground) */
+/* the wheelsets' elements, the free index of each element DOF (-1: held, or the ground) and the
+ * length of each wheelset's element in its kernels' geometry (on the ground: S->geom's) */
 static void locate(work3d_t* W, const int* el) {
   const setup3d_t* S = W->S;
   int w, j;
   for (w = 0; w < S->nW; ++w) {
     W->ondeck[w] = el[w] >= 0 ? el[w] : -1;
+    W->geom[8 * w + 7] = el[w] >= 0 ? S->el_len[el[w]] : S->geom[8 * w + 7];
     for (j = 0; j < 12; ++j)
       W->fidx[12 * w + j] = el[w] >= 0 ? S->full_to_free[S->el_dofs[12 * el[w] + j]] : -1;
   }
