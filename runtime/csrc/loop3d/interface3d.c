@@ -11,7 +11,8 @@
  * iterate, linearised to the state the forces give with the gradients there (chord_rhs), with no
  * new Jacobian, matrix or factorisation. The iteration's fixed point is the same (the residuals
  * vanish there whatever matrix corrects them); a chord that shrinks its update less than
- * CHORD_RATE3 is followed by a Newton iteration again. Only what the interface needs is formed:
+ * CHORD_RATE3 is followed by a Newton iteration again, and the rule's stagnation clause is read on
+ * Newton iterations only (a slow chord is not round-off). Only what the interface needs is formed:
  * the 4 x 4 blocks of two wheelsets of the same car (A_V) or on the same part of the structure (the
  * compliance S between their elements' DOFs, gathered when an element changes), over a list of the
  * coupled pairs and, in each block, the active constraints and the element DOFs where their rows
@@ -448,7 +449,8 @@ int interface3(work3d_t* W, const state3d_t* X, const int* el, const double* xi,
       last = change;
       continue;
     }
-    if (change <= NEWTON_TOLERANCE3 * size || (change <= STAGNATION3 * size && change > 0.5 * last)) {
+    if (change <= NEWTON_TOLERANCE3 * size ||
+        (newton && change <= STAGNATION3 * size && change > 0.5 * last)) {
       /* stopping by the contact DOFs: the rule again over every DOF of the span, as the NumPy step
        * (the new iterate in full by one band solve, its change from the last by another) */
       double cu = 0.0, su = 0.0;
@@ -465,7 +467,8 @@ int interface3(work3d_t* W, const state3d_t* X, const int* el, const double* xi,
         if (fabs(X->q[i] + W->dq[i]) > size) size = fabs(X->q[i] + W->dq[i]);
       if (size < 1e-300) size = 1e-300;
       memcpy(W->hwp, hh, sizeof(double) * (size_t)(12 * nW));
-      if (change <= NEWTON_TOLERANCE3 * size || (change <= STAGNATION3 * size && change > 0.5 * last)) {
+      if (change <= NEWTON_TOLERANCE3 * size ||
+          (newton && change <= STAGNATION3 * size && change > 0.5 * last)) {
         last = change;
         full = 1;
         break;
