@@ -83,7 +83,7 @@ def test_the_3d_example_loads_as_a_3d_scenario() -> None:
         warnings.simplefilter("error", ScenarioWarning)  # inside every plausibility band
         sc = load_scenario(EXAMPLE_3D)
     assert sc.dimensions == 3
-    assert sc.train.vehicle == "manchester-3d" and sc.train.cars == 10 and sc.train.speed_kmh == 300.0
+    assert sc.train.vehicle == "crh380a-3d" and sc.train.cars == 10 and sc.train.speed_kmh == 300.0
     assert sc.bridge.lateral_second_moment == 85.86 and sc.bridge.torsion_constant == 15.21
     eq = sc.earthquake  # the three-component synthetic earthquake
     assert eq is not None and (eq.vertical, eq.longitudinal, eq.lateral) == ("synthetic",) * 3
