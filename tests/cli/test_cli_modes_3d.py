@@ -93,7 +93,8 @@ def test_shear_modulus_and_torsional_mass_given() -> None:
     assert data["span_torsional_frequencies_hz"][0] == pytest.approx(
         torsion_discrete(1, g * J, polar, ELEMENTS), rel=1e-10
     )
-    # the car body's five modes on its suspensions (crh380a-3d, the example's), below the bogies' (docs/three-d.md)
+    # the car body's five modes on its suspensions (crh380a-3d, the example's), below the bogies'
+    # (docs/three-d.md)
     np.testing.assert_allclose(data["frequencies_hz"][:5], [0.41, 0.64, 0.72, 0.89, 0.91], atol=0.006)
     assert data["frequencies_hz"][5] > 7.0
 
