@@ -77,8 +77,8 @@ def check(a: np.ndarray, rng: np.random.Generator) -> None:
     bound = 1e-13 * np.linalg.cond(a) * np.abs(truth).max()
     assert np.abs(x - truth).max() <= bound, (np.abs(x - truth).max(), bound)
     assert np.abs(a @ x - b).max() <= 1e-12 * np.abs(a).max() * np.abs(x).max() * a.shape[0]
-    # the factors kept and applied later (the chord iterations' route): lu_solve3's x bit for bit
-    # (the same eliminations: the factorisation's scans stop where no row below has a nonzero)
+    # the factors kept in the caller's arrays and applied by a later call (the chord iterations'
+    # route): the same x bit for bit
     status2, x2 = lu_factored(a, b)
     assert status2 == 0 and np.array_equal(x2, x)
 

@@ -90,72 +90,22 @@ void band_solve3(const double* L, int n, int p, double* b) { band_dispatch(L, n,
 /* band_solve3 of two right-hand sides at once (the same operations on each) */
 void band_solve3_2(const double* L, int n, int p, double* b, double* b2) { band_dispatch(L, n, p, b, b2); }
 
-/* A x = b (A n x n row-major, overwritten by its factors; b by x). S3_SINGULAR on a zero pivot.
- * Gaussian elimination with partial pivoting (numpy.linalg.solve's), skipping exact zeros: each
- * row's last nonzero column is followed, so a matrix whose rows end early (the interface in track
- * order: a band) costs its profile, not n^3; the arithmetic done is the dense elimination's. */
+/* A x = b (A n x n row-major, overwritten by its factors; b by x). S3_SINGULAR on a zero pivot (a
+ * NaN goes on: the guard reports the state). Gaussian elimination with partial pivoting
+ * (numpy.linalg.solve's), skipping exact zeros: each row's last nonzero column is followed, so a
+ * matrix whose rows end early (the interface in track order: a band) costs its profile, not n^3;
+ * the arithmetic done is the dense elimination's. lu_factor3, then lu_back3. */
 int lu_solve3(double* A, int n, double* b, int* piv) {
-  int i, j, k;
-  int last[n > 0 ? n : 1];
-  for (i = 0; i < n; ++i) {
-    const double* ri = A + (long)i * n;
-    for (j = n - 1; j > 0 && ri[j] == 0.0; --j) {
-    }
-    last[i] = j;
-  }
-  for (k = 0; k < n; ++k) {
-    int m = k;
-    double big = fabs(A[(long)k * n + k]);
-    for (i = k + 1; i < n; ++i)
-      if (fabs(A[(long)i * n + k]) > big) {
-        big = fabs(A[(long)i * n + k]);
-        m = i;
-      }
-    piv[k] = m;
-    if (big == 0.0) return S3_SINGULAR; /* a NaN goes on: the guard reports the state */
-    if (m != k) {
-      double t;
-      int e = last[k] > last[m] ? last[k] : last[m];
-      for (j = 0; j <= e; ++j) { /* beyond e, zeros in both rows */
-        t = A[(long)k * n + j];
-        A[(long)k * n + j] = A[(long)m * n + j];
-        A[(long)m * n + j] = t;
-      }
-      j = last[k];
-      last[k] = last[m];
-      last[m] = j;
-      t = b[k];
-      b[k] = b[m];
-      b[m] = t;
-    }
-    {
-      const double* rk = A + (long)k * n;
-      const int e = last[k];
-      double inv = 1.0 / rk[k];
-      for (i = k + 1; i < n; ++i) {
-        double* ri = A + (long)i * n;
-        double f = ri[k] * inv;
-        if (f == 0.0) continue;
-        ri[k] = f;
-        for (j = k + 1; j <= e; ++j) ri[j] -= f * rk[j];
-        if (e > last[i]) last[i] = e;
-        b[i] -= f * b[k];
-      }
-    }
-  }
-  for (i = n - 1; i >= 0; --i) {
-    const double* ri = A + (long)i * n;
-    double s = b[i];
-    for (j = i + 1; j <= last[i]; ++j) s -= ri[j] * b[j];
-    b[i] = s / ri[i];
-  }
+  int last[n > 0 ? n : 1], first[n > 0 ? n : 1];
+  int st = lu_factor3(A, n, piv, last, first);
+  if (st) return st;
+  lu_back3(A, n, piv, last, first, b);
   return S3_OK;
 }
 
-/* The factors of lu_solve3 kept (the interface's, for the chord iterations of interface3): A
- * overwritten by L (unit, below the diagonal) and U, the row swaps in piv, each row's last nonzero
- * column of U in last and first nonzero column of L in first. S3_SINGULAR on a zero pivot. The
- * elimination is lu_solve3's, so lu_factor3 then lu_back3 gives lu_solve3's x bit for bit. */
+/* The factors of A (kept: the interface's, for the chord iterations of interface3): A overwritten
+ * by L (unit, below the diagonal) and U, the row swaps in piv, each row's last nonzero column of U
+ * in last and first nonzero column of L in first. S3_SINGULAR on a zero pivot. */
 int lu_factor3(double* A, int n, int* piv, int* last, int* first) {
   int i, j, k;
   int hi[n > 0 ? n : 1]; /* hi[k]: no row below it has a nonzero in column k, now or later */
@@ -225,7 +175,8 @@ int lu_factor3(double* A, int n, int* piv, int* last, int* first) {
 }
 
 /* x of A x = b from lu_factor3's factors (b overwritten): the swaps in order, then the unit lower
- * and the upper triangle; each b[i] takes its subtractions in lu_solve3's order. */
+ * and the upper triangle; each b[i] takes its subtractions in the order of the elimination that
+ * would have carried b along (LAPACK's getrs after getrf). */
 void lu_back3(const double* A, int n, const int* piv, const int* last, const int* first, double* b) {
   int i, j, k;
   for (k = 0; k < n; ++k)
