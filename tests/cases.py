@@ -115,6 +115,121 @@ lateral = "-0.75"
 radius = "r0"
 """
 
+# the sprung wheelset with a dashpot beside each spring (a damped test vehicle: the unilateral 3D
+# steps and the 3D C loop)
+_DASHPOTS = '[parameters.c]\nvalue = 4.0e4\nunit = "N s/m"\ndescription = "damping per side"\n'
+_SPRINGS = 'stiffness = ["kl", "kl", "k / 2"]'
+SPRUNG_WHEELSET_3D_DAMPED = (
+    SPRUNG_WHEELSET_3D.replace('name = "sprung-wheelset-3d"', 'name = "sprung-wheelset-3d-damped"')
+    .replace("[parameters.car_length]", _DASHPOTS + "[parameters.car_length]")
+    .replace(_SPRINGS, _SPRINGS + '\ndamping = ["c", "c", "c"]')
+)
+
+SW_DECK = dict(mass_per_length=2303.0, youngs_modulus=2.87e9, area=1.0, second_moment=2.9)
+"""The deck of the sprung-mass benchmark (kg/m, Pa, m^2, m^4): the spans that the sprung wheelset
+crosses in the 3D step tests that compare with svbi's 2D run (:func:`sprung_mass_run2d`)."""
+SW_SPEED = 100.0 / 3.6
+"""The sprung wheelset's speed in those tests (m/s)."""
+SW_CONICITY = 0.1
+"""The cones' conicity in those tests: the normal forces lean by ``atan(0.1)``."""
+
+
+def sprung_wheelset3d(damped: bool = False):
+    """The 3D vehicle of :data:`SPRUNG_WHEELSET_3D` (or :data:`SPRUNG_WHEELSET_3D_DAMPED`)."""
+    from svbi.codegen.topology3d import parse_topology3d
+    from svbi.runtime.model.system3d import vehicle3d
+
+    return vehicle3d(parse_topology3d(SPRUNG_WHEELSET_3D_DAMPED if damped else SPRUNG_WHEELSET_3D))
+
+
+def sw_chain3d(
+    spans: int, elements: int, damping: float = 0.0, lateral: float = 10.0, span_length: float = 10.0
+):
+    """A chain of ``spans`` simply supported spans of :data:`SW_DECK` as a 3D bridge
+    (``Bridge3D``): lateral second moment ``lateral``, torsion constant 5 m^4, damping ratio
+    ``damping`` (its Rayleigh matrix ``bridge.C``)."""
+    from svbi.runtime.model.bridge import Girder, Section
+    from svbi.runtime.model.bridge3d import Bridge3D, section3d
+
+    plane = Section(**SW_DECK, damping_ratio=damping)
+    return Bridge3D(
+        [Girder((span_length,), plane)] * spans, elements, [section3d(plane, lateral, 5.0)] * spans
+    )
+
+
+def sprung_mass_run2d(
+    spans: int,
+    steps: int,
+    *,
+    method: str = "coupled-dynamic",
+    start: float = 0.0,
+    cars: int = 1,
+    car_length: float | None = None,
+    span_length: float = 10.0,
+    elements: int = 8,
+    dt: float = 2e-3,
+    damping: float = 0.0,
+    ground=None,
+    girders: list[dict] | None = None,
+):
+    """svbi's 2D run (``svbi.simulate``, NumPy, every step written) of the sprung mass (the
+    sprung wheelset's vertical plane: its masses and stiffness, no damper) at :data:`SW_SPEED` over
+    ``spans`` spans of :data:`SW_DECK`: the independent truth of the 3D steps in the vertical plane.
+    ``ground``: a ``FunctionGround`` set on the model (None: no earthquake). ``girders``: the
+    bridge's long form (``[{"spans": [10.0, 16.0]}, ...]``) instead of ``spans`` equal spans."""
+    import svbi
+    from svbi.runtime.run.simulate import build_model
+    from svbi.runtime.scenario.schema import validate_scenario
+
+    parameters = dict(sprung_mass=5750.0, stiffness=1.595e6, wheel_mass=500.0, damping=0.0)
+    if car_length is not None:
+        parameters["car_length"] = car_length
+    scenario = validate_scenario(
+        {
+            "bridge": dict(
+                **(dict(girders=girders) if girders else dict(spans=spans, span_length=span_length)),
+                **SW_DECK,
+                damping_ratio=damping,
+                elements_per_span=elements,
+            ),
+            "train": dict(
+                vehicle="sprung-mass", cars=cars, speed=SW_SPEED, start_position=start, parameters=parameters
+            ),
+            "contact": dict(creep=False),
+            "solver": dict(method=method, backend="numpy", time_step=dt, duration=steps * dt, output_every=1),
+        }
+    )
+    if ground is None:
+        return svbi.simulate(scenario)
+    model = build_model(scenario)
+    model.ground = ground
+    return svbi.simulate(scenario, model=model)
+
+
+def ground_bump(amplitude: float, omega: float, t0: float = 0.0, c: float | None = None):
+    """``q = A (1 - cos(omega s))^2`` for ``s = t - t0 - x/c > 0``, else 0 (q, q', q'' vanish at
+    the onset): a smooth ground motion and its exact partial time derivatives."""
+
+    def f(t, x):
+        x = np.asarray(x, dtype=float)
+        s = t - t0 - (x / c if c else 0.0 * x)
+        on = s > 0.0
+        cs, sn = np.cos(omega * s), np.sin(omega * s)
+        q = amplitude * (1 - cs) ** 2
+        q1 = 2 * amplitude * omega * (1 - cs) * sn
+        q2 = 2 * amplitude * omega**2 * (sn * sn + (1 - cs) * cs)
+        return tuple(np.where(on, a, 0.0) for a in (q, q1, q2))
+
+    return f
+
+
+def copy_state3d(state):
+    """A deep copy of a 3D step's ``State3D`` (two steppers from one static state)."""
+    from svbi.runtime.methods.coupled3d import State3D
+
+    return State3D(**{k: (v.copy() if isinstance(v, np.ndarray) else v) for k, v in vars(state).items()})
+
+
 SHORT_SPAN_3D = """\
 title = "the sprung wheelset on one short span under three ground components"
 [bridge]

@@ -2,7 +2,10 @@
 
 from __future__ import annotations
 
+import ctypes
 import functools
+import os
+import re
 from pathlib import Path
 from typing import Any
 
@@ -10,6 +13,42 @@ import pytest
 
 REPO = Path(__file__).resolve().parents[1]
 SHARED = REPO.parent / "shared"
+
+BLAS_THREADS = ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS")
+_OPENBLAS_SETTERS = (
+    "scipy_openblas_set_num_threads64_",
+    "scipy_openblas_set_num_threads",
+    "openblas_set_num_threads64_",
+    "openblas_set_num_threads",
+)
+
+
+def _one_blas_thread() -> None:
+    """The tests run NumPy's and SciPy's OpenBLAS on one thread (unless the environment says
+    otherwise), as ``svbi`` itself does (runtime/cli/app.py, ``BLAS_THREADS``). The suite runs on two
+    workers on two cores: a BLAS thread per core in each worker spins on the core of the other one,
+    and an in-process run of small dense solves then took 20 times as long (measured 40-51 s instead
+    of 2 s for the 600 steps of tests/methods/test_classic3d_step.py's crossing, one other process
+    busy). pytest's plugins import NumPy before this file, so the variables, which a BLAS library
+    reads when it loads, come too late for NumPy's: its thread count is set through OpenBLAS's own
+    call; SciPy's library and the processes the tests start read the variables."""
+    for name in BLAS_THREADS:
+        os.environ.setdefault(name, "1")
+    threads = int(os.environ["OPENBLAS_NUM_THREADS"])
+    try:
+        maps = Path("/proc/self/maps").read_text()
+    except OSError:  # not Linux: the variables only
+        return
+    for path in sorted(set(re.findall(r"(/\S*openblas\S*\.so\S*)", maps))):
+        library = ctypes.CDLL(path)
+        for name in _OPENBLAS_SETTERS:
+            setter = getattr(library, name, None)
+            if setter is not None:
+                setter(ctypes.c_int(threads))
+                break
+
+
+_one_blas_thread()
 
 
 @pytest.fixture

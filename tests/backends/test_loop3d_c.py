@@ -28,19 +28,18 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-from cases import SPRUNG_WHEELSET_3D
+from cases import SW_CONICITY, SW_DECK, copy_state3d, ground_bump, sprung_wheelset3d
 
-from svbi.codegen.topology3d import parse_topology3d
 from svbi.runtime.backends.c.stepper3d import LocalizedDynamic3DC, vehicle_blocks
 from svbi.runtime.methods.chunk3d import SteppedChunks
-from svbi.runtime.methods.coupled3d import State3D, static_state
+from svbi.runtime.methods.coupled3d import static_state
 from svbi.runtime.methods.localized3d import LocalizedDynamic3D
 from svbi.runtime.model.bridge import Girder, Pier, Section
 from svbi.runtime.model.bridge3d import Bridge3D, section3d
 from svbi.runtime.model.creep_law import CreepParameters
 from svbi.runtime.model.ground import FunctionGround
 from svbi.runtime.model.span3d import Section3D, simply_supported_span
-from svbi.runtime.model.system3d import System3D, Track3D, vehicle3d
+from svbi.runtime.model.system3d import System3D, Track3D
 from svbi.runtime.model.train3d import train3d
 
 try:  # the compiler is needed
@@ -50,25 +49,18 @@ try:  # the compiler is needed
 except Exception as exc:  # pragma: no cover - no C compiler
     pytest.skip(f"no C compiler for the 3D loop: {exc}", allow_module_level=True)
 
-DASHPOTS = '[parameters.c]\nvalue = 4.0e4\nunit = "N s/m"\ndescription = "damping per side"\n'
-SPRINGS = 'stiffness = ["kl", "kl", "k / 2"]'
-DAMPED = (
-    SPRUNG_WHEELSET_3D.replace('name = "sprung-wheelset-3d"', 'name = "sprung-wheelset-3d-damped"')
-    .replace("[parameters.car_length]", DASHPOTS + "[parameters.car_length]")
-    .replace(SPRINGS, SPRINGS + '\ndamping = ["c", "c", "c"]')
-)
-LAM = 0.1
-DECK = Section(mass_per_length=2303.0, youngs_modulus=2.87e9, area=1.0, second_moment=2.9, damping_ratio=0.02)
+LAM = SW_CONICITY
+DECK = Section(**SW_DECK, damping_ratio=0.02)
 PIER = Section(mass_per_length=12e3, youngs_modulus=3.0e10, area=5.0, second_moment=4.0, damping_ratio=0.05)
 TOLERANCE = 1e-10
 
 
 def car():
-    return vehicle3d(parse_topology3d(DAMPED))
+    """The damped sprung wheelset (tests/cases.py)."""
+    return sprung_wheelset3d(damped=True)
 
 
-def copy(st: State3D) -> State3D:
-    return State3D(**{k: (v.copy() if isinstance(v, np.ndarray) else v) for k, v in vars(st).items()})
+copy = copy_state3d
 
 
 def irregularity(system: System3D, t: float) -> np.ndarray:
@@ -146,6 +138,16 @@ def agree(system, a, b, every=5, tolerance=TOLERANCE) -> float:
     return float(err.max())
 
 
+def c_equals_numpy(system, dt, steps, normal, rough=False, loads=None, tolerance=TOLERANCE):
+    """The NumPy step and the C loop from the same static state of ``system``, held to each other
+    (:func:`agree`); returns the NumPy run ``(rows, contact states, gaps)``."""
+    state = static_state(system)
+    a = run_numpy(system, state, dt, steps, normal, rough=rough, loads=loads)
+    b = run_c(system, state, dt, steps, normal, rough=rough, loads=loads)
+    agree(system, a, b, tolerance=tolerance)
+    return a
+
+
 @pytest.mark.parametrize("normal", ["bilateral", "unilateral"])
 def test_train_over_a_chain_with_irregularities_and_creep(normal) -> None:
     """Two cars at 20 m/s on a two-span chain (the leading car's wheelset on the second span),
@@ -161,11 +163,8 @@ def test_train_over_a_chain_with_irregularities_and_creep(normal) -> None:
         bridge_damping=bridge.C,
         creep=CreepParameters(),
     )
-    state = static_state(system)
-    a = run_numpy(system, state, 1e-4, 300, normal, rough=True)
-    b = run_c(system, state, 1e-4, 300, normal, rough=True)
+    a = c_equals_numpy(system, 1e-4, 300, normal, rough=True)
     assert np.abs(a[0][:, -24:]).max() > 0  # creep forces
-    agree(system, a, b)
 
 
 def test_wheelsets_on_one_span_one_on_its_first_element() -> None:
@@ -186,10 +185,7 @@ def test_wheelsets_on_one_span_one_on_its_first_element() -> None:
         creep=CreepParameters(),
     )
     assert [e for e, _ in system.contact_location(0.03)] == [5, 4]
-    state = static_state(system)
-    a = run_numpy(system, state, 1e-4, 300, "unilateral", rough=True)
-    b = run_c(system, state, 1e-4, 300, "unilateral", rough=True)
-    agree(system, a, b)
+    c_equals_numpy(system, 1e-4, 300, "unilateral", rough=True)
 
 
 def test_several_wheels_landing_next_to_supports() -> None:
@@ -209,13 +205,10 @@ def test_several_wheels_landing_next_to_supports() -> None:
         creep=CreepParameters(),
     )
     assert [e for e, _ in system.contact_location(0.0)] == [9, 8, 7]
-    state = static_state(system)
-    a = run_numpy(system, state, 1e-4, 120, "unilateral", rough=True)
-    b = run_c(system, state, 1e-4, 120, "unilateral", rough=True)
+    a = c_equals_numpy(system, 1e-4, 120, "unilateral", rough=True)
     normal = a[1][:, np.tile([True, True, False, False], 3)]
     landing = normal[1:] & ~normal[:-1]
     assert landing.sum() >= 5 and landing.sum(axis=1).max() == 2
-    agree(system, a, b)
 
 
 def test_a_landing_on_a_rough_rail_as_a_run_steps_it() -> None:
@@ -304,27 +297,11 @@ def test_flange_closing_under_a_lateral_load() -> None:
     )
     track = Track3D(conicity=LAM, eccentricity=0.3, rail_height=1.2, flange_clearance=0.005)
     system = System3D(vehicle, span, track, speed=0.0, start=5.0)
-    state = static_state(system)
     load = np.zeros(len(vehicle.dof_names))
     load[vehicle.index("y_body")] = 2000.0
     system.load = load
-    a = run_numpy(system, state, 1e-3, 300, "unilateral")
-    b = run_c(system, state, 1e-3, 300, "unilateral")
+    a = c_equals_numpy(system, 1e-3, 300, "unilateral")
     assert a[1][:, 2].any()  # the flange closed
-    agree(system, a, b)
-
-
-def bump(amplitude: float, omega: float, t0: float, c: float):
-    def f(t, x):
-        s = t - t0 - np.asarray(x, dtype=float) / c
-        on = s > 0.0
-        cs, sn = np.cos(omega * s), np.sin(omega * s)
-        q = amplitude * (1 - cs) ** 2
-        q1 = 2 * amplitude * omega * (1 - cs) * sn
-        q2 = 2 * amplitude * omega**2 * (sn * sn + (1 - cs) * cs)
-        return tuple(np.where(on, v, 0.0) for v in (q, q1, q2))
-
-    return f
 
 
 def test_travelling_earthquake_and_the_approach_track() -> None:
@@ -333,14 +310,14 @@ def test_travelling_earthquake_and_the_approach_track() -> None:
     test_quake3d_step.py's case), dt = 2e-3 s, 250 steps in chunks of 50."""
     c = 300.0
     ground = FunctionGround(
-        vertical=bump(0.005, 2 * np.pi * 1.0, 0.05, c),
-        longitudinal=bump(-0.03, 2 * np.pi * 2.0, 0.05, c),
-        lateral=bump(0.001, 2 * np.pi * 1.0, 0.05, c),
+        vertical=ground_bump(0.005, 2 * np.pi * 1.0, 0.05, c),
+        longitudinal=ground_bump(-0.03, 2 * np.pi * 2.0, 0.05, c),
+        lateral=ground_bump(0.001, 2 * np.pi * 1.0, 0.05, c),
         apparent_velocity=c,
     )
     bridge = Bridge3D([Girder((10.0,), DECK)] * 2, 8, [section3d(DECK, 10.0, 5.0)] * 2)
     system = System3D(
-        vehicle3d(parse_topology3d(SPRUNG_WHEELSET_3D)),
+        sprung_wheelset3d(),
         bridge,
         Track3D(conicity=LAM, eccentricity=0.3, rail_height=0.8),
         speed=100.0 / 3.6,
@@ -348,10 +325,7 @@ def test_travelling_earthquake_and_the_approach_track() -> None:
         bridge_damping=bridge.C,
         ground=ground,
     )
-    state = static_state(system)
-    a = run_numpy(system, state, 2e-3, 250, "unilateral")
-    b = run_c(system, state, 2e-3, 250, "unilateral")
-    agree(system, a, b)
+    c_equals_numpy(system, 2e-3, 250, "unilateral")
 
 
 def test_continuous_girder_on_a_pier() -> None:
@@ -375,10 +349,7 @@ def test_continuous_girder_on_a_pier() -> None:
         bridge_damping=bridge.C,
         creep=CreepParameters(),
     )
-    state = static_state(system)
-    a = run_numpy(system, state, 1e-4, 200, "unilateral", rough=True)
-    b = run_c(system, state, 1e-4, 200, "unilateral", rough=True)
-    agree(system, a, b)
+    c_equals_numpy(system, 1e-4, 200, "unilateral", rough=True)
 
 
 def test_spans_of_different_lengths_with_irregularities_and_creep() -> None:
@@ -403,11 +374,8 @@ def test_spans_of_different_lengths_with_irregularities_and_creep() -> None:
     before = [e for e, _ in system.contact_location(0.0)]
     after = [e for e, _ in system.contact_location(300 * 1e-4)]
     assert before == [7, 3] and after == [8, 4]  # both wheelsets change span
-    state = static_state(system)
-    a = run_numpy(system, state, 1e-4, 300, "unilateral", rough=True)
-    b = run_c(system, state, 1e-4, 300, "unilateral", rough=True)
+    a = c_equals_numpy(system, 1e-4, 300, "unilateral", rough=True)
     assert np.abs(a[0][:, -24:]).max() > 0  # creep forces
-    agree(system, a, b)
 
 
 def test_spans_of_different_lengths_from_the_approach_under_an_earthquake() -> None:
@@ -416,14 +384,14 @@ def test_spans_of_different_lengths_from_the_approach_under_an_earthquake() -> N
     250 steps in chunks of 50."""
     c = 300.0
     ground = FunctionGround(
-        vertical=bump(0.005, 2 * np.pi * 1.0, 0.05, c),
-        longitudinal=bump(-0.03, 2 * np.pi * 2.0, 0.05, c),
-        lateral=bump(0.001, 2 * np.pi * 1.0, 0.05, c),
+        vertical=ground_bump(0.005, 2 * np.pi * 1.0, 0.05, c),
+        longitudinal=ground_bump(-0.03, 2 * np.pi * 2.0, 0.05, c),
+        lateral=ground_bump(0.001, 2 * np.pi * 1.0, 0.05, c),
         apparent_velocity=c,
     )
     bridge = Bridge3D([Girder((6.0,), DECK), Girder((10.0,), DECK)], 4, [section3d(DECK, 10.0, 5.0)] * 2)
     system = System3D(
-        vehicle3d(parse_topology3d(SPRUNG_WHEELSET_3D)),
+        sprung_wheelset3d(),
         bridge,
         Track3D(conicity=LAM, eccentricity=0.3, rail_height=0.8),
         speed=100.0 / 3.6,
@@ -432,10 +400,7 @@ def test_spans_of_different_lengths_from_the_approach_under_an_earthquake() -> N
         ground=ground,
     )
     assert [e for e, _ in system.contact_location(250 * 2e-3)] == [6]  # on the 10 m span
-    state = static_state(system)
-    a = run_numpy(system, state, 2e-3, 250, "unilateral")
-    b = run_c(system, state, 2e-3, 250, "unilateral")
-    agree(system, a, b)
+    c_equals_numpy(system, 2e-3, 250, "unilateral")
 
 
 def test_vehicle_blocks_are_the_cars() -> None:

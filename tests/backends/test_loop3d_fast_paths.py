@@ -141,19 +141,22 @@ def test_reused_chunk_buffers_hold_the_same_numbers() -> None:
     """Two steppers from one state, one writing fresh arrays, the other its kept buffers: the same
     chunks bit for bit; the kept buffers are the same memory from call to call (a longer chunk
     grows them)."""
-    from test_loop3d_c import DECK, LAM, car, copy
+    from cases import SW_CONICITY, SW_DECK, copy_state3d, sprung_wheelset3d
 
     from svbi.runtime.backends.c.stepper3d import LocalizedDynamic3DC
     from svbi.runtime.methods.coupled3d import static_state
-    from svbi.runtime.model.bridge import Girder
+    from svbi.runtime.model.bridge import Girder, Section
     from svbi.runtime.model.bridge3d import Bridge3D, section3d
     from svbi.runtime.model.system3d import System3D, Track3D
 
-    bridge = Bridge3D([Girder((10.0, 10.0), DECK)], 4, [section3d(DECK, 10.0, 5.0)])
-    system = System3D(car(), bridge, Track3D(conicity=LAM), speed=20.0, start=4.0)
+    deck = Section(**SW_DECK, damping_ratio=0.02)
+    bridge = Bridge3D([Girder((10.0, 10.0), deck)], 4, [section3d(deck, 10.0, 5.0)])
+    system = System3D(
+        sprung_wheelset3d(damped=True), bridge, Track3D(conicity=SW_CONICITY), speed=20.0, start=4.0
+    )
     state = static_state(system)
-    fresh = LocalizedDynamic3DC(system, copy(state), 1e-3)
-    kept = LocalizedDynamic3DC(system, copy(state), 1e-3)
+    fresh = LocalizedDynamic3DC(system, copy_state3d(state), 1e-3)
+    kept = LocalizedDynamic3DC(system, copy_state3d(state), 1e-3)
     rng = np.random.default_rng(5)
     n, seen = 0, []
     for k in (20, 20, 30, 10):

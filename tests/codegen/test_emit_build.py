@@ -3,6 +3,7 @@
 
 from __future__ import annotations
 
+import functools
 import json
 import os
 import re
@@ -58,22 +59,35 @@ def test_render_twice_is_identical() -> None:
     assert first == second
 
 
-def test_generate_is_byte_identical_across_hash_seeds(tmp_path: Path) -> None:
-    """`svbi generate --all` in two processes with different PYTHONHASHSEED: same bytes, and the
-    same bytes as the committed tree."""
-    procs = []
-    for seed in ("0", "4242"):
-        env = {**os.environ, "PYTHONHASHSEED": seed}
-        out = tmp_path / f"seed-{seed}"
-        cmd = [sys.executable, "-m", "svbi.runtime.cli", "generate", "--all", "--out", str(out)]
-        procs.append((out, subprocess.Popen(cmd, env=env, stdout=subprocess.PIPE, stderr=subprocess.STDOUT)))
-    trees = []
-    for out, proc in procs:
-        log, _ = proc.communicate(timeout=300)
-        assert proc.returncode == 0, log.decode()
-        trees.append(_tree(out))
-    assert trees[0] == trees[1]
-    assert trees[0] == _tree(GENERATED)
+@pytest.fixture(scope="module")
+def one_regeneration():
+    """Every built-in model regenerated once in this process for the tests of this file that
+    regenerate the whole tree (`svbi generate --check` twice and the hash-seed test: a minute and
+    more each on a busy 2-core machine): ``cli_codegen._builtin_tree``, the function ``--check``
+    calls, wrapped in ``functools.cache`` for this module. The same function on the same inputs; its
+    bytes are only read (written to the check's temporary folder and compared)."""
+    patch = pytest.MonkeyPatch()
+    patch.setattr(cli_codegen, "_builtin_tree", functools.cache(cli_codegen._builtin_tree))
+    yield
+    patch.undo()
+
+
+def test_generate_is_byte_identical_across_hash_seeds(tmp_path: Path, one_regeneration) -> None:
+    """`svbi generate --all` in a fresh process with a fixed PYTHONHASHSEED against the regeneration
+    in this process under another hash seed (this process's own: random, or the environment's, never
+    the child's): the same bytes, and the same bytes as the committed tree."""
+    own = os.environ.get("PYTHONHASHSEED")
+    seed = "4242" if own == "0" or not sys.flags.hash_randomization else "0"
+    assert seed != own
+    out = tmp_path / f"seed-{seed}"
+    cmd = [sys.executable, "-m", "svbi.runtime.cli", "generate", "--all", "--out", str(out)]
+    env = {**os.environ, "PYTHONHASHSEED": seed}
+    proc = subprocess.Popen(cmd, env=env, stdout=subprocess.PIPE, stderr=subprocess.STDOUT)
+    in_process = cli_codegen._builtin_tree()  # meanwhile, under this process's hash seed
+    log, _ = proc.communicate(timeout=300)
+    assert proc.returncode == 0, log.decode()
+    assert in_process and cli_codegen.check_tree(out) == []  # the child's tree is this process's
+    assert _tree(out) == _tree(GENERATED)
 
 
 def test_every_text_file_has_a_banner_and_no_timestamp() -> None:
@@ -101,13 +115,13 @@ def test_hash_changes_with_the_spec_and_options() -> None:
 # svbi generate --check
 
 
-def test_check_passes_on_the_committed_tree() -> None:
+def test_check_passes_on_the_committed_tree(one_regeneration) -> None:
     result = CliRunner().invoke(_app(), ["generate", "--check"])
     assert result.exit_code == 0, result.output
     assert "up to date" in result.output
 
 
-def test_check_fails_with_a_diff_on_an_altered_copy(tmp_path: Path) -> None:
+def test_check_fails_with_a_diff_on_an_altered_copy(tmp_path: Path, one_regeneration) -> None:
     copy = tmp_path / "generated"
     shutil.copytree(GENERATED, copy)
     header = copy / "sprung-mass" / "sprung_mass.h"

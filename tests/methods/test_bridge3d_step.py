@@ -21,25 +21,20 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-from cases import SPRUNG_WHEELSET_3D
+from cases import SW_CONICITY, SW_SPEED, sprung_mass_run2d, sprung_wheelset3d, sw_chain3d
 from conftest import c_compiler_works
 
-import svbi
-from svbi.codegen.topology3d import parse_topology3d
 from svbi.runtime.backends.c.stepper3d import LocalizedDynamic3DC
 from svbi.runtime.methods.coupled3d import CoupledDynamic3D, static_state
-from svbi.runtime.model.bridge import Girder, Section
-from svbi.runtime.model.bridge3d import Bridge3D, section3d
-from svbi.runtime.model.system3d import GROUND, System3D, Track3D, vehicle3d
+from svbi.runtime.model.system3d import GROUND, System3D, Track3D
 from svbi.runtime.model.train3d import train3d
-from svbi.runtime.scenario.schema import validate_scenario
 
-L, E, Iy, MU = 10.0, 2.87e9, 2.9, 2303.0
+L = 10.0
 SPACING = 20.0
 """Between the cars' leading axles (the 2D car's ``car_length``): two spans."""
-V = 100.0 / 3.6
+V = SW_SPEED
 DT, ELEMENTS = 2e-3, 8
-LAM = 0.1
+LAM = SW_CONICITY
 COS = 1.0 / np.sqrt(1.0 + LAM**2)
 
 
@@ -48,10 +43,9 @@ def run3d(
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Midspan deflections (steps x spans), normal forces (steps x 2 per wheelset) and the largest
     lateral motion of deck and vehicle, stepped by ``method``."""
-    car = vehicle3d(parse_topology3d(SPRUNG_WHEELSET_3D))
+    car = sprung_wheelset3d()
     vehicle = train3d([car] * cars, SPACING) if cars > 1 else car
-    plane = Section(MU, E, 1.0, Iy, 0.0)
-    bridge = Bridge3D([Girder((L,), plane)] * spans, ELEMENTS, [section3d(plane, 10.0, 5.0)] * spans)
+    bridge = sw_chain3d(spans, ELEMENTS)
     system = System3D(vehicle, bridge, Track3D(conicity=LAM), speed=V, start=start)
     stepper = method(system, static_state(system), DT)
     mids = [bridge.midspan_node(s) for s in range(spans)]
@@ -69,34 +63,9 @@ def run3d(
 
 
 def run2d(spans: int, cars: int, start: float, steps: int):
-    scenario = validate_scenario(
-        {
-            "bridge": dict(
-                spans=spans,
-                span_length=L,
-                mass_per_length=MU,
-                youngs_modulus=E,
-                area=1.0,
-                second_moment=Iy,
-                damping_ratio=0.0,
-                elements_per_span=ELEMENTS,
-            ),
-            "train": dict(
-                vehicle="sprung-mass",
-                cars=cars,
-                speed=V,
-                start_position=start,
-                parameters=dict(
-                    sprung_mass=5750.0, stiffness=1.595e6, wheel_mass=500.0, damping=0.0, car_length=SPACING
-                ),
-            ),
-            "contact": dict(creep=False),
-            "solver": dict(
-                method="coupled-dynamic", backend="numpy", time_step=DT, duration=steps * DT, output_every=1
-            ),
-        }
+    return sprung_mass_run2d(
+        spans, steps, start=start, cars=cars, car_length=SPACING, elements=ELEMENTS, dt=DT
     )
-    return svbi.simulate(scenario)
 
 
 @pytest.mark.parametrize(
@@ -136,10 +105,8 @@ def test_several_spans_in_the_vertical_plane_are_the_2d_run(spans, cars, start, 
 def test_wheelset_locations_on_a_bridge() -> None:
     """A wheelset beyond the last abutment is on the approach track (the ground: element
     ``GROUND``), the last abutment included, as in 2D."""
-    car = vehicle3d(parse_topology3d(SPRUNG_WHEELSET_3D))
-    plane = Section(MU, E, 1.0, Iy, 0.0)
-    section = section3d(plane, 10.0, 5.0)
-    bridge = Bridge3D([Girder((L,), plane)] * 2, ELEMENTS, [section] * 2)
+    car = sprung_wheelset3d()
+    bridge = sw_chain3d(2, ELEMENTS)
     system = System3D(car, bridge, Track3D(conicity=LAM), speed=V, start=19.0)
     assert system.contact_location(0.0) == [(ELEMENTS + 7, pytest.approx(0.2))]
     assert system.contact_location(0.1) == [(GROUND, 0.0)]

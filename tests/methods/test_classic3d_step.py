@@ -28,19 +28,14 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-from cases import SPRUNG_WHEELSET_3D
+from cases import SW_CONICITY, SW_SPEED, ground_bump, sprung_mass_run2d, sprung_wheelset3d, sw_chain3d
 
 import svbi
 from svbi.codegen.topology3d import parse_topology3d
 from svbi.runtime.methods.classic3d import CoupledClassic3D
 from svbi.runtime.methods.coupled3d import CoupledDynamic3D, static_state
-from svbi.runtime.model.bridge import Girder, Section
-from svbi.runtime.model.bridge3d import Bridge3D, section3d
 from svbi.runtime.model.ground import FunctionGround
 from svbi.runtime.model.system3d import GROUND, System3D, Track3D, vehicle3d
-from svbi.runtime.run.simulate import build_model
-from svbi.runtime.scenario.schema import validate_scenario
-from tests.methods.test_quake3d_step import bump
 from tests.methods.test_unilateral3d_step import (
     CLEARANCE,
     E_T,
@@ -52,29 +47,24 @@ from tests.methods.test_unilateral3d_step import (
     body_load,
 )
 
-L, E, Iy, MU = 10.0, 2.87e9, 2.9, 2303.0
-V = 100.0 / 3.6
+V = SW_SPEED
 DT, ELEMENTS = 2e-3, 8
-LAM = 0.1
+LAM = SW_CONICITY
 R0 = 0.46  # the wheel radius of SPRUNG_WHEELSET_3D
 COS = 1.0 / np.sqrt(1.0 + LAM**2)
 SPANS, START, STEPS = 2, -5.0, 600  # 1.2 s: from x = -5 m to 28.3 m; off the deck after 0.9 s
 SYNCHRONOUS = dict(
-    vertical=bump(0.005, 2 * np.pi * 2.0, t0=0.05), longitudinal=bump(-0.03, 2 * np.pi * 2.0, t0=0.05)
+    vertical=ground_bump(0.005, 2 * np.pi * 2.0, t0=0.05),
+    longitudinal=ground_bump(-0.03, 2 * np.pi * 2.0, t0=0.05),
 )
-
-
-def car():
-    return vehicle3d(parse_topology3d(SPRUNG_WHEELSET_3D))
 
 
 def crossing3d(method, ground=None):
     """The car from the approach track over two undamped 10 m spans and off again: per step the
     midspan deflections, the normal forces, the normal gaps, the wheelset's and the body's vertical
     displacement, the wheelset's location, and the deck's full state."""
-    plane = Section(MU, E, 1.0, Iy, 0.0)
-    b = Bridge3D([Girder((L,), plane)] * SPANS, ELEMENTS, [section3d(plane, 10.0, 5.0)] * SPANS)
-    vehicle = car()
+    b = sw_chain3d(SPANS, ELEMENTS)
+    vehicle = sprung_wheelset3d()
     system = System3D(vehicle, b, Track3D(conicity=LAM), speed=V, start=START, ground=ground)
     stepper = method(system, static_state(system), DT)
     mids = [b.midspan_node(s) for s in range(SPANS)]
@@ -98,38 +88,9 @@ def crossing3d(method, ground=None):
 
 
 def crossing2d(ground=None):
-    scenario = validate_scenario(
-        {
-            "bridge": dict(
-                spans=SPANS,
-                span_length=L,
-                mass_per_length=MU,
-                youngs_modulus=E,
-                area=1.0,
-                second_moment=Iy,
-                damping_ratio=0.0,
-                elements_per_span=ELEMENTS,
-            ),
-            "train": dict(
-                vehicle="sprung-mass",
-                speed=V,
-                start_position=START,
-                parameters=dict(sprung_mass=5750.0, stiffness=1.595e6, wheel_mass=500.0, damping=0.0),
-            ),
-            "contact": dict(creep=False),
-            "solver": dict(
-                method="coupled-classic",
-                backend="numpy",
-                time_step=DT,
-                duration=STEPS * DT,
-                output_every=1,
-            ),
-        }
+    return sprung_mass_run2d(
+        SPANS, STEPS, method="coupled-classic", start=START, elements=ELEMENTS, dt=DT, ground=ground
     )
-    model = build_model(scenario)
-    if ground is not None:
-        model.ground = ground
-    return svbi.simulate(scenario, model=model)
 
 
 @pytest.fixture(scope="module")

@@ -20,32 +20,45 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-import svbi
 from svbi.codegen.topology3d import parse_topology3d
 from svbi.runtime.methods.coupled3d import CoupledDynamic3D, static_state
 from svbi.runtime.methods.localized3d import LocalizedDynamic3D
 from svbi.runtime.model.span3d import Section3D, simply_supported_span
 from svbi.runtime.model.system3d import GROUND, System3D, Track3D, vehicle3d
-from svbi.runtime.scenario.schema import validate_scenario
-from tests.cases import SPRUNG_WHEELSET_3D
+from tests.cases import (
+    SPRUNG_WHEELSET_3D,
+    SW_CONICITY,
+    SW_DECK,
+    SW_SPEED,
+    sprung_mass_run2d,
+    sprung_wheelset3d,
+)
 
 TOPOLOGY = SPRUNG_WHEELSET_3D
 
-L, E, Iy, MU = 25.0, 2.87e9, 2.9, 2303.0
-V = 100.0 / 3.6
+L = 25.0
+V = SW_SPEED
 DT, STEPS, ELEMENTS = 2e-3, 200, 8
-LAM = 0.1
+LAM = SW_CONICITY
 COS = 1.0 / np.sqrt(1.0 + LAM**2)
 
 
 @pytest.fixture(scope="module")
 def vehicle():
-    return vehicle3d(parse_topology3d(TOPOLOGY))
+    return sprung_wheelset3d()
 
 
 @pytest.fixture(scope="module")
 def run3d(vehicle):
-    section = Section3D(E=E, A=1.0, I_y=Iy, I_z=10.0, J=5.0, mass_per_length=MU)
+    deck = SW_DECK
+    section = Section3D(
+        E=deck["youngs_modulus"],
+        A=deck["area"],
+        I_y=deck["second_moment"],
+        I_z=10.0,
+        J=5.0,
+        mass_per_length=deck["mass_per_length"],
+    )
     span = simply_supported_span(section, L, ELEMENTS)
     system = System3D(vehicle, span, Track3D(conicity=LAM), speed=V, start=0.0)
     stepper = CoupledDynamic3D(system, static_state(system), DT)
@@ -69,30 +82,7 @@ def run3d(vehicle):
 
 @pytest.fixture(scope="module")
 def run2d():
-    scenario = validate_scenario(
-        {
-            "bridge": dict(
-                spans=1,
-                span_length=L,
-                mass_per_length=MU,
-                youngs_modulus=E,
-                area=1.0,
-                second_moment=Iy,
-                damping_ratio=0.0,
-                elements_per_span=ELEMENTS,
-            ),
-            "train": dict(
-                vehicle="sprung-mass",
-                speed=V,
-                parameters=dict(sprung_mass=5750.0, stiffness=1.595e6, wheel_mass=500.0, damping=0.0),
-            ),
-            "contact": dict(creep=False),
-            "solver": dict(
-                method="coupled-dynamic", backend="numpy", time_step=DT, duration=STEPS * DT, output_every=1
-            ),
-        }
-    )
-    return svbi.simulate(scenario)
+    return sprung_mass_run2d(1, STEPS, span_length=L, elements=ELEMENTS, dt=DT)
 
 
 def test_vertical_plane_is_the_2d_run(run3d, run2d):

@@ -25,44 +25,31 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-from cases import SPRUNG_WHEELSET_3D
+from cases import (
+    SW_CONICITY,
+    SW_DECK,
+    SW_SPEED,
+    ground_bump,
+    sprung_mass_run2d,
+    sprung_wheelset3d,
+    sw_chain3d,
+)
 from conftest import c_compiler_works
 from scipy.integrate import solve_ivp
 
-import svbi
-from svbi.codegen.topology3d import parse_topology3d
 from svbi.runtime.backends.c.stepper3d import LocalizedDynamic3DC
 from svbi.runtime.methods.coupled3d import CoupledDynamic3D, static_state
 from svbi.runtime.methods.localized3d import LocalizedDynamic3D
-from svbi.runtime.model.bridge import Girder, Section
-from svbi.runtime.model.bridge3d import Bridge3D, section3d
+from svbi.runtime.model.bridge3d import Bridge3D
 from svbi.runtime.model.ground import FunctionGround
-from svbi.runtime.model.system3d import GROUND, System3D, Track3D, vehicle3d
-from svbi.runtime.run.simulate import build_model
-from svbi.runtime.scenario.schema import validate_scenario
+from svbi.runtime.model.system3d import GROUND, System3D, Track3D
 
-L, E, Iy, MU = 10.0, 2.87e9, 2.9, 2303.0
-V = 100.0 / 3.6
+L = 10.0
+E, Iy, MU = SW_DECK["youngs_modulus"], SW_DECK["second_moment"], SW_DECK["mass_per_length"]
+V = SW_SPEED
 DT, ELEMENTS = 2e-3, 8
-LAM = 0.1
+LAM = SW_CONICITY
 COS = 1.0 / np.sqrt(1.0 + LAM**2)
-
-
-def bump(amplitude: float, omega: float, t0: float = 0.0, c: float | None = None):
-    """``q = A (1 - cos(omega s))^2`` for ``s = t - t0 - x/c > 0``, else 0 (q, q', q'' vanish at
-    the onset): a smooth ground motion and its exact partial time derivatives."""
-
-    def f(t, x):
-        x = np.asarray(x, dtype=float)
-        s = t - t0 - (x / c if c else 0.0 * x)
-        on = s > 0.0
-        cs, sn = np.cos(omega * s), np.sin(omega * s)
-        q = amplitude * (1 - cs) ** 2
-        q1 = 2 * amplitude * omega * (1 - cs) * sn
-        q2 = 2 * amplitude * omega**2 * (sn * sn + (1 - cs) * cs)
-        return tuple(np.where(on, a, 0.0) for a in (q, q1, q2))
-
-    return f
 
 
 def support_targets(ground, b: Bridge3D, t: float, dt: float) -> np.ndarray:
@@ -81,13 +68,11 @@ def support_targets(ground, b: Bridge3D, t: float, dt: float) -> np.ndarray:
     return 0.25 * (h0 + 2 * h1 + h2)
 
 
-def car():
-    return vehicle3d(parse_topology3d(SPRUNG_WHEELSET_3D))
+car = sprung_wheelset3d
 
 
 def bridge(spans: int, damping: float, elements: int = ELEMENTS, lateral: float = 10.0) -> Bridge3D:
-    plane = Section(MU, E, 1.0, Iy, damping)
-    return Bridge3D([Girder((L,), plane)] * spans, elements, [section3d(plane, lateral, 5.0)] * spans)
+    return sw_chain3d(spans, elements, damping, lateral)
 
 
 def run3d(spans, start, steps, damping=0.0, ground=None, method=CoupledDynamic3D):
@@ -112,44 +97,20 @@ def run3d(spans, start, steps, damping=0.0, ground=None, method=CoupledDynamic3D
 
 
 def run2d(spans, start, steps, damping=0.0, ground=None):
-    scenario = validate_scenario(
-        {
-            "bridge": dict(
-                spans=spans,
-                span_length=L,
-                mass_per_length=MU,
-                youngs_modulus=E,
-                area=1.0,
-                second_moment=Iy,
-                damping_ratio=damping,
-                elements_per_span=ELEMENTS,
-            ),
-            "train": dict(
-                vehicle="sprung-mass",
-                speed=V,
-                start_position=start,
-                parameters=dict(sprung_mass=5750.0, stiffness=1.595e6, wheel_mass=500.0, damping=0.0),
-            ),
-            "contact": dict(creep=False),
-            "solver": dict(
-                method="coupled-dynamic", backend="numpy", time_step=DT, duration=steps * DT, output_every=1
-            ),
-        }
+    return sprung_mass_run2d(
+        spans, steps, start=start, elements=ELEMENTS, dt=DT, damping=damping, ground=ground
     )
-    model = build_model(scenario)
-    if ground is not None:
-        model.ground = ground
-    return svbi.simulate(scenario, model=model)
 
 
 QUAKES = {
     "no-earthquake": None,
     "synchronous": dict(
-        vertical=bump(0.005, 2 * np.pi * 2.0, t0=0.05), longitudinal=bump(-0.03, 2 * np.pi * 2.0, t0=0.05)
+        vertical=ground_bump(0.005, 2 * np.pi * 2.0, t0=0.05),
+        longitudinal=ground_bump(-0.03, 2 * np.pi * 2.0, t0=0.05),
     ),
     "wave-300m/s": dict(
-        vertical=bump(0.02, 2 * np.pi * 3.0, t0=0.05, c=300.0),
-        longitudinal=bump(-0.03, 2 * np.pi * 2.0, t0=0.05, c=300.0),
+        vertical=ground_bump(0.02, 2 * np.pi * 3.0, t0=0.05, c=300.0),
+        longitudinal=ground_bump(-0.03, 2 * np.pi * 2.0, t0=0.05, c=300.0),
         apparent_velocity=300.0,
     ),
 }
@@ -247,7 +208,7 @@ def test_lateral_relative_response_of_a_span_is_the_modal_solution() -> None:
     localized loop (the NumPy localized step to round-off under a three-component earthquake,
     tests/backends/test_loop3d_c.py, ``test_travelling_earthquake_and_the_approach_track``)."""
     Iz, dt, steps = 0.05, 1e-3, 500
-    motion = bump(0.01, 2 * np.pi * 2.0)
+    motion = ground_bump(0.01, 2 * np.pi * 2.0)
     ground = FunctionGround(lateral=motion)
     b = bridge(1, 0.0, elements=16, lateral=Iz)
     system = System3D(car(), b, Track3D(conicity=LAM), speed=0.0, start=-50.0, ground=ground)
@@ -284,9 +245,9 @@ def test_localized_is_coupled_with_a_travelling_wave_and_a_crossing() -> None:
     partitioned step gives the monolithic one to 1e-10 of each series' peak."""
     c = 300.0
     ground = dict(
-        vertical=bump(0.005, 2 * np.pi * 1.0, 0.05, c),
-        longitudinal=bump(-0.03, 2 * np.pi * 2.0, 0.05, c),
-        lateral=bump(0.001, 2 * np.pi * 1.0, 0.05, c),
+        vertical=ground_bump(0.005, 2 * np.pi * 1.0, 0.05, c),
+        longitudinal=ground_bump(-0.03, 2 * np.pi * 2.0, 0.05, c),
+        lateral=ground_bump(0.001, 2 * np.pi * 1.0, 0.05, c),
         apparent_velocity=c,
     )
     out = []
@@ -319,4 +280,4 @@ def test_a_ground_motion_needs_a_bridge_deck() -> None:
 
     span = simply_supported_span(Section3D(E=E, A=1.0, I_y=Iy, I_z=10.0, J=5.0, mass_per_length=MU), L, 4)
     with pytest.raises(ValueError, match="a ground motion needs a deck with supports on the ground"):
-        System3D(car(), span, ground=FunctionGround(lateral=bump(0.01, 1.0)))
+        System3D(car(), span, ground=FunctionGround(lateral=ground_bump(0.01, 1.0)))

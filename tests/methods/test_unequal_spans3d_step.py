@@ -14,26 +14,22 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-from cases import SPRUNG_WHEELSET_3D
+from cases import SW_CONICITY, SW_DECK, SW_SPEED, sprung_mass_run2d, sprung_wheelset3d
 from conftest import c_compiler_works
 
-import svbi
-from svbi.codegen.topology3d import parse_topology3d
 from svbi.runtime.backends.c.stepper3d import LocalizedDynamic3DC
 from svbi.runtime.methods.coupled3d import CoupledDynamic3D, static_state
 from svbi.runtime.model.bridge import Girder, Section
 from svbi.runtime.model.bridge3d import Bridge3D, section3d
-from svbi.runtime.model.system3d import GROUND, System3D, Track3D, vehicle3d
-from svbi.runtime.scenario.schema import validate_scenario
+from svbi.runtime.model.system3d import GROUND, System3D, Track3D
 
 SPANS = (10.0, 16.0)
-E, Iy, MU = 2.87e9, 2.9, 2303.0
-V = 100.0 / 3.6
+V = SW_SPEED
 DT, ELEMENTS, STEPS = 2e-3, 8, 300
 """300 steps: the wheelset crosses the joint (10 m) at step 180 and ends 6.7 m onto the 16 m span."""
-LAM = 0.1
+LAM = SW_CONICITY
 COS = 1.0 / np.sqrt(1.0 + LAM**2)
-PLANE = Section(MU, E, 1.0, Iy, 0.0)
+PLANE = Section(**SW_DECK, damping_ratio=0.0)
 
 
 def girders(continuous: bool) -> list[Girder]:
@@ -43,7 +39,7 @@ def girders(continuous: bool) -> list[Girder]:
 def run3d(continuous: bool, method: type) -> tuple[np.ndarray, np.ndarray, float, list[int]]:
     """Midspan deflections (steps x 2), normal forces (steps x 2), the largest lateral motion of deck
     and vehicle, and the element under the wheelset at every step."""
-    car = vehicle3d(parse_topology3d(SPRUNG_WHEELSET_3D))
+    car = sprung_wheelset3d()
     parts = girders(continuous)
     bridge = Bridge3D(parts, ELEMENTS, [section3d(PLANE, 10.0, 5.0)] * len(parts))
     assert sorted(set(bridge.deck_element_length)) == [1.25, 2.0]
@@ -63,30 +59,8 @@ def run3d(continuous: bool, method: type) -> tuple[np.ndarray, np.ndarray, float
 
 
 def run2d(continuous: bool):
-    long_form = [dict(spans=list(SPANS))] if continuous else [dict(spans=[s]) for s in SPANS]
-    scenario = validate_scenario(
-        {
-            "bridge": dict(
-                girders=long_form,
-                mass_per_length=MU,
-                youngs_modulus=E,
-                area=1.0,
-                second_moment=Iy,
-                damping_ratio=0.0,
-                elements_per_span=ELEMENTS,
-            ),
-            "train": dict(
-                vehicle="sprung-mass",
-                speed=V,
-                parameters=dict(sprung_mass=5750.0, stiffness=1.595e6, wheel_mass=500.0, damping=0.0),
-            ),
-            "contact": dict(creep=False),
-            "solver": dict(
-                method="coupled-dynamic", backend="numpy", time_step=DT, duration=STEPS * DT, output_every=1
-            ),
-        }
-    )
-    return svbi.simulate(scenario)
+    girders = [dict(spans=list(SPANS))] if continuous else [dict(spans=[s]) for s in SPANS]
+    return sprung_mass_run2d(0, STEPS, elements=ELEMENTS, dt=DT, girders=girders)
 
 
 @pytest.mark.parametrize(

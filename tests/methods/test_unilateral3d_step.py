@@ -33,18 +33,12 @@ from svbi.runtime.methods.localized3d import LocalizedDynamic3D
 from svbi.runtime.model.creep_law import CreepParameters
 from svbi.runtime.model.span3d import Section3D, simply_supported_span
 from svbi.runtime.model.system3d import ContactKernel3D, System3D, Track3D, vehicle3d
-from tests.cases import SPRUNG_WHEELSET_3D
+from tests.cases import SPRUNG_WHEELSET_3D_DAMPED
 
 GRAVITY = 9.81
 
 # the sprung wheelset of tests/cases.py with a dashpot beside each spring (a damped test vehicle)
-DASHPOTS = '[parameters.c]\nvalue = 4.0e4\nunit = "N s/m"\ndescription = "damping per side"\n'
-SPRINGS = 'stiffness = ["kl", "kl", "k / 2"]'
-TOPOLOGY = (
-    SPRUNG_WHEELSET_3D.replace('name = "sprung-wheelset-3d"', 'name = "sprung-wheelset-3d-damped"')
-    .replace("[parameters.car_length]", DASHPOTS + "[parameters.car_length]")
-    .replace(SPRINGS, SPRINGS + '\ndamping = ["c", "c", "c"]')
-)
+TOPOLOGY = SPRUNG_WHEELSET_3D_DAMPED
 
 WHEELSET = """
 name = "lone-wheelset-3d"
