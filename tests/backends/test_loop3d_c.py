@@ -304,10 +304,9 @@ def test_flange_closing_under_a_lateral_load() -> None:
     assert a[1][:, 2].any()  # the flange closed
 
 
-def test_travelling_earthquake_and_the_approach_track() -> None:
-    """Three components of a wave travelling at 300 m/s, 2 % damping, the car crossing from the
-    approach track onto a two-span chain on an eccentric raised track (tests/methods/
-    test_quake3d_step.py's case), dt = 2e-3 s, 250 steps in chunks of 50."""
+def quake_crossing(bridge: Bridge3D, start: float) -> System3D:
+    """The sprung wheelset at 100 km/h from ``start`` on the approach track onto ``bridge``, 2 %
+    damping, on an eccentric raised track, under three components of a wave travelling at 300 m/s."""
     c = 300.0
     ground = FunctionGround(
         vertical=ground_bump(0.005, 2 * np.pi * 1.0, 0.05, c),
@@ -315,17 +314,23 @@ def test_travelling_earthquake_and_the_approach_track() -> None:
         lateral=ground_bump(0.001, 2 * np.pi * 1.0, 0.05, c),
         apparent_velocity=c,
     )
-    bridge = Bridge3D([Girder((10.0,), DECK)] * 2, 8, [section3d(DECK, 10.0, 5.0)] * 2)
-    system = System3D(
+    return System3D(
         sprung_wheelset3d(),
         bridge,
         Track3D(conicity=LAM, eccentricity=0.3, rail_height=0.8),
         speed=100.0 / 3.6,
-        start=-3.0,
+        start=start,
         bridge_damping=bridge.C,
         ground=ground,
     )
-    c_equals_numpy(system, 2e-3, 250, "unilateral")
+
+
+def test_travelling_earthquake_and_the_approach_track() -> None:
+    """Three components of a wave travelling at 300 m/s, 2 % damping, the car crossing from the
+    approach track onto a two-span chain on an eccentric raised track (tests/methods/
+    test_quake3d_step.py's case), dt = 2e-3 s, 250 steps in chunks of 50."""
+    bridge = Bridge3D([Girder((10.0,), DECK)] * 2, 8, [section3d(DECK, 10.0, 5.0)] * 2)
+    c_equals_numpy(quake_crossing(bridge, start=-3.0), 2e-3, 250, "unilateral")
 
 
 def test_continuous_girder_on_a_pier() -> None:
@@ -382,23 +387,8 @@ def test_spans_of_different_lengths_from_the_approach_under_an_earthquake() -> N
     """The travelling three-component earthquake of the test above, the car crossing from the
     approach track onto a chain of a 6 m and a 10 m span (elements of 1.5 m and 2.5 m), dt = 2e-3 s,
     250 steps in chunks of 50."""
-    c = 300.0
-    ground = FunctionGround(
-        vertical=ground_bump(0.005, 2 * np.pi * 1.0, 0.05, c),
-        longitudinal=ground_bump(-0.03, 2 * np.pi * 2.0, 0.05, c),
-        lateral=ground_bump(0.001, 2 * np.pi * 1.0, 0.05, c),
-        apparent_velocity=c,
-    )
     bridge = Bridge3D([Girder((6.0,), DECK), Girder((10.0,), DECK)], 4, [section3d(DECK, 10.0, 5.0)] * 2)
-    system = System3D(
-        sprung_wheelset3d(),
-        bridge,
-        Track3D(conicity=LAM, eccentricity=0.3, rail_height=0.8),
-        speed=100.0 / 3.6,
-        start=-1.0,
-        bridge_damping=bridge.C,
-        ground=ground,
-    )
+    system = quake_crossing(bridge, start=-1.0)
     assert [e for e, _ in system.contact_location(250 * 2e-3)] == [6]  # on the 10 m span
     c_equals_numpy(system, 2e-3, 250, "unilateral")
 
