@@ -114,6 +114,8 @@ class Deck3D(Protocol):
 
     def deck_location(self, x: float) -> tuple[int, float]: ...
 
+    def deck_locations(self, x: np.ndarray) -> tuple[np.ndarray, np.ndarray]: ...
+
 
 @dataclass(frozen=True)
 class Span3D:
@@ -151,6 +153,14 @@ class Span3D:
             raise ValueError(f"x = {x} m is off the span (0 to {self.length} m)")
         le = self.element_length
         e = min(int(x // le), self.n_elements - 1)
+        return e, x / le - e
+
+    def deck_locations(self, x: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """:meth:`deck_location` of many points at once: ``(element, xi)`` arrays shaped like ``x``
+        (int, float), for points on the span (not checked)."""
+        x = np.asarray(x, dtype=float)
+        le = self.element_length
+        e = np.minimum((x // le).astype(np.intp), self.n_elements - 1)
         return e, x / le - e
 
 

@@ -23,6 +23,7 @@ from svbi.runtime.model.bridge import Girder, Section
 from svbi.runtime.model.bridge3d import Bridge3D, section3d
 from svbi.runtime.model.ground import FunctionGround, RecordGround
 from svbi.runtime.model.kernels import FRAME3D, load, load_broadcasting
+from svbi.runtime.model.span3d import Section3D, Span3D, simply_supported_span
 from svbi.runtime.model.system3d import GROUND, System3D, Track3D, vehicle3d
 
 
@@ -31,17 +32,24 @@ def bridge(spans: int = 3) -> Bridge3D:
     return Bridge3D([Girder((10.0,), plane)] * spans, 8, [section3d(plane, 10.0, 5.0)] * spans)
 
 
-def test_deck_locations_are_deck_location() -> None:
-    b = bridge()
-    x = np.concatenate([np.linspace(0.0, b.length, 241), [10.0, 20.0, 1.25, 2.5, 29.999999]])
+def span() -> Span3D:
+    section = Section3D(E=3.0e10, A=5.0, I_y=3.0, I_z=20.0, J=4.0, mass_per_length=1.2e4)
+    return simply_supported_span(section, 10.0, 4)
+
+
+@pytest.mark.parametrize("deck", [bridge, span], ids=["bridge", "span"])
+def test_deck_locations_are_deck_location(deck) -> None:
+    b = deck()
+    x = np.concatenate([np.linspace(0.0, b.length, 241), [10.0, 1.25, 2.5, b.length - 1e-6]])
     element, xi = b.deck_locations(x)
     for i, xx in enumerate(x):
         assert (int(element[i]), float(xi[i])) == b.deck_location(float(xx))
 
 
-def test_contact_locations_are_contact_location() -> None:
+@pytest.mark.parametrize("deck", [bridge, span], ids=["bridge", "span"])
+def test_contact_locations_are_contact_location(deck) -> None:
     car = vehicle3d(parse_topology3d(SPRUNG_WHEELSET_3D))
-    system = System3D(car, bridge(), Track3D(conicity=0.1), speed=27.0, start=-2.0)
+    system = System3D(car, deck(), Track3D(conicity=0.1), speed=27.0, start=-2.0)
     t = np.linspace(0.0, 1.3, 157)  # from the approach track past the last abutment
     element, xi = system.contact_locations(t)
     assert (element == GROUND).any() and (element != GROUND).any()

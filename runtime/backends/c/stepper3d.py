@@ -53,7 +53,7 @@ from ...methods.coupled3d import PER_WHEELSET, State3D, _Step3D
 from ...model.bridge3d import GROUND_DIRECTIONS
 from ...model.ground import RecordGround, seen_moving
 from ...model.system import newmark_targets, support_hat
-from ...model.system3d import GROUND, NIRREGULARITY, System3D
+from ...model.system3d import NIRREGULARITY, System3D
 from ...toolchain import generated_root
 from .build import CSRC, CSRC_3D, simd_flags, structure
 
@@ -330,7 +330,8 @@ class LocalizedDynamic3DC(_Step3D):
         """The excitation of steps ``n0 .. n0 + k - 1`` at their ends t_{n+1}."""
         sys_ = self.system
         t = (n0 + 1 + np.arange(k)) * self.dt
-        element, xi = self._locations(t)
+        element, xi = self.system.contact_locations(t)
+        element, xi = np.ascontiguousarray(element, dtype=np.int32), _f64(xi)
         ground = support = None
         if self.quake and isinstance(sys_.ground, RecordGround) and hasattr(sys_.span, "supports"):
             ground, support = self._quake_many(n0, k, t)
@@ -377,34 +378,6 @@ class LocalizedDynamic3DC(_Step3D):
         h = support_hat(take(lq[0]), take(lq[2]), dt)
         support = np.stack(newmark_targets(h[:-2], h[1:-1], h[2:], dt), axis=1)
         return _f64(ground), _f64(support)
-
-    def _locations(self, t: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """``contact_location`` at every time of ``t``, vectorised (``GROUND``, xi 0, off the deck)."""
-        sys_, span = self.system, self.system.span
-        offsets = np.array([w.offset for w in sys_.vehicle.wheelsets])
-        x = sys_.start + sys_.speed * t[:, None] - offsets[None, :]
-        on = (x >= 0.0) & (x < span.length)
-        xs = np.where(on, x, 0.0)
-        if hasattr(span, "span_elements"):  # a Bridge3D: Bridge3D.deck_location
-            lines = np.asarray(span.line_x, dtype=float)
-            k = np.minimum(np.searchsorted(lines, xs, side="right") - 1, span.spans - 1)
-            le = np.asarray(span.span_lengths, dtype=float)[k] / span.elements
-            local = (xs - lines[k]) / le
-            e = np.minimum(np.floor(local).astype(int), span.elements - 1)
-            table = np.array([np.asarray(a) for a in span.span_elements])
-            element = table[k, e]
-            xi = local - e
-        elif hasattr(span, "n_elements") and not hasattr(span, "span_elements"):  # a Span3D
-            le = span.element_length
-            e = np.minimum((xs // le).astype(int), span.n_elements - 1)
-            element, xi = e, xs / le - e
-        else:  # pragma: no cover - another Deck3D
-            pairs = [sys_.contact_location(float(ts)) for ts in t]
-            element = np.array([[p[0] for p in row] for row in pairs])
-            xi = np.array([[p[1] for p in row] for row in pairs])
-        element = np.where(on, element, GROUND).astype(np.int32)
-        xi = np.where(on, xi, 0.0)
-        return np.ascontiguousarray(element), _f64(xi)
 
     def _outputs(self, k: int, reuse: bool) -> dict[str, np.ndarray]:
         """The chunk's output arrays for ``k`` steps: fresh, or (``reuse``) the first ``k`` rows of
