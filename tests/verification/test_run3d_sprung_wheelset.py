@@ -132,19 +132,28 @@ def test_the_cones_lean_the_normals_and_nothing_moves_sideways(run3d) -> None:
     assert run3d.attrs["flange_contacts"] == 0
 
 
-def test_the_deck_under_a_wheelset_is_the_flange_kernels(topology: str) -> None:
-    """``y_w - y_r`` of the run module (shape functions, ``y_r = v - h_t phi_d``) against the generated
-    flange gap ``g_F,left = c_f - (y_w - y_r)`` on a displaced, twisted element; two rail heights
-    separate the sway from the twist."""
+@pytest.mark.parametrize(
+    ("spans", "lengths"),
+    [((L,), {L / 8}), ((10.0, 16.0), {10.0 / 8, 16.0 / 8})],
+    ids=["span", "unequal-spans"],
+)
+def test_the_deck_under_a_wheelset_is_the_flange_kernels(spans: tuple, lengths: set) -> None:
+    """``y_w - y_r`` of the run module (shape functions at the element's own length,
+    ``y_r = v - h_t phi_d``) against the generated flange gap ``g_F,left = c_f - (y_w - y_r)`` on
+    displaced, twisted elements, the kernel at each element's length: every element of one span,
+    and of a girder continuous over a 10 m and a 16 m span (elements of two lengths); two rail
+    heights separate the sway from the twist."""
     deck = Section(mass_per_length=MU, youngs_modulus=E, area=1.0, second_moment=IY, damping_ratio=0.0)
-    b = bridge3d([Girder((L,), deck)], ELEMENTS, [dict(lateral_second_moment=10.0, torsion_constant=5.0)])
+    b = bridge3d([Girder(spans, deck)], ELEMENTS, [dict(lateral_second_moment=10.0, torsion_constant=5.0)])
+    assert set(b.deck_element_length.tolist()) == lengths
     rng = np.random.default_rng(3)
     ws = Wheelset("ws", np.arange(4), 0.0, 0.46, 0.75)
     c_f = 0.007
     for h_t in (0.0, 1.3):
-        kernel = ContactKernel3D(ws, Track3D(conicity=LAM, rail_height=h_t), b.element_length, V, 0, 0, c_f)
-        for _ in range(5):
-            e, xi = int(rng.integers(0, ELEMENTS)), float(rng.uniform())
+        kernel = ContactKernel3D(ws, Track3D(conicity=LAM, rail_height=h_t), 1.0, V, 0, 0, c_f)
+        for e in range(len(b.deck_element_length)):
+            kernel.element_length = float(b.deck_element_length[e])
+            xi = float(rng.uniform())
             u = np.zeros(b.ndof)
             u[b.free] = 1e-3 * rng.standard_normal(b.free.size)
             q = 1e-3 * rng.standard_normal(4)

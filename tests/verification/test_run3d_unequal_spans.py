@@ -10,9 +10,8 @@ elements, kappa and zeta is the independent truth for both midspan deflections a
 force, on both 3D methods' default backends (localized-dynamic on the compiled loop, coupled-dynamic
 on NumPy).
 
-Also the deck's lateral displacement under a wheelset that the run records (the frame element's
-shape functions at the element's own length) against the generated flange-gap kernel on elements
-of both spans."""
+The deck's lateral displacement under a wheelset that the run records, on elements of both spans,
+against the generated flange-gap kernel: tests/verification/test_run3d_sprung_wheelset.py."""
 
 from __future__ import annotations
 
@@ -22,10 +21,6 @@ import numpy as np
 import pytest
 
 import svbi
-from svbi.runtime.model.bridge import Girder, Section
-from svbi.runtime.model.bridge3d import bridge3d
-from svbi.runtime.model.system3d import ContactKernel3D, Track3D, Wheelset
-from svbi.runtime.run.simulate3d import deck_rows
 from svbi.runtime.scenario.schema import load_scenario
 from tests.cases import SPRUNG_WHEELSET_3D
 
@@ -99,31 +94,3 @@ def test_a_scenario_of_unequal_spans_runs_and_is_the_2d_run(tmp_path: Path, run2
     assert x[0] == 0.0 and x[-1] > 10.0 + 5.0  # onto the 16 m span, past its first element
     for name in ("midspan_uy", "midspan_twist", "wheel_rail_lateral_displacement"):
         assert np.abs(three[name].values).max() < 1e-14, name
-
-
-def test_the_deck_under_a_wheelset_takes_its_elements_length() -> None:
-    """``y_w - y_r`` of the run module's shape functions against the generated flange gap
-    ``g_F,left = c_f - (y_w - y_r)`` on displaced, twisted elements of a 10 m and a 16 m span, the
-    kernel at each element's length."""
-    deck = Section(mass_per_length=MU, youngs_modulus=E, area=1.0, second_moment=IY, damping_ratio=0.0)
-    b = bridge3d(
-        [Girder((10.0, 16.0), deck)], ELEMENTS, [dict(lateral_second_moment=10.0, torsion_constant=5.0)]
-    )
-    rng = np.random.default_rng(5)
-    ws = Wheelset("ws", np.arange(4), 0.0, 0.46, 0.75)
-    c_f, h_t = 0.007, 1.3
-    kernel = ContactKernel3D(ws, Track3D(conicity=LAM, rail_height=h_t), 1.0, V, 0, 0, c_f)
-    for e in (1, 3, ELEMENTS + 1, ELEMENTS + 4):
-        kernel.element_length = float(b.deck_element_length[e])
-        assert kernel.element_length == (2.0 if e < ELEMENTS else 3.2)
-        for _ in range(3):
-            xi = float(rng.uniform(0.1, 0.9))
-            u = np.zeros(b.ndof)
-            u[b.free] = 1e-3 * rng.standard_normal(b.free.size)
-            q = 1e-3 * rng.standard_normal(4)
-            rows = deck_rows(b, e, xi)
-            dofs, rv = rows["v"]
-            _, rphi = rows["phi"]
-            y_r = rv @ u[dofs] - h_t * (rphi @ u[dofs])
-            g_left = kernel.flange_gap(np.concatenate([q, u[dofs]]), xi)[0]
-            assert q[0] - y_r == pytest.approx(c_f - g_left, abs=1e-16)
