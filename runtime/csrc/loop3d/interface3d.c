@@ -318,20 +318,27 @@ static void contact_response(work3d_t* W, const double* h, double* change, doubl
   }
 }
 
+/* dq = dq0 + A_V G_V^T lam: the cars' displacements under the contact forces lam along the
+ * gradients at the iterate */
+static void vehicle_response(work3d_t* W, const double* lam, double* dq) {
+  const setup3d_t* S = W->S;
+  int w, k, j;
+  memset(W->gv, 0, sizeof(double) * (size_t)S->nV);
+  for (w = 0; w < S->nW; ++w)
+    for (k = 0; k < 4; ++k)
+      for (j = 0; j < 4; ++j) W->gv[S->ws_dofs[4 * w + j]] += W->grad[(4 * w + k) * NZ3 + j] * lam[4 * w + k];
+  memcpy(dq, W->dq0, sizeof(double) * (size_t)S->nV);
+  veh_mul3(S, W->AVt, W->gv, dq, 1);
+}
+
 /* The chord's right-hand side: minus the residuals at the iterate x, linearised (with the rows of the
  * last Newton iteration) to the state x^ that the forces lam give with the gradients at x (the
  * iterate took them with the gradients before: without this the chord would lag the turn of the
  * force directions by one iteration, and the forces would stop short of the solution). */
 static void chord_rhs(work3d_t* W, int na) {
   const setup3d_t* S = W->S;
-  const int nW = S->nW, nV = S->nV;
-  int a, w, k, j;
-  memset(W->gv, 0, sizeof(double) * (size_t)nV);
-  for (w = 0; w < nW; ++w)
-    for (k = 0; k < 4; ++k)
-      for (j = 0; j < 4; ++j) W->gv[S->ws_dofs[4 * w + j]] += W->grad[(4 * w + k) * NZ3 + j] * W->lam[4 * w + k];
-  memcpy(W->dqh, W->dq0, sizeof(double) * (size_t)nV);
-  veh_mul3(S, W->AVt, W->gv, W->dqh, 1);
+  int a, k;
+  vehicle_response(W, W->lam, W->dqh);
   element_loads(W, W->lam, W->hh2);
   contact_at(W, W->hh2, W->uch);
   for (a = 0; a < na; ++a) {
@@ -423,12 +430,7 @@ int interface3(work3d_t* W, const state3d_t* X, const int* el, const double* xi,
       for (a = 0; a < na; ++a) W->lamn[W->idx[a]] = W->lam[W->idx[a]] + W->rhs[a];
     }
     /* the responses: vehicle (all DOFs), span at the contact DOFs */
-    memset(W->gv, 0, sizeof(double) * (size_t)nV);
-    for (w = 0; w < nW; ++w)
-      for (k = 0; k < 4; ++k)
-        for (j = 0; j < 4; ++j) W->gv[S->ws_dofs[4 * w + j]] += W->grad[(4 * w + k) * NZ3 + j] * W->lamn[4 * w + k];
-    memcpy(W->dqn, W->dq0, sizeof(double) * (size_t)nV);
-    veh_mul3(S, W->AVt, W->gv, W->dqn, 1);
+    vehicle_response(W, W->lamn, W->dqn);
     element_loads(W, W->lamn, hh);
     size = 0.0;
     contact_response(W, hh, &change, &size);
