@@ -70,14 +70,16 @@ def panel_quotient(ax: Axes, ds: xr.Dataset) -> None:
 
 
 def panel_track_shift(ax: Axes, ds: xr.Dataset, alpha: float = PRUDHOMME_ALPHA) -> None:
-    """(b) ΣY of the wheelset with the peak, its 2 m mean and ± Prud'homme's limit (kN)."""
+    """(b) ΣY (filtered forces) of the wheelset with the peak, its 2 m mean and ± Prud'homme's limit (kN)."""
     sel = _sel(ds, "peak_axle_lateral_force", side=False)
+    # the filtered forces' sum Y, whose peak the summary names (results without it: the raw one)
+    filtered = "axle_lateral_force_filtered" in ds.variables
     ax.plot(
         _t(ds),
-        1e-3 * ds["axle_lateral_force"].sel(sel).values,
+        1e-3 * ds["axle_lateral_force_filtered" if filtered else "axle_lateral_force"].sel(sel).values,
         lw=0.8,
         color="C0",
-        label=f"sum Y (car {sel['car']}, wheelset {sel['wheel']})",
+        label=f"sum Y{', filtered' if filtered else ''} (car {sel['car']}, wheelset {sel['wheel']})",
     )
     if "axle_lateral_force_2m" in ds.variables:
         ax.plot(

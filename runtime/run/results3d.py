@@ -254,6 +254,7 @@ def lateral_variables(
         unloading = np.where(q0 > 0, (q0 - qf) / np.where(q0 > 0, q0, 1.0), np.nan)
     yq = derailment_quotient(yf, qf, stored_contact)
     sy = axle_lateral_force(y)
+    syf = axle_lateral_force(yf)  # the peak's: a rigid landing is a force at single steps (raw)
     flange = np.asarray(h.flange_contact, dtype=bool)
     wheel = ("time", "car", "wheel", "side")
     axle = ("time", "car", "wheel")
@@ -318,6 +319,11 @@ def lateral_variables(
                 "sum of Y of the wheelset in track axes (Y_left - Y_right): its force on the track, "
                 "positive left (raw)",
             ),
+        ),
+        "axle_lateral_force_filtered": (
+            axle,
+            syf,
+            _a("N", f"axle_lateral_force of the filtered Y ({cut}): the run's peak sum Y is read here"),
         ),
         "unloading_ratio": (
             wheel,
@@ -419,7 +425,7 @@ def lateral_variables(
     if h.pier_top_uy is not None:
         coords["pier"] = ("pier", np.arange(1, np.shape(h.pier_top_uy)[1] + 1))
     attrs = lateral_summary(
-        t_all[pick], yq, sy[pick], unloading, np.asarray(h.carbody_ay, float)[pick], t_all, flange
+        t_all[pick], yq, syf, unloading, np.asarray(h.carbody_ay, float)[pick], t_all, flange
     )
     return v, coords, attrs
 
@@ -474,9 +480,12 @@ def lateral_summary(
 ) -> dict[str, Any]:
     """The running-safety attributes of a 3D run (stored rows ``t``; the flange state at every step
     ``t_steps``): ``peak_derailment_quotient`` (largest Y/Q), ``peak_axle_lateral_force`` (largest
-    |ΣY|, signed), ``peak_unloading_ratio``, ``peak_carbody_ay`` (largest |a_y|, signed), each with
-    ``_time``, ``_car``, ``_wheel`` (the wheelset) and ``_side``, as they apply; ``flange_contacts``
-    (contacts that begin, over all wheels) with the first one's time, car, wheelset and side."""
+    |ΣY|, signed; ``axle`` the ΣY of the filtered forces, as Y/Q and ΔQ/Q read them: a rigid contact's
+    landing or flange closing is a force at single steps, whose raw peak depends on the time step and
+    on which steps are stored), ``peak_unloading_ratio``, ``peak_carbody_ay`` (largest |a_y|,
+    signed), each with ``_time``, ``_car``, ``_wheel`` (the wheelset) and ``_side``, as they apply;
+    ``flange_contacts`` (contacts that begin, over all wheels) with the first one's time, car,
+    wheelset and side."""
     out: dict[str, Any] = {}
     q = np.where(np.isfinite(quotient), quotient, -np.inf)
     if np.isfinite(q).any():  # the largest Y/Q (outwards), not the largest magnitude

@@ -42,8 +42,9 @@ run):
   outwards; the samples where the wheel is off its rail left out); ``peak_derailment_quotient_2m``:
   the same of its 2 m sliding mean (EN 14363; a train that moves at every step);
 * ``peak_wheel_lateral_force`` (car, wheel, side): max over time of the outward Y (N);
-* ``peak_axle_lateral_force`` (car, wheel): max |ΣY| (N); ``peak_axle_lateral_force_2m``: of its
-  2 m sliding mean; ``static_axle_load`` (car, wheel): the wheelset's static load P0 = ΣQ0 (N), for
+* ``peak_axle_lateral_force`` (car, wheel): max |ΣY| of the filtered forces (N; of the raw ones for
+  results without ``axle_lateral_force_filtered``); ``peak_axle_lateral_force_2m``: of its 2 m
+  sliding mean; ``static_axle_load`` (car, wheel): the wheelset's static load P0 = ΣQ0 (N), for
   Prud'homme's limit;
 * ``flange_contacts`` (car, wheel, side): flange contacts that begin (counted from the stored rows);
 * ``peak_carbody_ay`` (car): max |``carbody_ay``|;
@@ -294,6 +295,7 @@ METRIC_INPUTS = (
     "derailment_quotient_2m",
     "wheel_lateral_force",
     "axle_lateral_force",
+    "axle_lateral_force_filtered",
     "axle_lateral_force_2m",
     "flange_contact",
     "carbody_ay",
@@ -462,8 +464,16 @@ def _lateral_metrics(ds: xr.Dataset, t: np.ndarray, put: Any) -> None:
             "max of the 2 m sliding mean of Y/Q (EN 14363)",
         )
     put("peak_wheel_lateral_force", *_peak_max(arr("wheel_lateral_force", wheel), t), "max Y, outwards")
+    # the filtered forces' sum Y, as the run's summary (results without it: the raw one)
+    sum_y = (
+        "axle_lateral_force_filtered"
+        if "axle_lateral_force_filtered" in ds.variables
+        else "axle_lateral_force"
+    )
     put(
-        "peak_axle_lateral_force", *_peak_abs(arr("axle_lateral_force", axle), t), "max |sum Y| of a wheelset"
+        "peak_axle_lateral_force",
+        *_peak_abs(arr(sum_y, axle), t),
+        "max |sum Y| of a wheelset (filtered forces)",
     )
     if "axle_lateral_force_2m" in ds.variables:
         put(

@@ -57,7 +57,7 @@ def test_lateral_figure_draws_the_peaks_against_their_limits():
         float(line.get_ydata()[0]) for line in axes[1].get_lines() if line.get_linestyle() == "--"
     )
     assert bounds == pytest.approx([-limit, limit], rel=1e-12)
-    assert "sum Y (car 1, wheelset 2)" in shift
+    assert "sum Y, filtered (car 1, wheelset 2)" in shift
 
 
 def test_make_figures_adds_it_for_3d_results_only(tmp_path):

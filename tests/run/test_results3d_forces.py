@@ -211,3 +211,36 @@ def test_bad_histories_are_refused():
         histories(flange_force=np.full((400, 2, 4, 2), -1.0))
     with pytest.raises(ValueError, match="carbody_ay"):
         histories(carbody_ay=np.zeros((400, 3)))
+
+
+def test_peak_sum_y_is_read_from_the_filtered_forces_not_a_single_step_spike():
+    """A rigid contact's flange closing is a force at a single step (its height is impulse / dt): the
+    run's peak ΣY is that of the filtered forces, as Y/Q reads them, checked against SciPy's own
+    zero-phase Butterworth filter of the same order and cutoff (an independent implementation)."""
+    from scipy.signal import butter, sosfiltfilt
+
+    steps, dt, every, cutoff = 4000, 1e-4, 10, 20.0
+    t = np.arange(steps) * dt
+    flange = np.zeros((steps, 2, 4, 2))
+    flange[2000, 0, 1, 1] = 2e6  # car 1, wheelset 2, right: a 2 MN single-step closing (a stored row)
+    flange[:, 1, 0, 0] = 40e3 * np.exp(-(((t - 0.2) / 0.025) ** 2))  # car 2, wheelset 1, left: flanging
+    h = histories(steps=steps, dt=dt, flange_force=flange, flange_contact=flange > 1e3)
+    ds = dataset3d(h, output_every=every, force_filter_hz=cutoff)
+    sos = butter(4, cutoff, fs=1.0 / dt, output="sos")
+    y = wheel_forces(
+        np.asarray(h.normal_force),
+        np.asarray(h.contact_angle),
+        np.zeros(flange.shape),
+        flange,
+        np.array([1.0, -1.0]),
+    )[1]
+    sum_y = sosfiltfilt(sos, y[..., 0] - y[..., 1], axis=0)[::every]
+    raw = ds.axle_lateral_force.values
+    assert np.abs(raw).max() == pytest.approx(2e6, rel=1e-12)  # the spike is stored raw
+    # the filters differ only by their start-up at the ends (none of the forces is near them)
+    assert np.abs(ds.axle_lateral_force_filtered.values - sum_y).max() < 1e-6 * np.abs(sum_y).max()
+    a = ds.attrs
+    assert (a["peak_axle_lateral_force_car"], a["peak_axle_lateral_force_wheel"]) == (2, 1)
+    assert a["peak_axle_lateral_force"] == pytest.approx(sum_y[:, 1, 0].max(), rel=1e-6)
+    assert 30e3 < a["peak_axle_lateral_force"] < 40e3  # the flanging, not the spike
+    assert a["peak_axle_lateral_force_time"] == pytest.approx(0.2, abs=2e-3)

@@ -215,3 +215,20 @@ def test_svbi_metrics_and_check_of_a_3d_results_file(tmp_path: Path):
     assert "1.4 " in line and "FAIL" in line
     done = CliRunner().invoke(app, ["check", str(path), "--prudhomme-alpha", "0"])
     assert done.exit_code == 2 and "--prudhomme-alpha must be greater than 0" in done.output
+
+
+def test_metrics_peak_sum_y_is_the_summary_s_filtered_one():
+    """A single-step 2 MN flange closing (a rigid contact's, impulse / dt) and a 40 kN flanging of
+    another wheelset: the metric reads the filtered forces' ΣY, as the run's summary does."""
+    steps, dt, every = 4000, 1e-4, 10
+    t = np.arange(steps) * dt
+    flange = np.zeros((steps, 2, 4, 2))
+    flange[2000, 0, 1, 1] = 2e6
+    flange[:, 1, 0, 0] = 40e3 * np.exp(-(((t - 0.2) / 0.025) ** 2))
+    h = histories(steps=steps, dt=dt, flange_force=flange, flange_contact=flange > 1e3)
+    ds = dataset3d(h, output_every=every, base=vertical_base(t[::every]))
+    m = compute_metrics(ds)
+    assert float(np.abs(ds.axle_lateral_force).max()) == pytest.approx(2e6, rel=1e-12)
+    peak = m.peak_axle_lateral_force
+    assert float(peak.sel(car=2, wheel=1)) == pytest.approx(ds.attrs["peak_axle_lateral_force"], rel=1e-12)
+    assert float(np.abs(peak).max()) == pytest.approx(ds.attrs["peak_axle_lateral_force"], rel=1e-12)
