@@ -6,7 +6,7 @@ The 3D paper case (``examples/paper-2020-3d.toml``'s bridge, track and earthquak
 manchester-3d cars and the synthetic record at its full level, as the figures of docs/performance.md
 were measured: 10 spans x 32 m x 16 elements, 300 km/h, every wheelset on the deck, German-low track
 in three directions, a three-component synthetic earthquake, creep, unilateral contact, dt = 1e-4
-s; the example itself runs crh380a-3d cars at 0.3 of that level): microseconds per
+s; the example itself runs crh380a-3d cars at 0.2 of that level): microseconds per
 step of the loop alone (set-up excluded), median of 3 blocks after a warm-up, timed with the
 thread's CPU clock (``time.thread_time``: robust when other jobs share the cores):
 
