@@ -47,8 +47,8 @@ import numpy as np
 
 from ... import __version__
 from ..backends.base import BackendFallback
+from ..backends.c.stepper3d import SOLVE_FAILURES, LocalizedDynamic3DC
 from ..backends.c.stepper3d import STATUS as STATUS_3D
-from ..backends.c.stepper3d import LocalizedDynamic3DC
 from ..excitation.irregularity import (
     GermanSpectrum,
     Irregularity,
@@ -98,6 +98,10 @@ COMPONENTS = ("vertical", "alignment", "cross-level")
 """The irregularity components, in the order of the contact kernels' ``[r_v, r_a, r_c]``."""
 RAMP_LENGTH = 20.0
 """m: the onset ramp of a spectral irregularity, from the leading axle at t = 0 (as in 2D)."""
+
+STEP_TOO_LARGE = "the time step may be too large for this model; try a smaller one"
+"""The likely cause named when a 3D step diverges, or when its contact problem has no solution or
+does not settle (the localized and coupled-dynamic methods)."""
 
 
 class NotRun3D(ValueError):
@@ -760,7 +764,7 @@ def divergence3d(
             "(use localized-dynamic or coupled-dynamic)"
         )
     else:
-        cause = "the time step may be too large for this model; try a smaller one"
+        cause = STEP_TOO_LARGE
     if drift[j].any():
         i = int(np.argmax(np.where(drift[j], np.abs(gaps[j]), 0.0)))
         return j, (
@@ -832,6 +836,8 @@ def simulate3d(
                 message = f"the 3D step failed at t = {(n + len(chunk) + 1) * ss.time_step:.6g} s " + (
                     f"(step {n + len(chunk) + 1} of {run.steps}): {STATUS_3D.get(chunks.status, stopped)}"
                 )
+                if chunks.status in SOLVE_FAILURES:
+                    message += f"; likely cause: {STEP_TOO_LARGE}"
                 break
             bad = first_non_finite(chunk)
             if bad is not None:
@@ -856,7 +862,10 @@ def simulate3d(
             if bar is not None:
                 bar.update(len(chunk))
     except np.linalg.LinAlgError as exc:
-        message = f"the 3D step failed at step {recorder.steps} of {run.steps}: {exc}"
+        message = (
+            f"the 3D step failed at step {recorder.steps} of {run.steps}: {exc}; "
+            f"likely cause: {STEP_TOO_LARGE}"
+        )
     except KeyboardInterrupt as exc:
         interrupted = exc
         message = (

@@ -72,6 +72,7 @@ NAMES = {  # docs/scenario.md, "Results of a 3D run"
     "derailment_quotient": WHEEL,
     "derailment_quotient_2m": WHEEL,
     "axle_lateral_force": AXLE,
+    "axle_lateral_force_filtered": AXLE,
     "axle_lateral_force_2m": AXLE,
     "unloading_ratio": WHEEL,
     "static_wheel_load": ("car", "wheel", "side"),

@@ -21,6 +21,8 @@ import pytest
 from cases import SPRUNG_WHEELSET_3D
 
 import svbi
+from svbi.codegen.loop3d_abi import STATUS3D_CODES, STATUS3D_NAMES
+from svbi.runtime.backends.c.stepper3d import LocalizedDynamic3DC
 from svbi.runtime.methods.chunk3d import ChunkStopped, SteppedChunks
 from svbi.runtime.methods.coupled3d import CoupledDynamic3D, State3D, static_state
 from svbi.runtime.methods.localized3d import LocalizedDynamic3D
@@ -41,7 +43,7 @@ def topology(tmp_path_factory: pytest.TempPathFactory) -> str:
     return str(path)
 
 
-def scenario(topology: str, method: str = "localized-dynamic", steps: int = STEPS):
+def scenario(topology: str, method: str = "localized-dynamic", steps: int = STEPS, backend: str = "numpy"):
     """A car entering a 2-span deck from the approach track (start 1.2 m before it) on a rough
     track, under a travelling three-component earthquake."""
     return validate_scenario(
@@ -70,7 +72,7 @@ def scenario(topology: str, method: str = "localized-dynamic", steps: int = STEP
                 arrival=0.02,
             ),
             "solver": dict(
-                method=method, backend="numpy", time_step=DT, duration=steps * DT, output_every=EVERY
+                method=method, backend=backend, time_step=DT, duration=steps * DT, output_every=EVERY
             ),
         }
     )
@@ -200,7 +202,12 @@ def same(a, b, steps: int | None = None) -> None:
         if steps is not None and "time" in a[name].dims:
             y = y[: x.shape[0]]
             assert x.shape[0] == steps, name
-        if name in ("contact_force_filtered", "wheel_lateral_force_filtered", "derailment_quotient"):
+        if name in (
+            "contact_force_filtered",
+            "wheel_lateral_force_filtered",
+            "axle_lateral_force_filtered",
+            "derailment_quotient",
+        ):
             continue  # filtered over the whole record: a shorter record filters differently
         if name in ("unloading_ratio", "derailment_quotient_2m", "axle_lateral_force_2m"):
             continue
@@ -246,7 +253,10 @@ def test_a_stop_in_the_middle_of_a_chunk_keeps_the_steps_before_it(
             ds = svbi.simulate(scenario(topology))
         message = str(caught[0].message)
         if failure == "singular":
-            assert message == f"the 3D step failed at step {bad + 1} of {STEPS}: Singular matrix"
+            assert message == (
+                f"the 3D step failed at step {bad + 1} of {STEPS}: Singular matrix; likely cause: the time "
+                "step may be too large for this model; try a smaller one"
+            )
         else:
             assert message == (
                 f"the 3D step diverged at t = {(bad + 1) * DT:.6g} s (step {bad + 1} of {STEPS}): "
@@ -256,3 +266,32 @@ def test_a_stop_in_the_middle_of_a_chunk_keeps_the_steps_before_it(
     stored = bad // EVERY + 1  # t = 0, 3 dt, ..., 39 dt
     assert np.array_equal(ds.time.values, whole.time.values[:stored])
     same(ds, whole, steps=stored)
+
+
+@pytest.mark.parametrize("status", ["SINGULAR", "ACTIVE_SET", "IMPULSE", "FORCE_JUMP", "NOT_FINITE"])
+def test_a_c_loop_that_stops_names_the_step_the_reason_and_the_likely_cause(
+    topology, status, monkeypatch
+) -> None:
+    """The C loop stops in the middle of a chunk (the statuses of svbi_loop3d_types.h): the steps
+    before it are kept, and a contact problem with no solution or one that did not settle names the
+    time step as the likely cause (a non-finite state is the divergence guard's)."""
+    real = LocalizedDynamic3DC.advance
+    bad = 41  # step n = 41 (t_42) fails
+
+    def advance(self, n0: int, k: int, irregularity, every: int, reuse: bool = False):
+        if not n0 <= bad < n0 + k:
+            return real(self, n0, k, irregularity, every, reuse)
+        chunk = real(self, n0, bad - n0, irregularity[: bad - n0], every, reuse)
+        self.status, self.stopped = STATUS3D_CODES[status], "stopped"
+        return chunk
+
+    monkeypatch.setattr(LocalizedDynamic3DC, "advance", advance)
+    assert sim3d.chunk_steps(EVERY) > bad + 1  # the failure is inside the first chunk
+    with pytest.warns(SimulationIncomplete) as caught:
+        ds = svbi.simulate(scenario(topology, backend="c"))
+    why = STATUS3D_NAMES[STATUS3D_CODES[status]]
+    expected = f"the 3D step failed at t = {(bad + 1) * DT:.6g} s (step {bad + 1} of {STEPS}): {why}"
+    if status != "NOT_FINITE":
+        expected += "; likely cause: the time step may be too large for this model; try a smaller one"
+    assert str(caught[0].message) == expected
+    assert ds.attrs["complete"] == 0 and ds.attrs["steps"] == bad

@@ -103,6 +103,7 @@ WHEEL_VARIABLES = {
 }
 AXLE_VARIABLES = {
     "axle_lateral_force": "N",
+    "axle_lateral_force_filtered": "N",
     "axle_lateral_force_2m": "N",
     "wheel_rail_lateral_displacement": "m",
 }

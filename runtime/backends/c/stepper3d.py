@@ -61,6 +61,9 @@ STATUS = STATUS3D_NAMES
 """The C loop's status codes and their messages (``S3_*`` of the generated
 ``svbi_loop3d_types.h``, from :mod:`svbi.codegen.loop3d_abi`)."""
 NOT_FINITE, SINGULAR = STATUS3D_CODES["NOT_FINITE"], STATUS3D_CODES["SINGULAR"]
+SOLVE_FAILURES = frozenset(STATUS3D_CODES[k] for k in ("SINGULAR", "ACTIVE_SET", "IMPULSE", "FORCE_JUMP"))
+"""The statuses of a step whose contact problem had no solution or did not settle: the contact state
+changed more within the step than it can resolve (a time step too large for the motion)."""
 MAX_WHEELSETS = 256
 """The loop keeps the span's compliance between the elements of every pair of wheelsets (144
 doubles a pair): 75 MB at this many wheelsets."""
