@@ -51,6 +51,7 @@ SETUP3D_FIELDS = [
     F("bilateral", "int", "1: bilateral normal contact (no active set)"),
     F("chord", "int", "1: chord iterations after a pass's first Newton iteration; 0: Newton every iteration"),
     # scalars
+    F("chord_rate", "double", "a chord shrinks the update by at least this, or the next is Newton's"),
     F("dt", "double", "time step (s)"),
     F("a0", "double", "Newmark 4/dt^2"),
     F("a1", "double", "Newmark 2/dt"),

@@ -33,6 +33,7 @@ typedef struct {
   int creep; /* 1: explicit creep forces */
   int bilateral; /* 1: bilateral normal contact (no active set) */
   int chord; /* 1: chord iterations after a pass's first Newton iteration; 0: Newton every iteration */
+  double chord_rate; /* a chord shrinks the update by at least this, or the next is Newton's */
   double dt; /* time step (s) */
   double a0; /* Newmark 4/dt^2 */
   double a1; /* Newmark 2/dt */

@@ -30,7 +30,7 @@ import numpy as np
 import pytest
 from cases import SW_CONICITY, SW_DECK, copy_state3d, ground_bump, sprung_wheelset3d
 
-from svbi.runtime.backends.c.stepper3d import LocalizedDynamic3DC, vehicle_blocks
+from svbi.runtime.backends.c.stepper3d import CHORD_RATE, LocalizedDynamic3DC, vehicle_blocks
 from svbi.runtime.methods.chunk3d import SteppedChunks
 from svbi.runtime.methods.coupled3d import static_state
 from svbi.runtime.methods.localized3d import LocalizedDynamic3D
@@ -91,9 +91,20 @@ def run_numpy(system, state, dt, steps, normal, rough=False, loads=None):
 
 
 def run_c(
-    system, state, dt, steps, normal, rough=False, loads=None, chunk=50, every=5, chord=True, kept=None
+    system,
+    state,
+    dt,
+    steps,
+    normal,
+    rough=False,
+    loads=None,
+    chunk=50,
+    every=5,
+    chord=True,
+    kept=None,
+    chord_rate=CHORD_RATE,
 ):
-    stepper = LocalizedDynamic3DC(system, copy(state), dt, normal=normal, chord=chord)
+    stepper = LocalizedDynamic3DC(system, copy(state), dt, normal=normal, chord=chord, chord_rate=chord_rate)
     if kept is not None:
         kept.append(stepper)
     rows, contact, gaps = [], [], []
@@ -278,15 +289,19 @@ def test_lift_off_landing_and_flange_with_creep() -> None:
     steppers: list[LocalizedDynamic3DC] = []
     b = run_c(system, state, 1e-4, 200, "unilateral", loads=loads, kept=steppers)
     c = run_c(system, state, 1e-4, 200, "unilateral", loads=loads, chord=False, kept=steppers)
+    # every chord that has not converged followed by Newton (rate 0): the switch back to Newton
+    d = run_c(system, state, 1e-4, 200, "unilateral", loads=loads, chord_rate=0.0, kept=steppers)
     events = {f"{k}{int(c)}" for row in a[1] for k, c in enumerate(row)}
     assert {"00", "10", "21"} <= events  # lift-off, landing, flange
     agree(system, a, b, tolerance=2e-10)
     # Newton at every iteration (the NumPy step's iteration) reaches the same solution, and the
     # chord iterations ran: one factorisation per active-set pass, the other iterations chords
     agree(system, a, c, tolerance=2e-10)
-    chord, newton = steppers
+    agree(system, a, d, tolerance=2e-10)
+    chord, newton, switching = steppers
     assert newton.factorizations == newton.iterations
     assert chord.factorizations == chord.passes < chord.iterations
+    assert chord.passes < switching.factorizations < switching.iterations
 
 
 def test_flange_closing_under_a_lateral_load() -> None:

@@ -64,6 +64,10 @@ NOT_FINITE, SINGULAR = STATUS3D_CODES["NOT_FINITE"], STATUS3D_CODES["SINGULAR"]
 SOLVE_FAILURES = frozenset(STATUS3D_CODES[k] for k in ("SINGULAR", "ACTIVE_SET", "IMPULSE", "FORCE_JUMP"))
 """The statuses of a step whose contact problem had no solution or did not settle: the contact state
 changed more within the step than it can resolve (a time step too large for the motion)."""
+CHORD_RATE = 0.25
+"""A chord iteration must shrink the interface iteration's update 4 times, or the next is Newton's (a
+chord contracts at the rate the matrix's age allows; the Newton iteration after it restores the
+quadratic rate)."""
 MAX_WHEELSETS = 256
 """The loop keeps the span's compliance between the elements of every pair of wheelsets (144
 doubles a pair): 75 MB at this many wheelsets."""
@@ -181,6 +185,7 @@ class LocalizedDynamic3DC(_Step3D):
         zeta: float = 1.0,
         normal: str = "unilateral",
         chord: bool = True,
+        chord_rate: float = CHORD_RATE,
     ) -> None:
         nW, nF = len(system.vehicle.wheelsets), len(system.span.free)
         if nW > MAX_WHEELSETS:
@@ -197,6 +202,9 @@ class LocalizedDynamic3DC(_Step3D):
         self.chord = chord
         """Chord iterations after each active-set pass's first (Newton) iteration (False: Newton at
         every iteration, as :class:`LocalizedDynamic3D`); both stop at the same solution."""
+        self.chord_rate = chord_rate
+        """A chord iteration that shrinks the update by less than this factor is followed by a Newton
+        iteration (0: after every chord that has not converged)."""
         self.stopped: str | None = None
         """Why the last :meth:`advance` stopped early (None: it did every step)."""
         self.lib = load_loop3d()
@@ -283,7 +291,7 @@ class LocalizedDynamic3DC(_Step3D):
         S = Setup3D()
         S.nV, S.nW, S.nF, S.nB, S.nS, S.nE, S.nblk, S.p = nV, nW, nF, nB, len(held), nE, len(blocks), p
         S.quake, S.creep, S.bilateral = int(self.quake), int(sys_.creep is not None), int(self.bilateral)
-        S.chord = int(self.chord)
+        S.chord, S.chord_rate = int(self.chord), float(self.chord_rate)
         S.dt, S.a0, S.a1, S.a2 = nm.dt, nm.a0, nm.a1, nm.a2
         S.c1, S.c0, S.scale = self.c1, self.c0, self.scale
         S.blk_start = P(_i32([s for s, _ in blocks] + [nV]))

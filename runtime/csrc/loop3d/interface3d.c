@@ -11,7 +11,7 @@
  * iterate, linearised to the state the forces give with the gradients there (chord_rhs), with no
  * new Jacobian, matrix or factorisation. The iteration's fixed point is the same (the residuals
  * vanish there whatever matrix corrects them); a chord that shrinks its update less than
- * CHORD_RATE3 is followed by a Newton iteration again, and the rule's stagnation clause is read on
+ * S->chord_rate is followed by a Newton iteration again, and the rule's stagnation clause is read on
  * Newton iterations only (a slow chord is not round-off). Only what the interface needs is formed:
  * the 4 x 4 blocks of two wheelsets of the same car (A_V) or on the same part of the structure (the
  * compliance S between their elements' DOFs, gathered when an element changes), over a list of the
@@ -443,7 +443,7 @@ int interface3(work3d_t* W, const state3d_t* X, const int* el, const double* xi,
     memcpy(W->lam, W->lamn, sizeof(double) * (size_t)nC);
     if (size0 > size) size = size0;
     if (size < 1e-300) size = 1e-300;
-    if (!newton && change > NEWTON_TOLERANCE3 * size && change > CHORD_RATE3 * last) {
+    if (!newton && change > NEWTON_TOLERANCE3 * size && change > S->chord_rate * last) {
       /* the chord contracts too slowly (the matrix has aged): a Newton iteration next, and no
        * stagnation read into a slow chord */
       fresh = 1;

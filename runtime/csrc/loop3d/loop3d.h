@@ -23,7 +23,6 @@
 #define NEWTON_ITERATIONS3 20
 #define NEWTON_TOLERANCE3 1e-13
 #define STAGNATION3 1e-9
-#define CHORD_RATE3 0.25 /* a chord iteration must shrink the update 4x, or the next is Newton's */
 #define PIVOT_TRIES3 3
 
 /* The pivoting rule of unilateral.Pivoting (block pivots, then Murty's least-index rule). */
