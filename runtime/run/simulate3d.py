@@ -100,8 +100,8 @@ RAMP_LENGTH = 20.0
 """m: the onset ramp of a spectral irregularity, from the leading axle at t = 0 (as in 2D)."""
 
 STEP_TOO_LARGE = "the time step may be too large for this model; try a smaller one"
-"""The likely cause named when a 3D step diverges, or when its contact problem has no solution or
-does not settle (the localized and coupled-dynamic methods)."""
+"""The likely cause named when a 3D step of the localized or coupled-dynamic method diverges, or when
+the contact problem of a step (any method) has no solution or does not settle."""
 
 
 class NotRun3D(ValueError):
