@@ -144,7 +144,10 @@ def scenario(tmp_path, v0: float, a: float, dt: float = 1e-4, shape: tuple = GEN
     )
 
 
-@pytest.mark.parametrize(("v0", "a"), [(15.0, 3.0), (35.0, -4.0)])
+# accelerating from 25 m/s, the crossing ends 0.054 s before a constant speed's (checked to 1e-4 s)
+# and the wheel runs 1.3 m further than at v0 (measured: 1.2e-5 and 7e-6 of the peaks; from 15 m/s,
+# 1.0e-5 and 1.2e-5 over a crossing half as long again)
+@pytest.mark.parametrize(("v0", "a"), [(25.0, 3.0), (35.0, -4.0)])
 def test_sprung_mass_changing_speed_over_a_ramp_matches_the_modal_solution(tmp_path, v0, a):
     # on the C loop, which brakes as NumPy does (test_c_loop_brakes_to_a_stop_as_numpy_does)
     ds = svbi.simulate(scenario(tmp_path, v0, a, backend="c"))
