@@ -87,7 +87,10 @@ def independent_peak(train: str, speed_kmh: float) -> float:
     v = speed_kmh / 3.6
     duration = (L + offsets[-1]) / v + 0.5
     fine = 1.0e-4
-    unit = unit_response(v, duration, fine)
+    # one unit response per speed, as long as the longest train needs: each train reads its start
+    # (the same integration up to its own duration; an interpolation never reaches beyond it)
+    longest = max((L + axles(other)[1][-1]) / v + 0.5 for other in TRAINS)
+    unit = unit_response(v, longest, fine)
     t_unit = np.arange(unit.shape[0]) * fine
     t = np.arange(0.0, duration, 2.5e-4)
     acc = np.zeros((t.size, unit.shape[1]))
