@@ -254,7 +254,7 @@ def fit_lognormal(levels: np.ndarray, trials: np.ndarray, exceed: np.ndarray) ->
     Raises ValueError when the counts cannot determine the fit (every run exceeds, or none does).
     """
     from scipy.optimize import minimize
-    from scipy.stats import norm
+    from scipy.special import log_ndtr  # norm.logcdf's own function, without scipy.stats' per-call checks
 
     x = np.asarray(levels, dtype=float)
     n = np.asarray(trials, dtype=float)
@@ -266,7 +266,7 @@ def fit_lognormal(levels: np.ndarray, trials: np.ndarray, exceed: np.ndarray) ->
 
     def nll(p: np.ndarray) -> float:
         u = (np.log(x) - p[0]) / math.exp(p[1])
-        return -float(np.sum(z * norm.logcdf(u) + (n - z) * norm.logsf(u)))
+        return -float(np.sum(z * log_ndtr(u) + (n - z) * log_ndtr(-u)))
 
     # start from the level nearest to half exceeding, β = 0.5
     frac = z / n
@@ -282,6 +282,8 @@ def bootstrap_band(
 ) -> tuple[np.ndarray, np.ndarray] | None:
     """A 90 % band of the fitted curve at ``x``: the counts resampled per level (binomial with the
     observed fraction), refitted; None when fewer than half the resamples can be fitted."""
+    from scipy.special import ndtr  # norm.cdf
+
     rng = np.random.default_rng(seed)
     n = np.asarray(fr.trials, dtype=int)
     with np.errstate(divide="ignore", invalid="ignore"):
@@ -293,9 +295,7 @@ def bootstrap_band(
             theta, beta = fit_lognormal(fr.levels, n, k)
         except ValueError:
             continue
-        from scipy.stats import norm
-
-        curves.append(norm.cdf(np.log(x / theta) / beta))
+        curves.append(ndtr(np.log(x / theta) / beta))
     if len(curves) < resamples // 2:
         return None
     stack = np.array(curves)
