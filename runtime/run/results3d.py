@@ -425,7 +425,7 @@ def lateral_variables(
     if h.pier_top_uy is not None:
         coords["pier"] = ("pier", np.arange(1, np.shape(h.pier_top_uy)[1] + 1))
     attrs = lateral_summary(
-        t_all[pick], yq, syf, unloading, np.asarray(h.carbody_ay, float)[pick], t_all, flange
+        t_all[pick], yq, syf, unloading, np.asarray(h.carbody_ay, float)[pick], t_all, flange, contact
     )
     return v, coords, attrs
 
@@ -477,6 +477,7 @@ def lateral_summary(
     carbody_ay: np.ndarray,
     t_steps: np.ndarray,
     flange: np.ndarray,
+    on_rail: np.ndarray | None = None,
 ) -> dict[str, Any]:
     """The running-safety attributes of a 3D run (stored rows ``t``; the flange state at every step
     ``t_steps``): ``peak_derailment_quotient`` (largest Y/Q), ``peak_axle_lateral_force`` (largest
@@ -485,7 +486,8 @@ def lateral_summary(
     on which steps are stored), ``peak_unloading_ratio``, ``peak_carbody_ay`` (largest |a_y|,
     signed), each with ``_time``, ``_car``, ``_wheel`` (the wheelset) and ``_side``, as they apply;
     ``flange_contacts`` (contacts that begin, over all wheels) with the first one's time, car,
-    wheelset and side."""
+    wheelset and side; with ``on_rail`` (the treads' contact state at every step),
+    ``wheel_lift_offs`` (the wheels that leave their rail) with the first one's."""
     out: dict[str, Any] = {}
     q = np.where(np.isfinite(quotient), quotient, -np.inf)
     if np.isfinite(q).any():  # the largest Y/Q (outwards), not the largest magnitude
@@ -505,19 +507,30 @@ def lateral_summary(
         out["peak_unloading_ratio_wheel"] = int(index[2]) + 1
         out["peak_unloading_ratio_side"] = SIDES[int(index[3])]
     _where(carbody_ay, t, "peak_carbody_ay", out)
-    on = np.asarray(flange, dtype=bool)
+    _events(np.asarray(flange, dtype=bool), t_steps, "flange_contacts", "flange_contact", out)
+    if on_rail is not None:
+        # a wheel off its rail at the start has not lifted off
+        _events(~np.asarray(on_rail, dtype=bool), t_steps, "wheel_lift_offs", "wheel_lift_off", out, False)
+    return out
+
+
+def _events(
+    on: np.ndarray, t_steps: np.ndarray, count: str, first: str, out: dict[str, Any], at_start: bool = True
+) -> None:
+    """The events that begin in ``on`` (steps, car, wheel, side; at the first step too with
+    ``at_start``) into ``out[count]``, the first one's time, car, wheelset and side into
+    ``out[first + "_time"]`` ..."""
     starts = np.zeros_like(on)
     if on.shape[0]:
-        starts[0] = on[0]
+        starts[0] = on[0] if at_start else False
         starts[1:] = on[1:] & ~on[:-1]
-    out["flange_contacts"] = int(starts.sum())
+    out[count] = int(starts.sum())
     if starts.any():
         i, c, w, s = np.argwhere(starts)[0]
-        out["flange_contact_time"] = float(t_steps[i])
-        out["flange_contact_car"] = int(c) + 1
-        out["flange_contact_wheel"] = int(w) + 1
-        out["flange_contact_side"] = SIDES[int(s)]
-    return out
+        out[f"{first}_time"] = float(t_steps[i])
+        out[f"{first}_car"] = int(c) + 1
+        out[f"{first}_wheel"] = int(w) + 1
+        out[f"{first}_side"] = SIDES[int(s)]
 
 
 def _at(attrs: dict[str, Any], prefix: str) -> str:
@@ -554,6 +567,16 @@ def summary_lines(attrs: dict[str, Any]) -> list[str]:
         f", the first at {_at(attrs, 'flange_contact')}" if count and "flange_contact_time" in attrs else ""
     )
     lines.append(f"flange contacts: {count}{first}")
+    if "wheel_lift_offs" in attrs:
+        count = int(attrs["wheel_lift_offs"])
+        first = f", the first at {_at(attrs, 'wheel_lift_off')}" if count else ""
+        check = (
+            "; on the rigid contact the indices then converge with the time step only: check them at "
+            "half the step (docs/three-d.md)"
+            if count
+            else ""
+        )
+        lines.append(f"wheel lift-offs: {count}{first}{check}")
     if "peak_carbody_ay" in attrs:
         lines.append(
             f"car-body lateral acceleration: peak {attrs['peak_carbody_ay']:.3g} m/s^2 "

@@ -188,7 +188,12 @@ def test_unloading_quotient_and_summary_pick_the_right_wheel():
     assert a["flange_contacts"] == 1 and a["flange_contact_time"] == pytest.approx(first * dt)
     assert (a["flange_contact_car"], a["flange_contact_wheel"], a["flange_contact_side"]) == (2, 3, "right")
     assert a["peak_carbody_ay"] == -0.7 and a["peak_carbody_ay_car"] == 1
+    # the wheel off its rail over steps 300-309 lifted off once, at t = 0.3 s
+    assert a["wheel_lift_offs"] == 1 and a["wheel_lift_off_time"] == pytest.approx(0.3)
+    assert (a["wheel_lift_off_car"], a["wheel_lift_off_wheel"], a["wheel_lift_off_side"]) == (1, 1, "left")
     lines = summary_lines(a)
+    lift = [line for line in lines if line.startswith("wheel lift-offs: 1, the first at t = 0.3 s, car 1")]
+    assert len(lift) == 1 and "check them at half the step" in lift[0]
     assert lines[0].startswith("derailment quotient Y/Q: peak") and "car 2, wheelset 3, right" in lines[0]
     assert any(line.startswith("flange contacts: 1") for line in lines)
     assert summary_lines({"liftoffs": 0, "peak_unloading_ratio": 0.1}) == []  # a 2D run: nothing
@@ -225,7 +230,9 @@ def test_peak_sum_y_is_read_from_the_filtered_forces_not_a_single_step_spike():
     flange = np.zeros((steps, 2, 4, 2))
     flange[2000, 0, 1, 1] = 2e6  # car 1, wheelset 2, right: a 2 MN single-step closing (a stored row)
     flange[:, 1, 0, 0] = 40e3 * np.exp(-(((t - 0.2) / 0.025) ** 2))  # car 2, wheelset 1, left: flanging
-    h = histories(steps=steps, dt=dt, flange_force=flange, flange_contact=flange > 1e3)
+    on_rail = np.ones(flange.shape, bool)
+    on_rail[:50, 0, 3, 0] = False  # off its rail from the start: not a lift-off
+    h = histories(steps=steps, dt=dt, flange_force=flange, flange_contact=flange > 1e3, in_contact=on_rail)
     ds = dataset3d(h, output_every=every, force_filter_hz=cutoff)
     sos = butter(4, cutoff, fs=1.0 / dt, output="sos")
     y = wheel_forces(
@@ -245,3 +252,4 @@ def test_peak_sum_y_is_read_from_the_filtered_forces_not_a_single_step_spike():
     assert a["peak_axle_lateral_force"] == pytest.approx(sum_y[:, 1, 0].max(), rel=1e-6)
     assert 30e3 < a["peak_axle_lateral_force"] < 40e3  # the flanging, not the spike
     assert a["peak_axle_lateral_force_time"] == pytest.approx(0.2, abs=2e-3)
+    assert a["wheel_lift_offs"] == 0 and "wheel lift-offs: 0" in summary_lines(a)
