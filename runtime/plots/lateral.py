@@ -15,7 +15,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 from matplotlib.figure import Figure
 
-from ..run.results3d import prudhomme_limit
+from ..run.results3d import prudhomme_limit, sum_y_variable
 from ..study.en1990 import EN14363_QUOTIENT_LIMIT, NADAL_LIMIT, PRUDHOMME_ALPHA
 
 if TYPE_CHECKING:
@@ -72,11 +72,11 @@ def panel_quotient(ax: Axes, ds: xr.Dataset) -> None:
 def panel_track_shift(ax: Axes, ds: xr.Dataset, alpha: float = PRUDHOMME_ALPHA) -> None:
     """(b) ΣY (filtered forces) of the wheelset with the peak, its 2 m mean and ± Prud'homme's limit (kN)."""
     sel = _sel(ds, "peak_axle_lateral_force", side=False)
-    # the filtered forces' sum Y, whose peak the summary names (results without it: the raw one)
-    filtered = "axle_lateral_force_filtered" in ds.variables
+    sum_y = sum_y_variable(ds.variables)  # the one whose peak the summary names
+    filtered = sum_y == "axle_lateral_force_filtered"
     ax.plot(
         _t(ds),
-        1e-3 * ds["axle_lateral_force_filtered" if filtered else "axle_lateral_force"].sel(sel).values,
+        1e-3 * ds[sum_y].sel(sel).values,
         lw=0.8,
         color="C0",
         label=f"sum Y{', filtered' if filtered else ''} (car {sel['car']}, wheelset {sel['wheel']})",

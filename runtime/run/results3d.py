@@ -72,6 +72,15 @@ def axle_lateral_force(y: np.ndarray) -> np.ndarray:
     return y[..., 0] - y[..., 1]
 
 
+def sum_y_variable(variables: Any) -> str:
+    """The ΣY variable whose peak a 3D run's summary, ``svbi metrics`` and the lateral figure read:
+    ``axle_lateral_force_filtered`` (the filtered forces, as Y/Q and ΔQ/Q), or ``axle_lateral_force``
+    in results written before it existed."""
+    return (
+        "axle_lateral_force_filtered" if "axle_lateral_force_filtered" in variables else "axle_lateral_force"
+    )
+
+
 def derailment_quotient(y: np.ndarray, q: np.ndarray, in_contact: np.ndarray | None = None) -> np.ndarray:
     """``Y/Q``, NaN where ``Q <= 0`` or the wheel is off its rail."""
     ok = q > 0 if in_contact is None else (q > 0) & in_contact

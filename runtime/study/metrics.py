@@ -64,6 +64,7 @@ import numpy as np
 from ..model.bridge import Bridge
 from ..model.modes import span_modes
 from ..run.force_filter import design, sosfiltfilt_rows
+from ..run.results3d import sum_y_variable
 from ..scenario.schema import BridgeSpec
 from .deck_modal import EN1990_MIN_CUTOFF_HZ, SpanModeSet, deck_envelope, has_earthquake
 
@@ -464,16 +465,11 @@ def _lateral_metrics(ds: xr.Dataset, t: np.ndarray, put: Any) -> None:
             "max of the 2 m sliding mean of Y/Q (EN 14363)",
         )
     put("peak_wheel_lateral_force", *_peak_max(arr("wheel_lateral_force", wheel), t), "max Y, outwards")
-    # the filtered forces' sum Y, as the run's summary (results without it: the raw one)
-    sum_y = (
-        "axle_lateral_force_filtered"
-        if "axle_lateral_force_filtered" in ds.variables
-        else "axle_lateral_force"
-    )
+    sum_y = sum_y_variable(ds.variables)
     put(
         "peak_axle_lateral_force",
         *_peak_abs(arr(sum_y, axle), t),
-        "max |sum Y| of a wheelset (filtered forces)",
+        f"max |sum Y| of a wheelset ({sum_y})",
     )
     if "axle_lateral_force_2m" in ds.variables:
         put(
