@@ -245,11 +245,12 @@ def test_peak_sum_y_is_read_from_the_filtered_forces_not_a_single_step_spike():
     sum_y = sosfiltfilt(sos, y[..., 0] - y[..., 1], axis=0)[::every]
     raw = ds.axle_lateral_force.values
     assert np.abs(raw).max() == pytest.approx(2e6, rel=1e-12)  # the spike is stored raw
-    # the filters differ only by their start-up at the ends (none of the forces is near them)
-    assert np.abs(ds.axle_lateral_force_filtered.values - sum_y).max() < 1e-6 * np.abs(sum_y).max()
+    # the filters differ only by their start-up at the ends (none of the forces is near them) and
+    # round-off: 2.3e-12 of the peak measured; a filter of another order or cutoff differs by percents
+    assert np.abs(ds.axle_lateral_force_filtered.values - sum_y).max() < 1e-9 * np.abs(sum_y).max()
     a = ds.attrs
     assert (a["peak_axle_lateral_force_car"], a["peak_axle_lateral_force_wheel"]) == (2, 1)
-    assert a["peak_axle_lateral_force"] == pytest.approx(sum_y[:, 1, 0].max(), rel=1e-6)
+    assert a["peak_axle_lateral_force"] == pytest.approx(sum_y[:, 1, 0].max(), rel=1e-9)
     assert 30e3 < a["peak_axle_lateral_force"] < 40e3  # the flanging, not the spike
     assert a["peak_axle_lateral_force_time"] == pytest.approx(0.2, abs=2e-3)
     assert a["wheel_lift_offs"] == 0 and "wheel lift-offs: 0" in summary_lines(a)
