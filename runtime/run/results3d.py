@@ -486,7 +486,7 @@ def lateral_summary(
     carbody_ay: np.ndarray,
     t_steps: np.ndarray,
     flange: np.ndarray,
-    on_rail: np.ndarray | None = None,
+    on_rail: np.ndarray,
 ) -> dict[str, Any]:
     """The running-safety attributes of a 3D run (stored rows ``t``; the flange state at every step
     ``t_steps``): ``peak_derailment_quotient`` (largest Y/Q), ``peak_axle_lateral_force`` (largest
@@ -495,8 +495,8 @@ def lateral_summary(
     on which steps are stored), ``peak_unloading_ratio``, ``peak_carbody_ay`` (largest |a_y|,
     signed), each with ``_time``, ``_car``, ``_wheel`` (the wheelset) and ``_side``, as they apply;
     ``flange_contacts`` (contacts that begin, over all wheels) with the first one's time, car,
-    wheelset and side; with ``on_rail`` (the treads' contact state at every step),
-    ``wheel_lift_offs`` (the wheels that leave their rail) with the first one's."""
+    wheelset and side; ``wheel_lift_offs`` (the wheels that leave their rail, from ``on_rail``, the
+    treads' contact state at every step) with the first one's."""
     out: dict[str, Any] = {}
     q = np.where(np.isfinite(quotient), quotient, -np.inf)
     if np.isfinite(q).any():  # the largest Y/Q (outwards), not the largest magnitude
@@ -517,9 +517,8 @@ def lateral_summary(
         out["peak_unloading_ratio_side"] = SIDES[int(index[3])]
     _where(carbody_ay, t, "peak_carbody_ay", out)
     _events(np.asarray(flange, dtype=bool), t_steps, "flange_contacts", "flange_contact", out)
-    if on_rail is not None:
-        # a wheel off its rail at the start has not lifted off
-        _events(~np.asarray(on_rail, dtype=bool), t_steps, "wheel_lift_offs", "wheel_lift_off", out, False)
+    # a wheel off its rail at the start has not lifted off
+    _events(~np.asarray(on_rail, dtype=bool), t_steps, "wheel_lift_offs", "wheel_lift_off", out, False)
     return out
 
 
