@@ -580,7 +580,7 @@ def summary_lines(attrs: dict[str, Any]) -> list[str]:
         first = f", the first at {_at(attrs, 'wheel_lift_off')}" if count else ""
         check = (
             "; on the rigid contact the indices then converge with the time step only: check them at "
-            "half the step (docs/three-d.md)"
+            'half the step (a study over solver.time_step: docs/three-d.md, "Checking the time step")'
             if count
             else ""
         )
