@@ -86,6 +86,12 @@ SETUP3D_FIELDS = [
     F("S", "double*", "nF x nF: compliance K^_ff^-1"),
     F("MBi", "double*", "nF x nF: M_ff^-1"),
     F(
+        "MBi_cols",
+        "int*",
+        "nF x 2: the first and the last column of each row of MBi that are not zero (the parts of the "
+        "structure: zero between them)",
+    ),
+    F(
         "band",
         "double*",
         "nF x (p + 1): Cholesky factor of K^_ff in perm order, L(j+r, j) at [j (p+1) + r], the "

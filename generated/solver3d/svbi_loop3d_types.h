@@ -64,6 +64,7 @@ typedef struct {
   const int* comp; /* nF: connected part of the structure */
   const double* S; /* nF x nF: compliance K^_ff^-1 */
   const double* MBi; /* nF x nF: M_ff^-1 */
+  const int* MBi_cols; /* nF x 2: the first and the last column of each row of MBi that are not zero (the parts of the structure: zero between them) */
   const double* band; /* nF x (p + 1): Cholesky factor of K^_ff in perm order, L(j+r, j) at [j (p+1) + r], the diagonal as its reciprocal */
   const int* perm; /* nF: free index at band position k */
   const int* M_ptr; /* nB + 1: CSR row pointers of the span mass */

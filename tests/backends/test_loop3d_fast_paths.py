@@ -169,3 +169,51 @@ def test_reused_chunk_buffers_hold_the_same_numbers() -> None:
         seen.append(b.u.__array_interface__["data"][0])
         n += k
     assert seen[0] == seen[1] != seen[2] == seen[3]
+
+
+def test_the_impact_over_the_parts_of_the_structure_is_the_dense_one() -> None:
+    """The impact of a landing forms the inverse mass's responses over the columns of each row of
+    M_B^-1 that are not zero (``MBi_cols``: the parts of the structure) and over the closed
+    constraints only: three cars whose wheels all lift off at once and land over the next steps on a
+    chain of three spans give the chunks of the same loop told that every column is nonzero, bit
+    for bit; and the columns were restricted (each span's rows)."""
+    from cases import copy_state3d
+    from test_loop3d_c import DECK, LAM, car, irregularity
+
+    from svbi.runtime.backends.c.stepper3d import LocalizedDynamic3DC
+    from svbi.runtime.methods.coupled3d import static_state
+    from svbi.runtime.model.bridge import Girder
+    from svbi.runtime.model.bridge3d import Bridge3D, section3d
+    from svbi.runtime.model.creep_law import CreepParameters
+    from svbi.runtime.model.system3d import System3D, Track3D
+    from svbi.runtime.model.train3d import train3d
+
+    train = train3d([car(), car(), car()], 2.0)
+    bridge = Bridge3D([Girder((10.0,), DECK)] * 3, 4, [section3d(DECK, 10.0, 5.0)] * 3)
+    system = System3D(
+        train,
+        bridge,
+        Track3D(conicity=LAM, eccentricity=0.2, rail_height=0.8),
+        speed=80.0,
+        start=23.0,
+        bridge_damping=bridge.C,
+        creep=CreepParameters(),
+    )
+    state = static_state(system)
+    dt, steps = 1e-4, 120
+    level = np.array([irregularity(system, (m + 1) * dt) for m in range(steps)])
+    parts = LocalizedDynamic3DC(system, copy_state3d(state), dt)
+    dense = LocalizedDynamic3DC(system, copy_state3d(state), dt)
+    nF = len(system.span.free)
+    pointer = ctypes.cast(parts.setup.MBi_cols, ctypes.POINTER(ctypes.c_int32))
+    cols = np.ctypeslib.as_array(pointer, shape=(nF, 2))
+    assert (cols[:, 1] - cols[:, 0] + 1).max() < nF / 2  # a span's rows: a third of the DOFs
+    every = np.ascontiguousarray(np.stack([np.zeros(nF), np.full(nF, nF - 1)], axis=1), dtype=np.int32)
+    dense.setup.MBi_cols = dense._ptr(every)
+    a = parts.advance(0, steps, level, 5)
+    b = dense.advance(0, steps, level, 5)
+    assert parts.stopped is None and dense.stopped is None
+    landed = a.contact[1:, :] & ~a.contact[:-1, :]
+    assert landed.sum() >= 5  # impacts at several steps
+    for name in ("t", "q", "qd", "qdd", "u", "ud", "udd", "P", "flange", "contact", "creep", "gaps"):
+        np.testing.assert_array_equal(getattr(a, name), getattr(b, name), err_msg=name)

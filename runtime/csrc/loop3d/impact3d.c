@@ -2,8 +2,10 @@
  * The plastic impact of landing (closing) constraints at t_{n+1} (_Step3D._impact): the mass
  * flexibility G = G_V M_V^-1 G_V^T + G_B M_B^-1 G_B^T over every constraint, the impulses that stop
  * the landing ones (complementary3), the velocity jump and the damping's share of the accelerations,
- * then the force jump that makes the accelerations consistent. Rare (a landing step): dense where
- * it is simplest.
+ * then the force jump that makes the accelerations consistent. Dense where it is simplest, over the
+ * constraints closed in the step only: an open one carries neither impulse nor force (its entries of
+ * the complementarity problems only ever multiply a zero), so its rows of G and its mass responses
+ * are not formed (the same numbers, bit for bit; a shaken run lands wheels at thousands of steps).
  */
 #include <string.h>
 
@@ -35,14 +37,31 @@ static int gap_rates(work3d_t* W, const state3d_t* X, const double* xi, const do
   return st ? S3_KERNEL : S3_OK;
 }
 
-/* vehicle += sum_i AVt[i] x_i, span (free) += sum_i ABt[i] x_i */
+/* The free DOFs [lo, hi] where M_B^-1 G_B^T of wheelset w's constraints can be nonzero: the columns
+ * of the rows of M_B^-1 at its element's free DOFs (M_B^-1 is zero between the parts of the
+ * structure; lo > hi: on the ground). */
+static void part_of(const work3d_t* W, int w, int* lo, int* hi) {
+  int j;
+  *lo = W->S->nF;
+  *hi = -1;
+  for (j = 0; j < 12; ++j) {
+    const int f = W->fidx[12 * w + j];
+    if (f < 0) continue;
+    if (W->S->MBi_cols[2 * f] < *lo) *lo = W->S->MBi_cols[2 * f];
+    if (W->S->MBi_cols[2 * f + 1] > *hi) *hi = W->S->MBi_cols[2 * f + 1];
+  }
+}
+
+/* vehicle += sum_i AVt[i] x_i, span (free) += sum_i ABt[i] x_i (over the DOFs where ABt[i] can be
+ * nonzero: a zero term leaves a sum as it is) */
 static void respond(work3d_t* W, const double* x, double* veh, double* span) {
   const setup3d_t* S = W->S;
-  int i, j, nC = 4 * S->nW;
+  int i, j, lo, hi, nC = 4 * S->nW;
   for (i = 0; i < nC; ++i) {
     if (x[i] == 0.0) continue;
     for (j = 0; j < S->nV; ++j) veh[j] += W->AVm[(long)i * S->nV + j] * x[i];
-    for (j = 0; j < S->nF; ++j) span[j] += W->ABm[(long)i * S->nF + j] * x[i];
+    part_of(W, i / 4, &lo, &hi);
+    for (j = lo; j <= hi; ++j) span[j] += W->ABm[(long)i * S->nF + j] * x[i];
   }
 }
 
@@ -52,19 +71,20 @@ int impact3(work3d_t* W, state3d_t* X, const int* el, const double* xi, const do
   double z[NZ3], zd[NZ3], zdd[NZ3];
   int i, j, w, st;
   (void)el;
-  /* the directions G_V, G_B at the state, their mass responses and the flexibility */
+  /* the directions G_V, G_B at the state of the closed constraints, their mass responses and the
+   * flexibility between them (the open ones' entries zero) */
   for (w = 0; w < nW; ++w) {
+    const int* a = W->active + 4 * w;
+    if (!(a[0] | a[1] | a[2] | a[3])) continue;
     state_z(W, X, w, z, zd, zdd);
-    if ((st = rows3(W, w, z, zd, zdd, xi[w], irr + 9 * w))) return st;
+    if ((st = gradients3(W, w, z, zd, zdd, xi[w], irr + 9 * w))) return st;
   }
-  memset(W->GV, 0, sizeof(double) * (size_t)nC * nV);
-  memset(W->GB, 0, sizeof(double) * (size_t)nC * nF);
   for (i = 0; i < nC; ++i) {
     int wi = i / 4;
     const double* g = W->grad + i * NZ3;
+    if (!W->active[i]) continue;
+    memset(W->GV + (long)i * nV, 0, sizeof(double) * (size_t)nV);
     for (j = 0; j < 4; ++j) W->GV[(long)i * nV + S->ws_dofs[4 * wi + j]] = g[j];
-    for (j = 0; j < 12; ++j)
-      if (W->fidx[12 * wi + j] >= 0) W->GB[(long)i * nF + W->fidx[12 * wi + j]] = g[4 + j];
     veh_mul3(S, W->MVit, W->GV + (long)i * nV, W->AVm + (long)i * nV, 0);
     memset(W->ABm + (long)i * nF, 0, sizeof(double) * (size_t)nF);
     for (j = 0; j < 12; ++j) {
@@ -72,14 +92,17 @@ int impact3(work3d_t* W, state3d_t* X, const int* el, const double* xi, const do
       const double* row;
       if (f < 0) continue;
       row = S->MBi + (long)f * nF; /* M_B^-1 is symmetric: its row f is its column f */
-      for (r = 0; r < nF; ++r) W->ABm[(long)i * nF + r] += row[r] * g[4 + j];
+      for (r = S->MBi_cols[2 * f]; r <= S->MBi_cols[2 * f + 1]; ++r) /* its nonzero columns */
+        W->ABm[(long)i * nF + r] += row[r] * g[4 + j];
     }
   }
+  memset(W->G, 0, sizeof(double) * (size_t)nC * nC);
   for (i = 0; i < nC; ++i)
     for (j = 0; j < nC; ++j) {
       double s = 0.0;
       int k, wi = i / 4;
       const double* g = W->grad + i * NZ3;
+      if (!W->active[i] || !W->active[j]) continue;
       for (k = 0; k < 4; ++k) s += g[k] * W->AVm[(long)j * nV + S->ws_dofs[4 * wi + k]];
       for (k = 0; k < 12; ++k)
         if (W->fidx[12 * wi + k] >= 0) s += g[4 + k] * W->ABm[(long)j * nF + W->fidx[12 * wi + k]];
@@ -107,12 +130,17 @@ int impact3(work3d_t* W, state3d_t* X, const int* el, const double* xi, const do
   memset(W->tB, 0, sizeof(double) * (size_t)S->nB);
   for (i = 0; i < nF; ++i) W->tB[S->free_dofs[i]] = W->tF[i];
   csr_mul3(S->nB, S->C_ptr, S->C_idx, S->C_val, W->tB, W->fBfull, 0);
-  for (i = 0; i < nF; ++i) W->bw[i] = W->fBfull[S->free_dofs[i]];
+  /* M_B^-1 of the damping forces, over the DOFs they load only (the spans the impulses moved; the
+   * same sums in the same order: a zero term leaves a sum unchanged) */
+  for (i = 0, j = 0; i < nF; ++i) {
+    W->bw[i] = W->fBfull[S->free_dofs[i]];
+    if (W->bw[i] != 0.0) W->nzb[j++] = i;
+  }
   for (i = 0; i < nF; ++i) {
     const double* row = S->MBi + (long)i * nF;
     double s = 0.0;
     int k;
-    for (k = 0; k < nF; ++k) s += row[k] * W->bw[k];
+    for (k = 0; k < j; ++k) s += row[W->nzb[k]] * W->bw[W->nzb[k]];
     X->udd[S->free_dofs[i]] -= s;
   }
   /* the force jump: consistent accelerations (landing: g'' = 0, the others unchanged) */

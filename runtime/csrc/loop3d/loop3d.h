@@ -70,8 +70,9 @@ typedef struct {
   pivot3_t pv; /* pivoting of the active set */
   long iterations, passes, factorizations;
   /* impact */
-  double *GV, *GB, *AVm, *ABm, *G, *gt, *gtt, *gtt2, *want, *imp, *jump, *x0, *y, *sub, *subr;
+  double *GV, *AVm, *ABm, *G, *gt, *gtt, *gtt2, *want, *imp, *jump, *x0, *y, *sub, *subr;
   int *basic, *cand, *bad, *held2;
+  int* nzb; /* nF: the span DOFs the damping forces of a velocity jump load */
   double zero16[NZ3];
   double* geom; /* nW x 8: the kernels' geometry of each wheelset (S->geom, entry 7 the length of
                  * the element it stands on: locate) */
@@ -97,8 +98,8 @@ void lu_back3(const double* A, int n, const int* piv, const int* last, const int
 /* rows3d.c: kernel k (SVBI_CONTACT3D_K_*) at the wheelset's z = [q_w, u_e] (rates zd, zdd) */
 int kcall3(work3d_t* W, int k, int w, const double* z, const double* zd, const double* zdd, double xi,
            const double* irr, const double* coef, double* out0, double* out1);
-int rows3(work3d_t* W, int w, const double* z, const double* zd, const double* zdd, double xi,
-          const double* irr);
+int gradients3(work3d_t* W, int w, const double* z, const double* zd, const double* zdd, double xi,
+               const double* irr);
 #define ROWS_ITERATE 0
 #define ROWS_CHECK 1
 #define ROWS_CHORD 2

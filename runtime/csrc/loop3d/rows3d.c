@@ -1,7 +1,8 @@
 /*
  * The contact kernels of one wheelset (generated/contact3d, CasADi's calling convention): one call
- * with its outputs scattered dense, row-major (as the NumPy module returns them), and the four
- * constraints' rows of _Step3D._rows_at (gradients, stabilised residuals and their Jacobians, gaps).
+ * with its outputs scattered dense, row-major (as the NumPy module returns them); the four
+ * constraints' rows of _Step3D._rows_at that each use needs (gradients, stabilised residuals and their
+ * Jacobians, gaps).
  */
 #include <string.h>
 
@@ -55,28 +56,20 @@ void zvec3(const work3d_t* W, int w, const double* q, const double* u, const dou
   }
 }
 
-/* The rows of wheelset w (normal left, right, flange left, right) into W->grad/res/jac/gap. */
-int rows3(work3d_t* W, int w, const double* z, const double* zd, const double* zdd, double xi,
-          const double* irr) {
+/* The gradients of wheelset w's four constraints (normal left, right, flange left, right) into
+ * W->grad: all the impact's flexibility reads of its rows. */
+int gradients3(work3d_t* W, int w, const double* z, const double* zd, const double* zdd, double xi,
+               const double* irr) {
   const setup3d_t* S = W->S;
-  double c[4] = {S->c1, S->c0, 0.0, 0.0}, cj[4] = {S->c1, S->c0, S->a1, S->a0};
+  double c[4] = {S->c1, S->c0, 0.0, 0.0};
   double* g = W->grad + 4 * NZ3 * w;
-  double* j = W->jac + 4 * NZ3 * w;
-  double* r = W->res + 4 * w;
-  double* gp = W->gap + 4 * w;
   int st = 0;
   st |= kcall3(W, SVBI_CONTACT3D_K_NORMAL_GAP_GRADIENTS, w, z, zd, zdd, xi, irr, c, g, 0);
   st |= kcall3(W, SVBI_CONTACT3D_K_FLANGE_GAP_GRADIENTS, w, z, zd, zdd, xi, irr, c, g + 2 * NZ3, 0);
-  st |= kcall3(W, SVBI_CONTACT3D_K_NORMAL_RESIDUALS, w, z, zd, zdd, xi, irr, c, r, 0);
-  st |= kcall3(W, SVBI_CONTACT3D_K_FLANGE_RESIDUALS, w, z, zd, zdd, xi, irr, c, r + 2, 0);
-  st |= kcall3(W, SVBI_CONTACT3D_K_NORMAL_RESIDUAL_JACOBIANS, w, z, zd, zdd, xi, irr, cj, j, 0);
-  st |= kcall3(W, SVBI_CONTACT3D_K_FLANGE_RESIDUAL_JACOBIANS, w, z, zd, zdd, xi, irr, cj, j + 2 * NZ3, 0);
-  st |= kcall3(W, SVBI_CONTACT3D_K_NORMAL_GAPS, w, z, zd, zdd, xi, irr, c, gp, 0);
-  st |= kcall3(W, SVBI_CONTACT3D_K_FLANGE_GAPS, w, z, zd, zdd, xi, irr, c, gp + 2, 0);
   return st ? S3_KERNEL : S3_OK;
 }
 
-/* Only the rows a use needs (rows3 evaluates all): ITERATE, the rows of the active constraints
+/* Only the rows a use needs: ITERATE, the rows of the active constraints
  * (gradients; the stabilised residual and its Jacobian, or the gap of a landing one; the inactive
  * ones' gradients zero: they carry no force); CHORD, those without the Jacobians (an iteration on
  * the interface matrix already factored); CHECK, what the active set reads of the inactive ones

@@ -131,7 +131,6 @@ void w3_carve(const setup3d_t* S, work3d_t* W, double* work, int* iwork, long* n
   W->lu_last = take_i(&i, nC, &ci);
   W->lu_first = take_i(&i, nC, &ci);
   W->GV = take_d(&d, nC * nV, &cd);
-  W->GB = take_d(&d, nC * nF, &cd);
   W->AVm = take_d(&d, nV * nC, &cd);
   W->ABm = take_d(&d, nF * nC, &cd);
   W->G = take_d(&d, nC * nC, &cd);
@@ -149,6 +148,7 @@ void w3_carve(const setup3d_t* S, work3d_t* W, double* work, int* iwork, long* n
   W->cand = take_i(&i, nC, &ci);
   W->bad = take_i(&i, nC, &ci);
   W->held2 = take_i(&i, nC, &ci);
+  W->nzb = take_i(&i, nF, &ci);
   W->geom = take_d(&d, 8 * nW, &cd);
   W->Q0 = W->Q1 = W->Q2 = 0;
   W->gz = 0;
