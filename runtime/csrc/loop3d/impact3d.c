@@ -52,6 +52,19 @@ static void part_of(const work3d_t* W, int w, int* lo, int* hi) {
   }
 }
 
+/* the first of the n ascending entries of a that is at least v (n if none) */
+static int first_at_least(const int* a, int n, int v) {
+  int lo = 0, hi = n;
+  while (lo < hi) {
+    const int mid = (lo + hi) / 2;
+    if (a[mid] < v)
+      lo = mid + 1;
+    else
+      hi = mid;
+  }
+  return lo;
+}
+
 /* vehicle += sum_i AVt[i] x_i, span (free) += sum_i ABt[i] x_i (over the DOFs where ABt[i] can be
  * nonzero: a zero term leaves a sum as it is) */
 static void respond(work3d_t* W, const double* x, double* veh, double* span) {
@@ -97,17 +110,28 @@ int impact3(work3d_t* W, state3d_t* X, const int* el, const double* xi, const do
     }
   }
   memset(W->G, 0, sizeof(double) * (size_t)nC * nC);
-  for (i = 0; i < nC; ++i)
-    for (j = 0; j < nC; ++j) {
-      double s = 0.0;
-      int k, wi = i / 4;
-      const double* g = W->grad + i * NZ3;
-      if (!W->active[i] || !W->active[j]) continue;
-      for (k = 0; k < 4; ++k) s += g[k] * W->AVm[(long)j * nV + S->ws_dofs[4 * wi + k]];
-      for (k = 0; k < 12; ++k)
-        if (W->fidx[12 * wi + k] >= 0) s += g[4 + k] * W->ABm[(long)j * nF + W->fidx[12 * wi + k]];
-      W->G[(long)i * nC + j] = s;
+  for (i = 0; i < nC; ++i) {
+    const int wi = i / 4;
+    const double* g = W->grad + i * NZ3;
+    int l;
+    if (!W->active[i]) continue;
+    /* the wheelsets coupled to wi (the same car, the same part of the structure: couple's list); G
+     * is zero between the others */
+    for (l = W->pstart[wi]; l < W->pstart[wi + 1]; ++l) {
+      const int v = W->plist[l] - wi * nW;
+      int m;
+      for (m = 0; m < 4; ++m) {
+        double s = 0.0;
+        int k;
+        j = 4 * v + m;
+        if (!W->active[j]) continue;
+        for (k = 0; k < 4; ++k) s += g[k] * W->AVm[(long)j * nV + S->ws_dofs[4 * wi + k]];
+        for (k = 0; k < 12; ++k)
+          if (W->fidx[12 * wi + k] >= 0) s += g[4 + k] * W->ABm[(long)j * nF + W->fidx[12 * wi + k]];
+        W->G[(long)i * nC + j] = s;
+      }
     }
+  }
   /* the impulses: landing constraints lose their relative velocity */
   if ((st = gap_rates(W, X, xi, irr, W->gtt, W->gt))) return st;
   for (i = 0; i < nC; ++i) {
@@ -138,9 +162,10 @@ int impact3(work3d_t* W, state3d_t* X, const int* el, const double* xi, const do
   }
   for (i = 0; i < nF; ++i) {
     const double* row = S->MBi + (long)i * nF;
+    const int hi = S->MBi_cols[2 * i + 1];
     double s = 0.0;
-    int k;
-    for (k = 0; k < j; ++k) s += row[W->nzb[k]] * W->bw[W->nzb[k]];
+    int k = first_at_least(W->nzb, j, S->MBi_cols[2 * i]); /* the row's nonzero columns only */
+    for (; k < j && W->nzb[k] <= hi; ++k) s += row[W->nzb[k]] * W->bw[W->nzb[k]];
     X->udd[S->free_dofs[i]] -= s;
   }
   /* the force jump: consistent accelerations (landing: g'' = 0, the others unchanged) */
