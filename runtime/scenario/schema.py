@@ -684,7 +684,7 @@ def _semantic_problems(s: Scenario) -> Iterable[tuple[str, str]]:
     yield from bridge_problems
     if bridge_problems:
         return
-    if s.dimensions == 2:
+    if s.dimensions == 2 and _vehicle_loads(s):  # else its dimensions are unknown: train.vehicle says why
         yield from _keys_3d_in_2d(s)
     if trk.wavelength_min >= trk.wavelength_max:
         yield (
@@ -739,6 +739,16 @@ def _semantic_problems(s: Scenario) -> Iterable[tuple[str, str]]:
             yield "train.parameters.axle_loads", "axle loads must be positive (N, downward)"
         return
     yield from _vehicle_problems(s, values)
+
+
+def _vehicle_loads(s: Scenario) -> bool:
+    """Whether the vehicle of a 2D scenario loads (a topology file that cannot be read, or whose
+    ``dimensions`` is neither 2 nor 3, is one problem of ``train.vehicle``, below)."""
+    try:
+        vehicle_topology(s)
+    except TopologyError:
+        return False
+    return True
 
 
 def _keys_3d_in_2d(s: Scenario) -> Iterable[tuple[str, str]]:

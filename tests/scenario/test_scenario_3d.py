@@ -426,3 +426,23 @@ def test_conicity_and_flange_clearance_default_to_the_vehicles_parameters(tmp_pa
     assert (geometry.conicity, geometry.flange_clearance) == (0.2, 0.009)
     given = load(tmp_path, scenario_text("car.toml", extra="[contact]\nconicity = 0.05\n"))
     assert track_geometry_3d(given).conicity == 0.05  # [contact] first, then the vehicle, then 0.1
+
+
+@pytest.mark.parametrize(
+    ("broken", "problem"),
+    [
+        ("dimensions = 3\nname = 'car'\nx = 1.0.0\n", "malformed TOML"),
+        ("dimensions = 4\nname = 'car'\n", "dimensions: must be 2 or 3 (got 4)"),
+    ],
+    ids=["malformed", "dimensions-4"],
+)
+def test_an_unreadable_vehicle_file_is_one_problem_not_a_2d_vehicle(
+    tmp_path: Path, broken: str, problem: str
+) -> None:
+    """A topology file that cannot be read says why, once: its 3D scenario's keys are not refused
+    as keys of a 2D vehicle (the file's dimensions are unknown)."""
+    (tmp_path / "car.toml").write_text(broken, encoding="utf-8")
+    found = problems(tmp_path, scenario_text("car.toml"))
+    assert len(found) == 1, found
+    assert "train.vehicle" in found[0] and problem in found[0], found
+    assert "2D vehicle" not in found[0] and "runs take 2D vehicles only" not in found[0]
