@@ -58,7 +58,8 @@ def test_localized_dynamic_runs_on_the_c_loop_with_the_numpy_results(tmp_path) -
 @pytest.mark.parametrize(
     ("method", "backend", "why"),
     [
-        ("coupled-dynamic", "c", "the C loop has localized-dynamic"),
+        ("coupled-dynamic", "c", "solver.backend = 'c': the C loop has localized-dynamic only; "),
+        ("coupled-classic", "c", "solver.backend = 'c': the C loop has localized-dynamic only; "),
         ("localized-dynamic", "casadi", "the casadi backend has no 3D step"),
     ],
 )
@@ -72,3 +73,5 @@ def test_other_methods_and_backends_step_on_numpy_and_say_so(tmp_path, method, b
         and why in str(fell[0].message)
         and "steps on the NumPy backend" in str(fell[0].message)
     )
+    if backend == "c":  # the c backend has a 3D step, for localized-dynamic
+        assert "no 3D step" not in str(fell[0].message), fell[0].message
