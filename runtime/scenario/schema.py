@@ -795,8 +795,10 @@ def _three_d_problems(s: Scenario) -> Iterable[tuple[str, str]]:
     except TopologyError as exc:
         yield "train.vehicle", exc.problem if exc.key == "vehicle" else str(exc)
         return
+    parameters_ok = True
     for name, value in t.parameters.items():
         if name not in topo.parameters:
+            parameters_ok = False
             yield (
                 f"train.parameters.{name}",
                 f"{topo.name} has no parameter {name!r} (its parameters: "
@@ -805,14 +807,25 @@ def _three_d_problems(s: Scenario) -> Iterable[tuple[str, str]]:
             continue
         values = value if isinstance(value, list) else [value]
         if isinstance(value, list) != isinstance(topo.parameters[name].value, tuple):
+            parameters_ok = False
             yield (
                 f"train.parameters.{name}",
                 "must be a list" if not isinstance(value, list) else "must be a number",
             )
         elif not all(math.isfinite(float(v)) for v in values):
+            parameters_ok = False
             yield f"train.parameters.{name}", f"must be finite (got {value!r})"
         elif not topo.parameters[name].signed and not all(float(v) >= 0 for v in values):
+            parameters_ok = False
             yield f"train.parameters.{name}", f"must not be negative (got {value!r})"
+    if parameters_ok:
+        yield from _vehicle3d_problems(s, float(topo.parameters["car_length"].value))
+    if t.speed_ms == 0.0 and s.contact.creep:
+        yield (
+            "train.speed_kmh" if t.speed is None else "train.speed",
+            "0 with contact.creep: the creepages are relative to the rolling speed; give a speed, or "
+            "contact.creep = false for a train standing still",
+        )
     size = list(size_problems(s, {}))
     yield from size
     why = f"required in a 3D scenario (train.vehicle {t.vehicle!r} is a 3D vehicle)"
@@ -837,6 +850,36 @@ def _three_d_problems(s: Scenario) -> Iterable[tuple[str, str]]:
             yield (
                 f"{prefix}.shear_modulus",
                 f"give {prefix}.poisson_ratio or {prefix}.shear_modulus, not both (G = E / (2 (1 + nu)))",
+            )
+
+
+def _vehicle3d_problems(s: Scenario, default_car_length: float) -> Iterable[tuple[str, str]]:
+    """The 3D vehicle with the scenario's parameters: every body's mass and inertias positive (a
+    zero makes the mass matrix singular) and, with more than one car, a car length beyond the car's
+    leading-to-last-axle distance (else the cars overlap), as for 2D trains."""
+    from ..model.system3d import vehicle3d  # a built-in vehicle's generated module; a file's, derived
+
+    t = s.train
+    numbers = {k: float(v) for k, v in t.parameters.items() if not isinstance(v, list)}
+    try:
+        vehicle = vehicle3d(vehicle_ref(s), numbers)
+    except (TopologyError, ValueError) as exc:
+        yield "train.vehicle", str(exc)
+        return
+    for dof, m in zip(vehicle.dof_names, vehicle.M.diagonal(), strict=True):
+        if not m > 0.0:
+            zero = [k for k, v in numbers.items() if v == 0.0]
+            key = f"train.parameters.{zero[0]}" if zero else "train.vehicle"
+            yield key, f"the mass or inertia of {dof} is {m:g}: every body's mass and inertias must be > 0"
+            return
+    if t.cars > 1 and vehicle.wheelsets:
+        car_length = numbers.get("car_length", default_car_length)
+        extent = max(w.offset for w in vehicle.wheelsets)
+        if car_length <= extent:
+            yield (
+                "train.parameters.car_length" if "car_length" in t.parameters else "train.vehicle",
+                f"car_length = {car_length:g} m is not longer than the car itself ({extent:g} m from its "
+                f"leading to its last axle): with {t.cars} cars they would overlap",
             )
 
 

@@ -446,3 +446,36 @@ def test_an_unreadable_vehicle_file_is_one_problem_not_a_2d_vehicle(
     assert len(found) == 1, found
     assert "train.vehicle" in found[0] and problem in found[0], found
     assert "2D vehicle" not in found[0] and "runs take 2D vehicles only" not in found[0]
+
+
+def test_a_zero_mass_of_a_3d_vehicle_is_refused_naming_its_parameter(tmp_path: Path) -> None:
+    """A body of no mass (or inertia) makes the vehicle's mass matrix singular: refused in one line
+    naming the parameter, not a 'Singular matrix' from the run's set-up."""
+    for name in ("carbody_mass", "bogie_roll_inertia"):
+        found = problems(tmp_path, scenario_text(extra=f"[train.parameters]\n{name} = 0.0\n"))
+        assert len(found) == 1, found
+        assert f"train.parameters.{name}: " in found[0] and "must be > 0" in found[0], found
+
+
+def test_overlapping_3d_cars_are_refused_naming_car_length(tmp_path: Path) -> None:
+    """With more than one car, car_length must exceed the car's leading-to-last-axle distance
+    (manchester-3d: 2 x 9.5 + 2 x 1.28 = 21.56 m), as for 2D trains."""
+    found = problems(tmp_path, scenario_text(extra="cars = 3\n[train.parameters]\ncar_length = 20.0\n"))
+    assert len(found) == 1, found
+    assert "train.parameters.car_length: " in found[0] and "overlap" in found[0] and "21.56" in found[0]
+    assert (
+        load(tmp_path, scenario_text(extra="cars = 3\n[train.parameters]\ncar_length = 21.6\n")).train.cars
+        == 3
+    )
+    # one car: its car_length places no other car
+    assert load(tmp_path, scenario_text(extra="[train.parameters]\ncar_length = 1.0\n")).train.cars == 1
+
+
+def test_a_standing_3d_train_with_creep_is_refused(tmp_path: Path) -> None:
+    """The creepages are relative to the rolling speed: a train standing still with creep forces is
+    refused naming train.speed_kmh (it divided by zero in the run's set-up); without creep it runs."""
+    text = scenario_text(extra="[solver]\nduration = 0.01\n").replace("speed_kmh = 200.0", "speed_kmh = 0.0")
+    found = problems(tmp_path, text)
+    assert len(found) == 1, found
+    assert "train.speed_kmh: " in found[0] and "contact.creep" in found[0], found
+    assert load(tmp_path, text + "[contact]\ncreep = false\n").train.speed_kmh == 0.0
