@@ -819,7 +819,7 @@ def _three_d_problems(s: Scenario) -> Iterable[tuple[str, str]]:
             parameters_ok = False
             yield f"train.parameters.{name}", f"must not be negative (got {value!r})"
     if parameters_ok:
-        yield from _vehicle3d_problems(s, float(topo.parameters["car_length"].value))
+        yield from _vehicle3d_problems(s)
     if t.speed_ms == 0.0 and s.contact.creep:
         yield (
             "train.speed_kmh" if t.speed is None else "train.speed",
@@ -853,10 +853,10 @@ def _three_d_problems(s: Scenario) -> Iterable[tuple[str, str]]:
             )
 
 
-def _vehicle3d_problems(s: Scenario, default_car_length: float) -> Iterable[tuple[str, str]]:
+def _vehicle3d_problems(s: Scenario) -> Iterable[tuple[str, str]]:
     """The 3D vehicle with the scenario's parameters: every body's mass and inertias positive (a
-    zero makes the mass matrix singular) and, with more than one car, a car length beyond the car's
-    leading-to-last-axle distance (else the cars overlap), as for 2D trains."""
+    zero makes the mass matrix singular). The cars' overlap, as the sizes of the run, are
+    ``limits.size_problems``'."""
     from ..model.system3d import vehicle3d  # a built-in vehicle's generated module; a file's, derived
 
     t = s.train
@@ -872,15 +872,6 @@ def _vehicle3d_problems(s: Scenario, default_car_length: float) -> Iterable[tupl
             key = f"train.parameters.{zero[0]}" if zero else "train.vehicle"
             yield key, f"the mass or inertia of {dof} is {m:g}: every body's mass and inertias must be > 0"
             return
-    if t.cars > 1 and vehicle.wheelsets:
-        car_length = numbers.get("car_length", default_car_length)
-        extent = max(w.offset for w in vehicle.wheelsets)
-        if car_length <= extent:
-            yield (
-                "train.parameters.car_length" if "car_length" in t.parameters else "train.vehicle",
-                f"car_length = {car_length:g} m is not longer than the car itself ({extent:g} m from its "
-                f"leading to its last axle): with {t.cars} cars they would overlap",
-            )
 
 
 def _profile_problems(s: Scenario) -> Iterable[tuple[str, str]]:

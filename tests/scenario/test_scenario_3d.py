@@ -479,3 +479,32 @@ def test_a_standing_3d_train_with_creep_is_refused(tmp_path: Path) -> None:
     assert len(found) == 1, found
     assert "train.speed_kmh: " in found[0] and "contact.creep" in found[0], found
     assert load(tmp_path, text + "[contact]\ncreep = false\n").train.speed_kmh == 0.0
+
+
+@pytest.mark.parametrize(
+    ("extra", "key", "problem"),
+    [
+        ("[contact]\nfriction = 50.0\n", "contact.friction", "above the limit of 10"),
+        ("[solver]\nduration = 1.0e7\n", "solver.duration", "steps, above the limit"),
+        ("[output]\nforce_filter_hz = 1.0e6\n", "output.force_filter_hz", "not below the Nyquist"),
+        ("[output]\nforce_filter_hz = 0.001\n", "output.force_filter_hz", "below 1e-05 of the Nyquist"),
+        ("[solver]\nconstraint_kappa = 1.0e9\n", "solver.constraint_kappa", "above the limit"),
+        ("[solver]\nduration = 0.01\noutput_every = 1000\n", "solver.output_every", "only t = 0"),
+        ("[contact]\nrail_head_radius = 1.0e-5\n", "contact.rail_head_radius", "no Hertz contact ellipse"),
+    ],
+    ids=["friction", "steps", "filter-high", "filter-low", "kappa", "output-every", "rail-head"],
+)
+def test_the_size_limits_of_2d_scenarios_hold_in_3d(
+    tmp_path: Path, extra: str, key: str, problem: str
+) -> None:
+    """Every limit of a run's size and of the solver's and contact's values is checked in a 3D
+    scenario as in a 2D one (they were skipped: a 3D scenario of 1e11 steps was accepted)."""
+    found = problems(tmp_path, scenario_text(extra=extra))
+    assert len(found) == 1, found
+    assert f"{key}: " in found[0] and problem in found[0], found
+
+
+def test_a_3d_deck_of_no_mass_is_refused(tmp_path: Path) -> None:
+    bridge = BRIDGE_3D.replace("mass_per_length = 2.0e4", "mass_per_length = 1.0e-300")
+    found = problems(tmp_path, scenario_text(bridge=bridge))
+    assert len(found) == 1 and "bridge.mass_per_length: " in found[0] and "not a finite" in found[0], found
