@@ -64,9 +64,7 @@ def test_localized_dynamic_runs_on_the_c_loop_with_the_numpy_results(tmp_path) -
     ],
 )
 def test_other_methods_and_backends_step_on_numpy_and_say_so(tmp_path, method, backend, why) -> None:
-    ds, fell = _run(
-        tmp_path, **{"solver.method": method, "solver.backend": backend, "solver.duration": 0.01}
-    )
+    ds, fell = _run(tmp_path, **{"solver.method": method, "solver.backend": backend, "solver.duration": 0.01})
     assert ds.attrs["backend"] == "numpy" and ds.attrs["backend_requested"] == backend
     assert (
         len(fell) == 1
