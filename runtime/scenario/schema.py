@@ -790,6 +790,13 @@ def _three_d_problems(s: Scenario) -> Iterable[tuple[str, str]]:
     t, b = s.train, s.bridge
     if t.hslm is not None:
         yield "train.hslm", f"an HSLM train is a 2D moving load; train.vehicle {t.vehicle!r} is a 3D vehicle"
+    if t.acceleration != 0.0:  # as runtime.run.simulate3d.refuse, with the key's line
+        yield "train.acceleration", "the 3D step runs trains at constant speed: remove it (or set 0)"
+    if t.initial == "rigid-track":
+        yield (
+            "train.initial",
+            "'rigid-track': a 3D run starts from the static state on the deck: use 'auto' or 'static'",
+        )
     try:
         topo = vehicle_parameters3d(vehicle_ref(s))
     except TopologyError as exc:

@@ -223,9 +223,24 @@ def test_what_the_3d_run_cannot_do_is_one_line_and_exit_2(
     result = runner.invoke(app, ["run", str(scenario), "-o", str(out), *args])
     assert result.exit_code == 2, result.output
     lines = result.output.strip().splitlines()
-    assert len(lines) == 1, result.output
-    assert lines[0].startswith(f"error: {scenario}: {key}"), lines[0]
+    # refused with the scenario: its file, then one line naming where the key was set and the key
+    assert len(lines) == 2 and lines[0] == f"error: invalid scenario {scenario}:", result.output
+    assert lines[1].startswith(f"  --set {sets[0]}: {key}"), lines[1]
     assert "Traceback" not in result.output and not out.exists()
+
+
+def test_what_the_3d_run_cannot_do_names_the_line_of_the_file(tmp_path: Path) -> None:
+    text = SCENARIO.replace("[train]\n", "[train]\nacceleration = 0.5\n", 1)
+    assert text != SCENARIO
+    scenario = write(tmp_path, text)
+    line = next(n for n, t in enumerate(text.splitlines(), 1) if t.startswith("acceleration = 0.5"))
+    result = runner.invoke(app, ["run", str(scenario), "-o", str(tmp_path / "out.nc")])
+    assert result.exit_code == 2, result.output
+    lines = result.output.strip().splitlines()
+    assert len(lines) == 2 and lines[0] == f"error: invalid scenario {scenario}:", result.output
+    assert lines[1].startswith(
+        f"  {scenario}:{line}: train.acceleration: the 3D step runs trains at constant"
+    ), lines
 
 
 def test_plot_draws_the_3d_results(results, tmp_path: Path) -> None:
