@@ -183,12 +183,16 @@ def parse_topology(text: str, source: str = "<string>") -> Topology:
         data = loads_toml(text)
     except (tomllib.TOMLDecodeError, TOMLNestingError) as exc:
         raise TopologyError(source, "toml", f"malformed TOML: {exc}") from None
-    if isinstance(data, dict) and data.get("dimensions", 2) != 2:
+    dimensions = data.get("dimensions", 2) if isinstance(data, dict) else 2
+    if dimensions == 3 and not isinstance(dimensions, bool):
         raise TopologyError(
             source,
             "dimensions",
-            "a 3D topology (svbi.codegen.topology3d, docs/three-d.md): runs take 2D vehicles only",
+            "a 3D topology (svbi.codegen.topology3d, docs/three-d.md): this loader takes 2D topologies; "
+            "a scenario runs it as its train.vehicle",
         )
+    if dimensions != 2 or isinstance(dimensions, bool):
+        raise TopologyError(source, "dimensions", f"must be 2 or 3 (got {dimensions!r})")
     data.pop("dimensions", None)
     _only_keys(
         source,
@@ -414,8 +418,10 @@ def _parse_expr(
         raise TopologyError(source, key, f"list parameter(s) {', '.join(listy)} cannot enter an expression")
     try:
         return sp.sympify(raw, locals=symbols, rational=True)
-    except (sp.SympifyError, SyntaxError, TypeError) as exc:
-        raise TopologyError(source, key, f"cannot parse expression {raw!r}: {exc}") from None
+    except (sp.SympifyError, SyntaxError, TypeError):  # SymPy's message: lines of its parser's internals
+        raise TopologyError(
+            source, key, f"cannot parse expression {raw!r}: not an arithmetic expression of the parameters"
+        ) from None
 
 
 def _check_positive_roles(topo: Topology, values: Mapping[str, Any], where: str) -> None:

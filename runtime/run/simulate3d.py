@@ -725,6 +725,8 @@ def stepper3d(scenario: Scenario, system: System3D, state: State3D) -> tuple[str
             if not str(exc).startswith("the 3D C loop"):
                 raise  # the model's own error (an unstable explicit creep step): NumPy says the same
             why = str(exc)
+    elif ss.backend == "c":
+        why = "the C loop has localized-dynamic only"
     elif ss.backend != "numpy":
         why = f"the {ss.backend} backend has no 3D step; the C loop has localized-dynamic"
     if why:

@@ -78,8 +78,8 @@ def _geometry(s: Scenario, values: Mapping[str, Any]) -> tuple[list[float], floa
     """Wheel offsets behind the car's leading axle, the car length and the wheel radii (m), as
     ``Train`` places them; ``None`` when the vehicle cannot be evaluated (its own check says why)."""
 
-    if s.dimensions == 3:  # its vehicle has no 2D kernels: the 3D run places it (run/simulate3d.py)
-        return None
+    if s.dimensions == 3:  # its wheelsets, as the 3D run places them (run/simulate3d.py)
+        return _geometry3d(s)
     vals = dict(values)
     if s.train.hslm is not None:
         vals.update(hslm_parameters(s.train.hslm))
@@ -92,6 +92,23 @@ def _geometry(s: Scenario, values: Mapping[str, Any]) -> tuple[list[float], floa
         return None
     radii = [float(r) for r in vehicle.wheel_radii]
     return [float(x) for x in vehicle.wheel_offsets], float(vals["car_length"]), radii
+
+
+def _geometry3d(s: Scenario) -> tuple[list[float], float, list[float]] | None:
+    """:func:`_geometry` of a 3D scenario: its wheelsets' offsets, car length and wheel radii with
+    ``train.parameters``; ``None`` when the vehicle cannot be evaluated (its own check says why)."""
+    from ..model.system3d import vehicle3d, vehicle_parameters3d  # a built-in's generated module
+
+    numbers = {k: v for k, v in s.train.parameters.items() if not isinstance(v, list)}
+    try:
+        ref = vehicle_ref(s)
+        vehicle = vehicle3d(ref, numbers)
+        default = vehicle_parameters3d(ref).parameters["car_length"].value
+        car_length = float(numbers.get("car_length", default))
+    except (TopologyError, KeyError, TypeError, ValueError):
+        return None
+    wheelsets = vehicle.wheelsets
+    return [w.offset for w in wheelsets], car_length, [w.radius for w in wheelsets]
 
 
 def size_problems(s: Scenario, values: Mapping[str, Any]) -> Iterable[tuple[str, str]]:

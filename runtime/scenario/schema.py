@@ -684,7 +684,7 @@ def _semantic_problems(s: Scenario) -> Iterable[tuple[str, str]]:
     yield from bridge_problems
     if bridge_problems:
         return
-    if s.dimensions == 2:
+    if s.dimensions == 2 and _vehicle_loads(s):  # else its dimensions are unknown: train.vehicle says why
         yield from _keys_3d_in_2d(s)
     if trk.wavelength_min >= trk.wavelength_max:
         yield (
@@ -741,6 +741,16 @@ def _semantic_problems(s: Scenario) -> Iterable[tuple[str, str]]:
     yield from _vehicle_problems(s, values)
 
 
+def _vehicle_loads(s: Scenario) -> bool:
+    """Whether the vehicle of a 2D scenario loads (a topology file that cannot be read, or whose
+    ``dimensions`` is neither 2 nor 3, is one problem of ``train.vehicle``, below)."""
+    try:
+        vehicle_topology(s)
+    except TopologyError:
+        return False
+    return True
+
+
 def _keys_3d_in_2d(s: Scenario) -> Iterable[tuple[str, str]]:
     """A 3D key in a 2D scenario: refused, never ignored."""
     why = (
@@ -780,13 +790,22 @@ def _three_d_problems(s: Scenario) -> Iterable[tuple[str, str]]:
     t, b = s.train, s.bridge
     if t.hslm is not None:
         yield "train.hslm", f"an HSLM train is a 2D moving load; train.vehicle {t.vehicle!r} is a 3D vehicle"
+    if t.acceleration != 0.0:  # as runtime.run.simulate3d.refuse, with the key's line
+        yield "train.acceleration", "the 3D step runs trains at constant speed: remove it (or set 0)"
+    if t.initial == "rigid-track":
+        yield (
+            "train.initial",
+            "'rigid-track': a 3D run starts from the static state on the deck: use 'auto' or 'static'",
+        )
     try:
         topo = vehicle_parameters3d(vehicle_ref(s))
     except TopologyError as exc:
         yield "train.vehicle", exc.problem if exc.key == "vehicle" else str(exc)
         return
+    parameters_ok = True
     for name, value in t.parameters.items():
         if name not in topo.parameters:
+            parameters_ok = False
             yield (
                 f"train.parameters.{name}",
                 f"{topo.name} has no parameter {name!r} (its parameters: "
@@ -795,14 +814,25 @@ def _three_d_problems(s: Scenario) -> Iterable[tuple[str, str]]:
             continue
         values = value if isinstance(value, list) else [value]
         if isinstance(value, list) != isinstance(topo.parameters[name].value, tuple):
+            parameters_ok = False
             yield (
                 f"train.parameters.{name}",
                 "must be a list" if not isinstance(value, list) else "must be a number",
             )
         elif not all(math.isfinite(float(v)) for v in values):
+            parameters_ok = False
             yield f"train.parameters.{name}", f"must be finite (got {value!r})"
         elif not topo.parameters[name].signed and not all(float(v) >= 0 for v in values):
+            parameters_ok = False
             yield f"train.parameters.{name}", f"must not be negative (got {value!r})"
+    if parameters_ok:
+        yield from _vehicle3d_problems(s)
+    if t.speed_ms == 0.0 and s.contact.creep:
+        yield (
+            "train.speed_kmh" if t.speed is None else "train.speed",
+            "0 with contact.creep: the creepages are relative to the rolling speed; give a speed, or "
+            "contact.creep = false for a train standing still",
+        )
     size = list(size_problems(s, {}))
     yield from size
     why = f"required in a 3D scenario (train.vehicle {t.vehicle!r} is a 3D vehicle)"
@@ -828,6 +858,27 @@ def _three_d_problems(s: Scenario) -> Iterable[tuple[str, str]]:
                 f"{prefix}.shear_modulus",
                 f"give {prefix}.poisson_ratio or {prefix}.shear_modulus, not both (G = E / (2 (1 + nu)))",
             )
+
+
+def _vehicle3d_problems(s: Scenario) -> Iterable[tuple[str, str]]:
+    """The 3D vehicle with the scenario's parameters: every body's mass and inertias positive (a
+    zero makes the mass matrix singular). The cars' overlap, as the sizes of the run, are
+    ``limits.size_problems``'."""
+    from ..model.system3d import vehicle3d  # a built-in vehicle's generated module; a file's, derived
+
+    t = s.train
+    numbers = {k: float(v) for k, v in t.parameters.items() if not isinstance(v, list)}
+    try:
+        vehicle = vehicle3d(vehicle_ref(s), numbers)
+    except (TopologyError, ValueError) as exc:
+        yield "train.vehicle", str(exc)
+        return
+    for dof, m in zip(vehicle.dof_names, vehicle.M.diagonal(), strict=True):
+        if not m > 0.0:
+            zero = [k for k, v in numbers.items() if v == 0.0]
+            key = f"train.parameters.{zero[0]}" if zero else "train.vehicle"
+            yield key, f"the mass or inertia of {dof} is {m:g}: every body's mass and inertias must be > 0"
+            return
 
 
 def _profile_problems(s: Scenario) -> Iterable[tuple[str, str]]:

@@ -658,7 +658,8 @@ def metrics_text(metrics: xr.Dataset) -> str:
         text = f"{value:.6g}" if not math.isnan(value) else "n/a"
         when = ""
         if f"{name}_time" in metrics:
-            when = f" at t = {float(metrics[f'{name}_time'].values[index]):.4g} s"
+            t_at = float(metrics[f"{name}_time"].values[index])
+            when = f" at t = {t_at:.4g} s" if math.isfinite(t_at) else ""  # NaN: e.g. never lifted
         if name == "peak_deck_acceleration" and "peak_deck_acceleration_x" in metrics:
             x = float(np.asarray(metrics["peak_deck_acceleration_x"].values, dtype=float)[index])
             where += f", x = {x:.4g} m" if math.isfinite(x) else ""

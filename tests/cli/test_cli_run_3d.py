@@ -223,9 +223,24 @@ def test_what_the_3d_run_cannot_do_is_one_line_and_exit_2(
     result = runner.invoke(app, ["run", str(scenario), "-o", str(out), *args])
     assert result.exit_code == 2, result.output
     lines = result.output.strip().splitlines()
-    assert len(lines) == 1, result.output
-    assert lines[0].startswith(f"error: {scenario}: {key}"), lines[0]
+    # refused with the scenario: its file, then one line naming where the key was set and the key
+    assert len(lines) == 2 and lines[0] == f"error: invalid scenario {scenario}:", result.output
+    assert lines[1].startswith(f"  --set {sets[0]}: {key}"), lines[1]
     assert "Traceback" not in result.output and not out.exists()
+
+
+def test_what_the_3d_run_cannot_do_names_the_line_of_the_file(tmp_path: Path) -> None:
+    text = SCENARIO.replace("[train]\n", "[train]\nacceleration = 0.5\n", 1)
+    assert text != SCENARIO
+    scenario = write(tmp_path, text)
+    line = next(n for n, t in enumerate(text.splitlines(), 1) if t.startswith("acceleration = 0.5"))
+    result = runner.invoke(app, ["run", str(scenario), "-o", str(tmp_path / "out.nc")])
+    assert result.exit_code == 2, result.output
+    lines = result.output.strip().splitlines()
+    assert len(lines) == 2 and lines[0] == f"error: invalid scenario {scenario}:", result.output
+    assert lines[1].startswith(
+        f"  {scenario}:{line}: train.acceleration: the 3D step runs trains at constant"
+    ), lines
 
 
 def test_plot_draws_the_3d_results(results, tmp_path: Path) -> None:
@@ -237,7 +252,9 @@ def test_plot_draws_the_3d_results(results, tmp_path: Path) -> None:
     assert (figures / "fig4a_midspan_uz.png").is_file()
 
 
-def test_a_measured_profile_that_does_not_cover_the_run_is_one_line(tmp_path: Path) -> None:
+def test_a_measured_profile_that_does_not_cover_the_run_is_one_problem(tmp_path: Path) -> None:
+    """Refused with the scenario, as in 2D: the scenario's file, then one line naming the --set, the
+    key and the stretch the wheels run over."""
     profile = tmp_path / "short.txt"
     profile.write_text("".join(f"{x:.1f} 0.0\n" for x in range(0, 30)), encoding="utf-8")
     scenario = write(tmp_path)
@@ -246,7 +263,9 @@ def test_a_measured_profile_that_does_not_cover_the_run_is_one_line(tmp_path: Pa
     result = runner.invoke(app, ["run", str(scenario), "-o", str(out), *sets])
     assert result.exit_code == 2, result.output
     lines = result.output.strip().splitlines()
-    assert len(lines) == 1 and "track.irregularity" in lines[0] and "outside the profile's range" in lines[0]
+    assert len(lines) == 2 and lines[0] == f"error: invalid scenario {scenario}:", lines
+    assert lines[1].startswith(f"  --set track.irregularity={profile.name}: track.irregularity: "), lines
+    assert "the wheels run over x = 25 .. " in lines[1] and "extend the profile" in lines[1], lines
     assert not out.exists()
 
 

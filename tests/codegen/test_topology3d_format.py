@@ -71,8 +71,16 @@ def test_the_2d_loader_refuses_a_3d_file() -> None:
     with pytest.raises(TopologyError, match="dimensions: a 3D topology"):
         parse_topology(MINIMAL, "car.toml")
     path = resources.files("svbi.codegen.vehicles3d") / "manchester-3d.toml"
-    with resources.as_file(path) as file, pytest.raises(TopologyError, match="runs take 2D vehicles only"):
+    with resources.as_file(path) as file, pytest.raises(TopologyError) as info:
         load_topology(file)
+    # runs take 3D vehicles: the refusal says where a 3D file goes instead
+    assert "runs take 2D vehicles only" not in str(info.value)
+    assert "train.vehicle" in str(info.value)
+
+
+def test_the_2d_loader_names_a_dimensions_that_is_neither_2_nor_3() -> None:
+    with pytest.raises(TopologyError, match=r"car.toml: dimensions: must be 2 or 3 \(got 4\)$"):
+        parse_topology(MINIMAL.replace("dimensions = 3", "dimensions = 4"), "car.toml")
 
 
 @pytest.mark.parametrize(
@@ -116,3 +124,25 @@ forces = "f"
     with pytest.raises(TopologyError, match="increase strictly") as info:
         parse_topology3d(text, "car.toml")
     assert info.value.key == "bump_stops[0].displacements"
+
+
+@pytest.mark.parametrize("expression", ["m +", "m * (2", "m ** ** 2", "m 2"])
+def test_an_expression_that_does_not_parse_is_one_line(expression: str) -> None:
+    """SymPy's parse error is several lines of its own internals: the refusal is one line naming
+    the file, the key and the expression, in a 3D topology and a 2D one (the same parser)."""
+    text = MINIMAL.replace('mass = "m"', f'mass = "{expression}"', 1)
+    assert text != MINIMAL
+    pioneer = resources.files("svbi.codegen.vehicles").joinpath("pioneer-2d.toml").read_text()
+    expression_2d = expression.replace("m", "carbody_mass")
+    text_2d = pioneer.replace('mass = "carbody_mass"', f'mass = "{expression_2d}"', 1)
+    assert text_2d != pioneer
+    for parse, source_text, raw in (
+        (parse_topology3d, text, expression),
+        (parse_topology, text_2d, expression_2d),
+    ):
+        with pytest.raises(TopologyError) as info:
+            parse(source_text, "car.toml")
+        message = str(info.value)
+        assert info.value.key == "bodies[0].mass", message
+        assert "\n" not in message, message
+        assert message.startswith(f"car.toml: bodies[0].mass: cannot parse expression {raw!r}"), message

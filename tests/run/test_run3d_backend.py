@@ -58,17 +58,18 @@ def test_localized_dynamic_runs_on_the_c_loop_with_the_numpy_results(tmp_path) -
 @pytest.mark.parametrize(
     ("method", "backend", "why"),
     [
-        ("coupled-dynamic", "c", "the C loop has localized-dynamic"),
+        ("coupled-dynamic", "c", "solver.backend = 'c': the C loop has localized-dynamic only; "),
+        ("coupled-classic", "c", "solver.backend = 'c': the C loop has localized-dynamic only; "),
         ("localized-dynamic", "casadi", "the casadi backend has no 3D step"),
     ],
 )
 def test_other_methods_and_backends_step_on_numpy_and_say_so(tmp_path, method, backend, why) -> None:
-    ds, fell = _run(
-        tmp_path, **{"solver.method": method, "solver.backend": backend, "solver.duration": 0.005}
-    )
+    ds, fell = _run(tmp_path, **{"solver.method": method, "solver.backend": backend, "solver.duration": 0.01})
     assert ds.attrs["backend"] == "numpy" and ds.attrs["backend_requested"] == backend
     assert (
         len(fell) == 1
         and why in str(fell[0].message)
         and "steps on the NumPy backend" in str(fell[0].message)
     )
+    if backend == "c":  # the c backend has a 3D step, for localized-dynamic
+        assert "no 3D step" not in str(fell[0].message), fell[0].message

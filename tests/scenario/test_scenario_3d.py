@@ -426,3 +426,85 @@ def test_conicity_and_flange_clearance_default_to_the_vehicles_parameters(tmp_pa
     assert (geometry.conicity, geometry.flange_clearance) == (0.2, 0.009)
     given = load(tmp_path, scenario_text("car.toml", extra="[contact]\nconicity = 0.05\n"))
     assert track_geometry_3d(given).conicity == 0.05  # [contact] first, then the vehicle, then 0.1
+
+
+@pytest.mark.parametrize(
+    ("broken", "problem"),
+    [
+        ("dimensions = 3\nname = 'car'\nx = 1.0.0\n", "malformed TOML"),
+        ("dimensions = 4\nname = 'car'\n", "dimensions: must be 2 or 3 (got 4)"),
+    ],
+    ids=["malformed", "dimensions-4"],
+)
+def test_an_unreadable_vehicle_file_is_one_problem_not_a_2d_vehicle(
+    tmp_path: Path, broken: str, problem: str
+) -> None:
+    """A topology file that cannot be read says why, once: its 3D scenario's keys are not refused
+    as keys of a 2D vehicle (the file's dimensions are unknown)."""
+    (tmp_path / "car.toml").write_text(broken, encoding="utf-8")
+    found = problems(tmp_path, scenario_text("car.toml"))
+    assert len(found) == 1, found
+    assert "train.vehicle" in found[0] and problem in found[0], found
+    assert "2D vehicle" not in found[0] and "runs take 2D vehicles only" not in found[0]
+
+
+def test_a_zero_mass_of_a_3d_vehicle_is_refused_naming_its_parameter(tmp_path: Path) -> None:
+    """A body of no mass (or inertia) makes the vehicle's mass matrix singular: refused in one line
+    naming the parameter, not a 'Singular matrix' from the run's set-up."""
+    for name in ("carbody_mass", "bogie_roll_inertia"):
+        found = problems(tmp_path, scenario_text(extra=f"[train.parameters]\n{name} = 0.0\n"))
+        assert len(found) == 1, found
+        assert f"train.parameters.{name}: " in found[0] and "must be > 0" in found[0], found
+
+
+def test_overlapping_3d_cars_are_refused_naming_car_length(tmp_path: Path) -> None:
+    """With more than one car, car_length must exceed the car's leading-to-last-axle distance
+    (manchester-3d: 2 x 9.5 + 2 x 1.28 = 21.56 m), as for 2D trains."""
+    found = problems(tmp_path, scenario_text(extra="cars = 3\n[train.parameters]\ncar_length = 20.0\n"))
+    assert len(found) == 1, found
+    assert "train.parameters.car_length: " in found[0] and "overlap" in found[0] and "21.56" in found[0]
+    assert (
+        load(tmp_path, scenario_text(extra="cars = 3\n[train.parameters]\ncar_length = 21.6\n")).train.cars
+        == 3
+    )
+    # one car: its car_length places no other car
+    assert load(tmp_path, scenario_text(extra="[train.parameters]\ncar_length = 1.0\n")).train.cars == 1
+
+
+def test_a_standing_3d_train_with_creep_is_refused(tmp_path: Path) -> None:
+    """The creepages are relative to the rolling speed: a train standing still with creep forces is
+    refused naming train.speed_kmh (it divided by zero in the run's set-up); without creep it runs."""
+    text = scenario_text(extra="[solver]\nduration = 0.01\n").replace("speed_kmh = 200.0", "speed_kmh = 0.0")
+    found = problems(tmp_path, text)
+    assert len(found) == 1, found
+    assert "train.speed_kmh: " in found[0] and "contact.creep" in found[0], found
+    assert load(tmp_path, text + "[contact]\ncreep = false\n").train.speed_kmh == 0.0
+
+
+@pytest.mark.parametrize(
+    ("extra", "key", "problem"),
+    [
+        ("[contact]\nfriction = 50.0\n", "contact.friction", "above the limit of 10"),
+        ("[solver]\nduration = 1.0e7\n", "solver.duration", "steps, above the limit"),
+        ("[output]\nforce_filter_hz = 1.0e6\n", "output.force_filter_hz", "not below the Nyquist"),
+        ("[output]\nforce_filter_hz = 0.001\n", "output.force_filter_hz", "below 1e-05 of the Nyquist"),
+        ("[solver]\nconstraint_kappa = 1.0e9\n", "solver.constraint_kappa", "above the limit"),
+        ("[solver]\nduration = 0.01\noutput_every = 1000\n", "solver.output_every", "only t = 0"),
+        ("[contact]\nrail_head_radius = 1.0e-5\n", "contact.rail_head_radius", "no Hertz contact ellipse"),
+    ],
+    ids=["friction", "steps", "filter-high", "filter-low", "kappa", "output-every", "rail-head"],
+)
+def test_the_size_limits_of_2d_scenarios_hold_in_3d(
+    tmp_path: Path, extra: str, key: str, problem: str
+) -> None:
+    """Every limit of a run's size and of the solver's and contact's values is checked in a 3D
+    scenario as in a 2D one (they were skipped: a 3D scenario of 1e11 steps was accepted)."""
+    found = problems(tmp_path, scenario_text(extra=extra))
+    assert len(found) == 1, found
+    assert f"{key}: " in found[0] and problem in found[0], found
+
+
+def test_a_3d_deck_of_no_mass_is_refused(tmp_path: Path) -> None:
+    bridge = BRIDGE_3D.replace("mass_per_length = 2.0e4", "mass_per_length = 1.0e-300")
+    found = problems(tmp_path, scenario_text(bridge=bridge))
+    assert len(found) == 1 and "bridge.mass_per_length: " in found[0] and "not a finite" in found[0], found

@@ -249,3 +249,26 @@ def test_end_rotation_of_a_slow_point_load_is_the_static_one(backend):
     rows = {r.name: r for r in en1990_checks(m, moving_load=True)}
     assert rows["end rotation at abutments (A2.4.4.2.3(2))"].passed is True
     assert rows["rotation between decks (A2.4.4.2.3(2))"].where == "joint 1"
+
+
+def test_the_metrics_text_gives_no_time_for_a_wheel_that_never_lifted() -> None:
+    """``longest_contact_loss`` of a run whose wheels never lifted is 0 s with no time (NaN in the
+    dataset): `svbi metrics` prints no "t = nan"; a wheel that lifted gives its time."""
+    from svbi.runtime.study.metrics import metrics_text
+
+    dims = ("car", "wheel", "side")
+    coords = {"car": [1], "wheel": [1, 2], "side": ["left", "right"]}
+    never = xr.Dataset(
+        {
+            "longest_contact_loss": (dims, np.zeros((1, 2, 2))),
+            "longest_contact_loss_time": (dims, np.full((1, 2, 2), np.nan)),
+        },
+        coords=coords,
+    )
+    text = metrics_text(never)
+    assert "nan" not in text, text
+    assert "longest_contact_loss         0 s (car 1, wheel 1, side left)" in text, text
+    lifted = never.copy(deep=True)
+    lifted["longest_contact_loss"][0, 1, 0] = 0.012
+    lifted["longest_contact_loss_time"][0, 1, 0] = 1.5
+    assert "0.012 s (car 1, wheel 2, side left at t = 1.5 s)" in metrics_text(lifted)
