@@ -14,6 +14,7 @@ SymPy-free and NumPy-free: the generator's topology loader and the runtime both 
 from __future__ import annotations
 
 import os
+import re
 import stat
 import tomllib
 from typing import Any
@@ -176,3 +177,61 @@ def loads_toml(text: str, max_depth: int = MAX_TOML_DEPTH) -> dict[str, Any]:
     if toml_depth(data) > max_depth:
         raise TOMLNestingError(f"nested more than {max_depth} levels deep")
     return data
+
+
+_HEADER = re.compile(r"^\s*\[\[?\s*([^\]\[]+?)\s*\]\]?\s*(?:#.*)?$")
+_KEY = re.compile(
+    r"^\s*((?:[A-Za-z0-9_\-]+|\"[^\"]*\"|'[^']*')(?:\s*\.\s*(?:[A-Za-z0-9_\-]+|\"[^\"]*\"|'[^']*'))*)\s*="
+)
+
+
+def _clean_key(raw: str) -> str:
+    return ".".join(p.strip().strip("\"'") for p in raw.split("."))
+
+
+def toml_key_lines(text: str) -> dict[str, int]:
+    """Line number of every table header and key in TOML text, by dotted path (``[[a]]`` number
+    ``i``, from 0, is ``a[i]``): the line that an error message about a key names."""
+    lines: dict[str, int] = {}
+    table = ""
+    arrays: dict[str, int] = {}
+    for number, line in enumerate(text.splitlines(), start=1):
+        m = _HEADER.match(line)
+        if m:
+            table = _clean_key(m.group(1))
+            lines.setdefault(table, number)
+            if line.lstrip().startswith("[["):
+                # an array of tables: [[bridge.girders]] number i is bridge.girders[i] (pydantic's key)
+                index = arrays.get(table, 0)
+                arrays[table] = index + 1
+                table = f"{table}[{index}]"
+                lines.setdefault(table, number)
+            continue
+        m = _KEY.match(line)
+        if m:
+            key = _clean_key(m.group(1))
+            lines.setdefault(f"{table}.{key}" if table else key, number)
+    return lines
+
+
+def key_line(path: str, key: str) -> int | None:
+    """The line of ``key`` (a dotted path, ``a[i].b`` for arrays of tables) in the TOML file
+    ``path``, or of the nearest table above it that the file writes out; None when ``path`` is no
+    readable file or names none of them. Never raises: it only adds a line to an error message."""
+    try:
+        if not os.path.isfile(path):
+            return None
+        lines = toml_key_lines(read_text(path, MAX_TOML_BYTES))
+    except (OSError, ValueError):
+        return None
+    parts = key.split(".")
+    while parts:
+        found = lines.get(".".join(parts))
+        if found is not None:
+            return found
+        last = parts[-1]
+        if "[" in last:  # bodies[1] -> bodies (an inline array: its key's line)
+            parts[-1] = last[: last.index("[")]
+            continue
+        parts.pop()
+    return None

@@ -15,6 +15,8 @@ from typing import Any
 
 import numpy as np
 
+from .input_files import key_line
+
 PYTHON_KERNELS_FILE = "numpy_kernels.py"
 """Name of a model's generated NumPy module (``svbi.codegen.python_emit``) in its folder."""
 
@@ -23,11 +25,13 @@ GRAVITY = 9.81
 
 
 class TopologyError(ValueError):
-    """A topology file or a parameter override is invalid. The message names file, key and problem."""
+    """A topology file or a parameter override is invalid. The message names file, key and problem,
+    and the key's line when the source is a file that writes it (``file:line: key: problem``)."""
 
     def __init__(self, source: str, key: str, problem: str) -> None:
         self.source, self.key, self.problem = source, key, problem
-        super().__init__(f"{source}: {key}: {problem}")
+        line = key_line(source, key)
+        super().__init__(f"{source}{f':{line}' if line else ''}: {key}: {problem}")
 
 
 def builtin_topologies() -> list[str]:

@@ -36,6 +36,7 @@ from ...codegen.input_files import (
     file_problem,
     loads_toml,
     read_bytes,
+    toml_key_lines,
 )
 from ...codegen.plain_types import TopologyError
 from ..excitation.irregularity import read_profile_cached
@@ -556,7 +557,7 @@ def validate_scenario(
     check: bool = True,
 ) -> Scenario:
     """Validate a scenario given as a (TOML-shaped) dictionary."""
-    lines = _key_lines(text) if text else {}
+    lines = toml_key_lines(text) if text else {}
     overridden = dict(overridden or {})
 
     def where(key: str) -> str:
@@ -1071,40 +1072,6 @@ def _problem(err: Mapping[str, Any], where: Any) -> Problem:
     return Problem(key, message, where(key))
 
 
-_HEADER = re.compile(r"^\s*\[\[?\s*([^\]\[]+?)\s*\]\]?\s*(?:#.*)?$")
-_KEY = re.compile(
-    r"^\s*((?:[A-Za-z0-9_\-]+|\"[^\"]*\"|'[^']*')(?:\s*\.\s*(?:[A-Za-z0-9_\-]+|\"[^\"]*\"|'[^']*'))*)\s*="
-)
-
-
-def _clean_key(raw: str) -> str:
-    return ".".join(p.strip().strip("\"'") for p in raw.split("."))
-
-
-def _key_lines(text: str) -> dict[str, int]:
-    """Line number of every table header and key in TOML text, by dotted path."""
-    lines: dict[str, int] = {}
-    table = ""
-    arrays: dict[str, int] = {}
-    for number, line in enumerate(text.splitlines(), start=1):
-        m = _HEADER.match(line)
-        if m:
-            table = _clean_key(m.group(1))
-            lines.setdefault(table, number)
-            if line.lstrip().startswith("[["):
-                # an array of tables: [[bridge.girders]] number i is bridge.girders[i] (pydantic's key)
-                index = arrays.get(table, 0)
-                arrays[table] = index + 1
-                table = f"{table}[{index}]"
-                lines.setdefault(table, number)
-            continue
-        m = _KEY.match(line)
-        if m:
-            key = _clean_key(m.group(1))
-            lines.setdefault(f"{table}.{key}" if table else key, number)
-    return lines
-
-
 def _line_from_message(message: str) -> int | None:
     m = re.search(r"line (\d+)", message)
     return int(m.group(1)) if m else None
@@ -1113,4 +1080,4 @@ def _line_from_message(message: str) -> int | None:
 def key_lines(text: str) -> dict[str, int]:
     """Line number of every table header and key of TOML text, by dotted path (for other files'
     error messages, e.g. the study files of ``svbi sweep``)."""
-    return _key_lines(text)
+    return toml_key_lines(text)

@@ -146,3 +146,48 @@ def test_an_expression_that_does_not_parse_is_one_line(expression: str) -> None:
         assert info.value.key == "bodies[0].mass", message
         assert "\n" not in message, message
         assert message.startswith(f"car.toml: bodies[0].mass: cannot parse expression {raw!r}"), message
+
+
+@pytest.mark.parametrize(
+    ("edit", "line"),
+    [
+        # a key of the second [[bodies]] table: its own line
+        (('dofs = ["y"]', 'dofs = ["x"]'), 'dofs = ["x"]'),
+        # an unknown key: its line
+        (("height = 1\n", "height = 1\ncolour = 2\n"), "colour = 2"),
+        # a key the file leaves out: the line of its table
+        (('yaw_inertia = "m"\n', ""), "[[bodies]]"),
+        # a parameter's value
+        (("value = 1000.0", "value = -1000.0"), "value = -1000.0"),
+    ],
+)
+def test_errors_of_a_file_name_its_line(tmp_path, edit: tuple[str, str], line: str) -> None:
+    """A topology file's error names the line of the key at fault (or of its table, when the key is
+    missing), ``file:line: key: problem``, counted independently here from the file's text."""
+    text = MINIMAL.replace(*edit, 1)
+    path = tmp_path / "car.toml"
+    path.write_text(text, encoding="utf-8")
+    expected = text.splitlines().index(line) + 1  # the first such line: the first body's
+    with pytest.raises(TopologyError) as info:
+        load_topology3d(str(path))
+    assert str(info.value).startswith(f"{path}:{expected}: {info.value.key}: ")
+
+
+def test_errors_of_a_2d_file_name_its_line(tmp_path) -> None:
+    text = (resources.files("svbi.codegen.vehicles") / "sprung-mass.toml").read_text(encoding="utf-8")
+    lines = text.splitlines()
+    table = lines.index("[parameters.sprung_mass]")
+    at = next(i for i in range(table + 1, len(lines)) if lines[i].startswith("value"))
+    lines[at] = "value = -5.0"
+    path = tmp_path / "car.toml"
+    path.write_text("\n".join(lines) + "\n", encoding="utf-8")
+    with pytest.raises(TopologyError) as info:
+        load_topology(str(path))
+    assert str(info.value) == f"{path}:{at + 1}: parameters.sprung_mass.value: must not be negative, got -5"
+
+
+def test_errors_of_text_name_no_line() -> None:
+    """Text that is no file (a string, a built-in's name): the message without a line, as before."""
+    with pytest.raises(TopologyError) as info:
+        parse_topology3d(MINIMAL.replace("value = 1000.0", "value = -1000.0", 1), "car.toml")
+    assert str(info.value).startswith("car.toml: parameters.m.value: ")
