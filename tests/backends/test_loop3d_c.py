@@ -199,14 +199,14 @@ def test_wheelsets_on_one_span_one_on_its_first_element() -> None:
     c_equals_numpy(system, 1e-4, 300, "unilateral", rough=True)
 
 
-def test_several_wheels_landing_next_to_supports() -> None:
+def landing_next_to_supports() -> System3D:
     """Three cars at 80 m/s standing on the last two elements of the second span and the first two
     of the third of a three-span chain at t = 0 (two wheelsets on the third span, one on its first
-    element), rough rails, creep: every wheel lifts off in the first steps and they land over the
-    next 80, both wheels of the wheelset next to the second support at the same step."""
+    element), creep: on rough rails every wheel lifts off in the first steps and they land over the
+    next 80 (test_several_wheels_landing_next_to_supports)."""
     train = train3d([car(), car(), car()], 2.0)
     bridge = Bridge3D([Girder((10.0,), DECK)] * 3, 4, [section3d(DECK, 10.0, 5.0)] * 3)
-    system = System3D(
+    return System3D(
         train,
         bridge,
         Track3D(conicity=LAM, eccentricity=0.2, rail_height=0.8),
@@ -215,6 +215,14 @@ def test_several_wheels_landing_next_to_supports() -> None:
         bridge_damping=bridge.C,
         creep=CreepParameters(),
     )
+
+
+def test_several_wheels_landing_next_to_supports() -> None:
+    """Three cars at 80 m/s standing on the last two elements of the second span and the first two
+    of the third of a three-span chain at t = 0 (two wheelsets on the third span, one on its first
+    element), rough rails, creep: every wheel lifts off in the first steps and they land over the
+    next 80, both wheels of the wheelset next to the second support at the same step."""
+    system = landing_next_to_supports()
     assert [e for e, _ in system.contact_location(0.0)] == [9, 8, 7]
     a = c_equals_numpy(system, 1e-4, 120, "unilateral", rough=True)
     normal = a[1][:, np.tile([True, True, False, False], 3)]

@@ -178,27 +178,12 @@ def test_the_impact_over_the_parts_of_the_structure_is_the_dense_one() -> None:
     chain of three spans give the chunks of the same loop told that every column is nonzero, bit
     for bit; and the columns were restricted (each span's rows)."""
     from cases import copy_state3d
-    from test_loop3d_c import DECK, LAM, car, irregularity
+    from test_loop3d_c import irregularity, landing_next_to_supports
 
     from svbi.runtime.backends.c.stepper3d import LocalizedDynamic3DC
     from svbi.runtime.methods.coupled3d import static_state
-    from svbi.runtime.model.bridge import Girder
-    from svbi.runtime.model.bridge3d import Bridge3D, section3d
-    from svbi.runtime.model.creep_law import CreepParameters
-    from svbi.runtime.model.system3d import System3D, Track3D
-    from svbi.runtime.model.train3d import train3d
 
-    train = train3d([car(), car(), car()], 2.0)
-    bridge = Bridge3D([Girder((10.0,), DECK)] * 3, 4, [section3d(DECK, 10.0, 5.0)] * 3)
-    system = System3D(
-        train,
-        bridge,
-        Track3D(conicity=LAM, eccentricity=0.2, rail_height=0.8),
-        speed=80.0,
-        start=23.0,
-        bridge_damping=bridge.C,
-        creep=CreepParameters(),
-    )
+    system = landing_next_to_supports()
     state = static_state(system)
     dt, steps = 1e-4, 120
     level = np.array([irregularity(system, (m + 1) * dt) for m in range(steps)])

@@ -1,11 +1,13 @@
 /*
  * The plastic impact of landing (closing) constraints at t_{n+1} (_Step3D._impact): the mass
- * flexibility G = G_V M_V^-1 G_V^T + G_B M_B^-1 G_B^T over every constraint, the impulses that stop
- * the landing ones (complementary3), the velocity jump and the damping's share of the accelerations,
- * then the force jump that makes the accelerations consistent. Dense where it is simplest, over the
- * constraints closed in the step only: an open one carries neither impulse nor force (its entries of
- * the complementarity problems only ever multiply a zero), so its rows of G and its mass responses
- * are not formed (the same numbers, bit for bit; a shaken run lands wheels at thousands of steps).
+ * flexibility G = G_V M_V^-1 G_V^T + G_B M_B^-1 G_B^T, the impulses that stop the landing ones
+ * (complementary3), the velocity jump and the damping's share of the accelerations, then the force
+ * jump that makes the accelerations consistent. The dense products' numbers bit for bit, by a
+ * shorter path (a shaken run lands wheels at thousands of steps): G over the constraints closed in the step
+ * only (an open one carries neither impulse nor force: its entries of the complementarity problems
+ * only ever multiply a zero) and between coupled wheelsets only (zero between the others); the
+ * inverse mass's products over the columns where its rows are not zero (S->MBi_cols: the parts of
+ * the structure), so every term left out is an exact zero.
  */
 #include <string.h>
 
