@@ -263,7 +263,10 @@ def lateral_variables(
         unloading = np.where(q0 > 0, (q0 - qf) / np.where(q0 > 0, q0, 1.0), np.nan)
     yq = derailment_quotient(yf, qf, stored_contact)
     sy = axle_lateral_force(y)
-    syf = axle_lateral_force(yf)  # the peak's: a rigid landing is a force at single steps (raw)
+    # the sum Y of the filtered forces (its peak and 2 m mean): the raw one has a rigid landing's
+    # force at single steps
+    syf_full = axle_lateral_force(yf_full)
+    syf = syf_full[pick]
     flange = np.asarray(h.flange_contact, dtype=bool)
     wheel = ("time", "car", "wheel", "side")
     axle = ("time", "car", "wheel")
@@ -405,7 +408,7 @@ def lateral_variables(
         )
         v["axle_lateral_force_2m"] = (
             axle,
-            sliding_mean(axle_lateral_force(yf_full), s)[pick],
+            sliding_mean(syf_full, s)[pick],
             _a(
                 "N",
                 f"axle_lateral_force of the filtered Y, sliding mean over {WINDOW_M:g} m of travel "

@@ -77,7 +77,7 @@ from ..scenario.build import (
     track_geometry_3d,
 )
 from ..scenario.limits import vehicle_ref
-from ..scenario.schema import Scenario
+from ..scenario.schema import Scenario, not_in_3d
 from .output import RunInterrupted, signal_name
 from .results3d import SIDE_SIGN, Histories3D, dataset3d
 
@@ -162,7 +162,7 @@ def chunk_steps(every: int) -> int:
 def refuse(scenario: Scenario) -> None:
     """Raise :class:`NotRun3D` for what the 3D run cannot do yet (the checks that need no model)."""
     where = scenario.source or ""
-    ss, t = scenario.solver, scenario.train
+    ss = scenario.solver
 
     def no(key: str, message: str) -> NotRun3D:
         return NotRun3D(key, message, where)
@@ -172,13 +172,8 @@ def refuse(scenario: Scenario) -> None:
             "solver.method",
             f"{ss.method!r} has no 3D step: use one of {', '.join(map(repr, STEPS_3D))}",
         )
-    if t.acceleration != 0.0:
-        raise no("train.acceleration", "the 3D step runs trains at constant speed: remove it (or set 0)")
-    if t.initial == "rigid-track":
-        raise no(
-            "train.initial",
-            "'rigid-track': a 3D run starts from the static state on the deck: use 'auto' or 'static'",
-        )
+    for key, message in not_in_3d(scenario):
+        raise no(key, message)
 
 
 def _carbody(vehicle: Vehicle3DNumeric, cars: int) -> list[dict[str, int]]:

@@ -791,13 +791,7 @@ def _three_d_problems(s: Scenario) -> Iterable[tuple[str, str]]:
     t, b = s.train, s.bridge
     if t.hslm is not None:
         yield "train.hslm", f"an HSLM train is a 2D moving load; train.vehicle {t.vehicle!r} is a 3D vehicle"
-    if t.acceleration != 0.0:  # as runtime.run.simulate3d.refuse, with the key's line
-        yield "train.acceleration", "the 3D step runs trains at constant speed: remove it (or set 0)"
-    if t.initial == "rigid-track":
-        yield (
-            "train.initial",
-            "'rigid-track': a 3D run starts from the static state on the deck: use 'auto' or 'static'",
-        )
+    yield from not_in_3d(s)
     try:
         topo = vehicle_parameters3d(vehicle_ref(s))
     except TopologyError as exc:
@@ -859,6 +853,18 @@ def _three_d_problems(s: Scenario) -> Iterable[tuple[str, str]]:
                 f"{prefix}.shear_modulus",
                 f"give {prefix}.poisson_ratio or {prefix}.shear_modulus, not both (G = E / (2 (1 + nu)))",
             )
+
+
+def not_in_3d(s: Scenario) -> Iterable[tuple[str, str]]:
+    """(key, message) for what a 3D scenario asks that the 3D step cannot do: refused with the
+    scenario (naming the key's line) and, for a scenario built without the checks, by the run."""
+    if s.train.acceleration != 0.0:
+        yield "train.acceleration", "the 3D step runs trains at constant speed: remove it (or set 0)"
+    if s.train.initial == "rigid-track":
+        yield (
+            "train.initial",
+            "'rigid-track': a 3D run starts from the static state on the deck: use 'auto' or 'static'",
+        )
 
 
 def _vehicle3d_problems(s: Scenario) -> Iterable[tuple[str, str]]:

@@ -460,9 +460,14 @@ def test_a_zero_mass_of_a_3d_vehicle_is_refused_naming_its_parameter(tmp_path: P
 def test_overlapping_3d_cars_are_refused_naming_car_length(tmp_path: Path) -> None:
     """With more than one car, car_length must exceed the car's leading-to-last-axle distance
     (manchester-3d: 2 x 9.5 + 2 x 1.28 = 21.56 m), as for 2D trains."""
+    from svbi.runtime.model.system3d import vehicle3d
+
+    offsets = [w.offset for w in vehicle3d("manchester-3d", {}).wheelsets]
+    extent = max(offsets) - min(offsets)
     found = problems(tmp_path, scenario_text(extra="cars = 3\n[train.parameters]\ncar_length = 20.0\n"))
     assert len(found) == 1, found
-    assert "train.parameters.car_length: " in found[0] and "overlap" in found[0] and "21.56" in found[0]
+    assert "train.parameters.car_length: " in found[0] and "overlap" in found[0]
+    assert f"({extent:g} m from its leading to its last axle)" in found[0], found
     assert (
         load(tmp_path, scenario_text(extra="cars = 3\n[train.parameters]\ncar_length = 21.6\n")).train.cars
         == 3
